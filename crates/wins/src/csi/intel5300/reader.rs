@@ -1,0 +1,250 @@
+//! Decoders over the framing core: a whole log in memory, a push-style stream (the CSI Tool's
+//! `log_to_server` TCP stream uses the same framing), and a pull reader over any `io::Read`.
+
+use std::fs::File;
+use std::io::{self, Read};
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use super::bfee::unpack_csi;
+use super::framing::{CSI_PREFIX, Skip, Step, step};
+use super::record::CsiRecord;
+use crate::time::MicrosUnwrapper;
+
+/// One decoded item of a log: a CSI record, or bytes skipped with the reason.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Event {
+    /// A CSI record.
+    Csi(Box<CsiRecord>),
+    /// Skipped bytes.
+    Skipped(Skip),
+}
+
+/// State shared by every decoder: the timestamp unwrapper and the resynchronization scan.
+#[derive(Clone, Debug, Default)]
+struct Core {
+    unwrapper: MicrosUnwrapper,
+    scan_from: usize,
+}
+
+impl Core {
+    /// Decodes the item at the front of `buf` (which starts at stream offset `offset`).
+    /// Returns the bytes consumed and the event, or `None` when more bytes are needed.
+    fn next(&mut self, buf: &[u8], offset: u64, eof: bool) -> Option<(usize, Event)> {
+        let (len, event) = match step(buf, eof, &mut self.scan_from) {
+            Step::NeedMore | Step::End => return None,
+            Step::Csi { len, header } => {
+                let packed = buf.get(CSI_PREFIX..len)?;
+                let csi = unpack_csi(&header, packed)?;
+                let t = self.unwrapper.unwrap(header.timestamp_low);
+                let rec = CsiRecord::from_parts(offset, t, header, csi);
+                (len, Event::Csi(Box::new(rec)))
+            }
+            Step::Skip { len, reason } => (
+                len,
+                Event::Skipped(Skip {
+                    offset,
+                    len: len as u64,
+                    reason,
+                }),
+            ),
+        };
+        self.scan_from = 0;
+        Some((len, event))
+    }
+}
+
+/// Decodes a complete log held in memory, without copying it.
+#[derive(Clone, Debug)]
+pub struct SliceDecoder<'a> {
+    buf: &'a [u8],
+    pos: usize,
+    core: Core,
+}
+
+impl<'a> SliceDecoder<'a> {
+    /// A decoder over the whole log.
+    pub fn new(buf: &'a [u8]) -> Self {
+        Self {
+            buf,
+            pos: 0,
+            core: Core::default(),
+        }
+    }
+}
+
+impl Iterator for SliceDecoder<'_> {
+    type Item = Event;
+
+    fn next(&mut self) -> Option<Event> {
+        let rest = self.buf.get(self.pos..)?;
+        let (len, event) = self.core.next(rest, self.pos as u64, true)?;
+        self.pos += len;
+        Some(event)
+    }
+}
+
+/// A push-style decoder for bytes that arrive in arbitrary chunks (a TCP stream, a growing file).
+///
+/// Feed bytes with [`push`](Self::push), take events with [`next_event`](Self::next_event) until it
+/// returns `None`, and call [`finish`](Self::finish) when the stream ends so that a truncated tail is
+/// reported. Yields exactly the events [`SliceDecoder`] yields on the concatenated bytes.
+#[derive(Clone, Debug, Default)]
+pub struct StreamDecoder {
+    buf: Vec<u8>,
+    start: usize,
+    offset: u64,
+    eof: bool,
+    core: Core,
+}
+
+impl StreamDecoder {
+    /// A decoder at stream offset 0.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Appends bytes. Bytes pushed after [`finish`](Self::finish) are ignored.
+    pub fn push(&mut self, bytes: &[u8]) {
+        if self.eof {
+            return;
+        }
+        if self.start > 0 && self.start >= self.buf.len() / 2 {
+            self.buf.drain(..self.start);
+            self.start = 0;
+        }
+        self.buf.extend_from_slice(bytes);
+    }
+
+    /// Marks the end of the stream.
+    pub fn finish(&mut self) {
+        self.eof = true;
+    }
+
+    /// The next event, or `None` when more bytes are needed (or, after `finish`, at the end).
+    pub fn next_event(&mut self) -> Option<Event> {
+        let rest = self.buf.get(self.start..)?;
+        let (len, event) = self.core.next(rest, self.offset, self.eof)?;
+        self.start += len;
+        self.offset += len as u64;
+        Some(event)
+    }
+
+    /// Bytes received but not yet decided on.
+    pub fn pending(&self) -> usize {
+        self.buf.len() - self.start
+    }
+
+    /// Stream offset of the first undecided byte.
+    pub fn offset(&self) -> u64 {
+        self.offset
+    }
+}
+
+/// Reads events from any `io::Read` in chunks, with bounded memory.
+#[derive(Debug)]
+pub struct LogReader<R> {
+    inner: R,
+    decoder: StreamDecoder,
+    chunk: Vec<u8>,
+}
+
+/// Read chunk of [`LogReader`].
+const CHUNK: usize = 1 << 16;
+
+impl<R: Read> LogReader<R> {
+    /// A reader over `inner`.
+    pub fn new(inner: R) -> Self {
+        Self {
+            inner,
+            decoder: StreamDecoder::new(),
+            chunk: vec![0; CHUNK],
+        }
+    }
+}
+
+impl LogReader<File> {
+    /// Opens a log file.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, ReadError> {
+        let path = path.as_ref();
+        let file = File::open(path).map_err(|source| ReadError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(Self::new(file))
+    }
+}
+
+impl<R: Read> Iterator for LogReader<R> {
+    type Item = io::Result<Event>;
+
+    fn next(&mut self) -> Option<io::Result<Event>> {
+        loop {
+            if let Some(e) = self.decoder.next_event() {
+                return Some(Ok(e));
+            }
+            if self.decoder.eof {
+                return None;
+            }
+            match self.inner.read(&mut self.chunk) {
+                Ok(0) => self.decoder.finish(),
+                Ok(n) => self.decoder.push(&self.chunk[..n]),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Some(Err(e)),
+            }
+        }
+    }
+}
+
+/// A whole log decoded: its CSI records and every skip, in file order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CsiLog {
+    /// CSI records.
+    pub records: Vec<CsiRecord>,
+    /// Skipped byte ranges with reasons (non-CSI records included).
+    pub skips: Vec<Skip>,
+    /// Bytes in the log.
+    pub bytes: u64,
+}
+
+impl CsiLog {
+    /// Decodes a log held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Self {
+        let mut log = CsiLog {
+            bytes: bytes.len() as u64,
+            ..CsiLog::default()
+        };
+        for event in SliceDecoder::new(bytes) {
+            match event {
+                Event::Csi(r) => log.records.push(*r),
+                Event::Skipped(s) => log.skips.push(s),
+            }
+        }
+        log
+    }
+}
+
+/// Failure to read a log (corrupt content is not an error: it is skipped and reported).
+#[derive(Debug, Error)]
+pub enum ReadError {
+    /// The file could not be opened or read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: io::Error,
+    },
+}
+
+/// Reads and decodes a whole log file into memory (about 600 bytes per record; use [`LogReader`]
+/// for long captures).
+pub fn read_log(path: impl AsRef<Path>) -> Result<CsiLog, ReadError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(CsiLog::from_bytes(&bytes))
+}

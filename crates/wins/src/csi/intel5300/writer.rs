@@ -1,0 +1,60 @@
+//! Writes CSI records as byte-valid CSI Tool log records (code 0xBB).
+
+use std::io::{self, Write};
+
+use super::bfee::{HEADER_LEN, pack_csi, packed_csi_len, write_header};
+use super::framing::{CODE_CSI, LEN_FIELD};
+use super::record::CsiRecord;
+
+/// Appends the bytes of one CSI record: the framing, the 20-byte header (reserved bytes 0) and the
+/// CSI packed back into chain order (the inverse of the antenna permutation, when it was applied).
+/// The record's `timestamp` and `offset` are not written: the log carries `timestamp_low` only.
+pub fn encode_record(record: &CsiRecord, out: &mut Vec<u8>) {
+    let h = &record.header;
+    let len = packed_csi_len(h.nrx, h.ntx);
+    let field_len = (1 + HEADER_LEN + len) as u16;
+    out.reserve(LEN_FIELD + usize::from(field_len));
+    out.extend_from_slice(&field_len.to_be_bytes());
+    out.push(CODE_CSI);
+    out.extend_from_slice(&write_header(h, len as u16));
+    out.extend_from_slice(&pack_csi(h, record.csi()));
+}
+
+/// Writes CSI records to any `io::Write` (a `.dat` file, a socket).
+#[derive(Debug)]
+pub struct LogWriter<W: Write> {
+    inner: W,
+    buf: Vec<u8>,
+    records: u64,
+}
+
+impl<W: Write> LogWriter<W> {
+    /// A writer over `inner` (wrap files in a `BufWriter` or rely on the per-record buffer here).
+    pub fn new(inner: W) -> Self {
+        Self {
+            inner,
+            buf: Vec::with_capacity(1024),
+            records: 0,
+        }
+    }
+
+    /// Writes one record.
+    pub fn write(&mut self, record: &CsiRecord) -> io::Result<()> {
+        self.buf.clear();
+        encode_record(record, &mut self.buf);
+        self.inner.write_all(&self.buf)?;
+        self.records += 1;
+        Ok(())
+    }
+
+    /// Records written so far.
+    pub fn records(&self) -> u64 {
+        self.records
+    }
+
+    /// Flushes and returns the inner writer.
+    pub fn finish(mut self) -> io::Result<W> {
+        self.inner.flush()?;
+        Ok(self.inner)
+    }
+}

@@ -1,0 +1,26 @@
+//! Where test data lives: the repository's own samples, and `../shared/data` beside the checkout.
+
+use std::path::PathBuf;
+
+/// The repository's `data/` folder.
+pub fn repo_data() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data")
+}
+
+/// The shared data folder (`$WINS_SHARED_DATA`, else `../shared/data` beside the checkout), or
+/// `None` when absent. Under CI (`CI` set) its absence fails the test instead of skipping it.
+pub fn shared_data() -> Option<PathBuf> {
+    let dir = std::env::var_os("WINS_SHARED_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "CI is set but the shared data folder {} is missing",
+        dir.display()
+    );
+    eprintln!("skipping: shared data folder {} not present", dir.display());
+    None
+}
