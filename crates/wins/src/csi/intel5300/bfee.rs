@@ -9,6 +9,10 @@ use crate::csi::subcarriers::NUM_SUBCARRIERS;
 
 /// Bytes of the little-endian header in front of the packed CSI.
 pub const HEADER_LEN: usize = 20;
+/// Header byte holding `nrx`.
+pub(crate) const NRX_AT: usize = 8;
+/// Header byte holding `ntx`.
+pub(crate) const NTX_AT: usize = 9;
 /// Bits the firmware leaves in front of each subcarrier's entries.
 const SUBCARRIER_PAD_BITS: usize = 3;
 /// Bits per complex entry: signed 8-bit real, then signed 8-bit imaginary.
@@ -27,8 +31,8 @@ pub(crate) fn parse_header(bytes: &[u8; HEADER_LEN]) -> (BfeeHeader, u16) {
     let header = BfeeHeader {
         timestamp_low: u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
         bfee_count: u16_at(4),
-        nrx: bytes[8],
-        ntx: bytes[9],
+        nrx: bytes[NRX_AT],
+        ntx: bytes[NTX_AT],
         rssi: [bytes[10], bytes[11], bytes[12]],
         noise_dbm: bytes[13] as i8,
         agc: bytes[14],
@@ -43,8 +47,8 @@ pub(crate) fn write_header(header: &BfeeHeader, len: u16) -> [u8; HEADER_LEN] {
     let mut b = [0u8; HEADER_LEN];
     b[0..4].copy_from_slice(&header.timestamp_low.to_le_bytes());
     b[4..6].copy_from_slice(&header.bfee_count.to_le_bytes());
-    b[8] = header.nrx;
-    b[9] = header.ntx;
+    b[NRX_AT] = header.nrx;
+    b[NTX_AT] = header.ntx;
     b[10..13].copy_from_slice(&header.rssi);
     b[13] = header.noise_dbm as u8;
     b[14] = header.agc;

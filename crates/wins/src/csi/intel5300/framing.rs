@@ -15,7 +15,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::bfee::{HEADER_LEN, packed_csi_len, parse_header};
+use super::bfee::{HEADER_LEN, NRX_AT, NTX_AT, packed_csi_len, parse_header};
 use super::record::BfeeHeader;
 
 /// Record code of CSI ("beamforming feedback") records.
@@ -106,10 +106,10 @@ pub enum FramingError {
         next_at: u64,
     },
     /// A record that claims more bytes than the log holds, while a valid record starts inside it.
-    #[error("record (code {code:?}) needs {needed} bytes, past the end of the log")]
+    #[error("record with code 0x{code:02X} needs {needed} bytes, past the end of the log")]
     PastEnd {
-        /// Its code byte, if present.
-        code: Option<u8>,
+        /// Its code byte.
+        code: u8,
         /// Bytes it claims, framing included.
         needed: u64,
     },
@@ -155,7 +155,7 @@ pub(crate) fn step(buf: &[u8], eof: bool, scan_from: &mut usize) -> Step {
                 len,
                 reason: SkipReason::Unframed {
                     cause: FramingError::PastEnd {
-                        code: buf.get(LEN_FIELD).copied(),
+                        code: buf.get(LEN_FIELD).copied().unwrap_or_default(),
                         needed: needed as u64,
                     },
                 },
@@ -198,19 +198,18 @@ fn check_csi_header(buf: &[u8]) -> Result<(usize, BfeeHeader), FramingError> {
     let field_len = field_len(buf).unwrap_or(0);
     let Some(bytes) = buf
         .get(LEN_FIELD + 1..CSI_PREFIX)
-        .and_then(|b| b.try_into().ok())
+        .and_then(|b| <&[u8; HEADER_LEN]>::try_from(b).ok())
     else {
         return Err(FramingError::CsiTooShort {
             field_len: field_len as u16,
         });
     };
-    let (header, len) = parse_header(bytes);
-    if !(1..=3).contains(&header.nrx) || !(1..=3).contains(&header.ntx) {
-        return Err(FramingError::BadChains {
-            nrx: header.nrx,
-            ntx: header.ntx,
-        });
+    // Chain counts first: the cheapest rejection of a false candidate during scans.
+    let (nrx, ntx) = (bytes[NRX_AT], bytes[NTX_AT]);
+    if !(1..=3).contains(&nrx) || !(1..=3).contains(&ntx) {
+        return Err(FramingError::BadChains { nrx, ntx });
     }
+    let (header, len) = parse_header(bytes);
     let expected = packed_csi_len(header.nrx, header.ntx);
     if usize::from(len) != expected {
         return Err(FramingError::CsiLenMismatch {
@@ -276,9 +275,16 @@ fn probe(buf: &[u8], eof: bool) -> Probe {
 /// bytes of a record is not seen here; the record after it is then reported as unframed.
 fn embedded_csi_start(record: &[u8]) -> Option<usize> {
     let last = record.len().checked_sub(CSI_PREFIX)?;
-    (CSI_PREFIX..=last).find(|&k| {
-        record.get(k + LEN_FIELD) == Some(&CODE_CSI) && check_csi_header(&record[k..]).is_ok()
-    })
+    let codes = record.get(CSI_PREFIX + LEN_FIELD..=last + LEN_FIELD)?;
+    let mut from = 0;
+    while let Some(i) = codes.get(from..)?.iter().position(|&b| b == CODE_CSI) {
+        let k = CSI_PREFIX + from + i;
+        if check_csi_header(record.get(k..)?).is_ok() {
+            return Some(k);
+        }
+        from += i + 1;
+    }
+    None
 }
 
 enum Plausible {

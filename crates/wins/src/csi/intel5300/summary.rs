@@ -1,11 +1,13 @@
 //! What a log holds, at a glance: the figures `wins csi info` prints.
 
 use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
 
 use serde::Serialize;
 
 use super::framing::{Skip, SkipReason};
-use super::reader::Event;
+use super::reader::{Event, LogReader, ReadError};
 use super::record::{CsiRecord, NOISE_UNKNOWN_DBM, Perm};
 
 /// Count, mean and range of a quantity.
@@ -90,6 +92,20 @@ impl LogSummary {
         Self::default()
     }
 
+    /// Summarizes a log file, streaming it (memory stays bounded for long captures).
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Self, ReadError> {
+        let path = path.as_ref();
+        let mut summary = Self::new();
+        for event in LogReader::open(path)? {
+            let event = event.map_err(|source| ReadError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            summary.add(&event);
+        }
+        Ok(summary)
+    }
+
     /// Adds one event.
     pub fn add(&mut self, event: &Event) {
         match event {
@@ -165,6 +181,118 @@ impl LogSummary {
             self.noise_dbm.add(f64::from(h.noise_dbm));
         }
         self.agc_db.add(f64::from(h.agc));
+    }
+}
+
+/// Most lost regions the text report lists one by one (the JSON form has all).
+const LOST_LISTED: usize = 20;
+
+fn histogram(f: &mut fmt::Formatter<'_>, name: &str, h: &BTreeMap<String, u64>) -> fmt::Result {
+    let items: Vec<String> = h.iter().map(|(k, n)| format!("{k}: {n}")).collect();
+    writeln!(
+        f,
+        "{name:<12}{}",
+        if items.is_empty() {
+            "-".to_owned()
+        } else {
+            items.join(", ")
+        }
+    )
+}
+
+fn stats(f: &mut fmt::Formatter<'_>, name: &str, s: &Stats, unit: &str) -> fmt::Result {
+    if s.count == 0 {
+        return writeln!(f, "{name:<12}-");
+    }
+    writeln!(
+        f,
+        "{name:<12}mean {:.1} {unit}, range [{:.1}, {:.1}] over {} records",
+        s.mean, s.min, s.max, s.count
+    )
+}
+
+/// The report `wins csi info` prints.
+impl fmt::Display for LogSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let non_csi: u64 = self.non_csi_records.values().sum();
+        writeln!(f, "{:<12}{} bytes", "size", self.bytes)?;
+        write!(
+            f,
+            "{:<12}{} CSI, {non_csi} non-CSI",
+            "records", self.csi_records
+        )?;
+        if non_csi > 0 {
+            let codes: Vec<String> = self
+                .non_csi_records
+                .iter()
+                .map(|(c, n)| format!("{c}: {n}"))
+                .collect();
+            write!(f, " ({})", codes.join(", "))?;
+        }
+        writeln!(f)?;
+        writeln!(
+            f,
+            "{:<12}{} bytes in {} regions",
+            "lost",
+            self.lost_bytes,
+            self.lost.len()
+        )?;
+        for s in self.lost.iter().take(LOST_LISTED) {
+            writeln!(
+                f,
+                "{:<12}  offset {}: {} bytes, {}",
+                "", s.offset, s.len, s.reason
+            )?;
+        }
+        if self.lost.len() > LOST_LISTED {
+            writeln!(
+                f,
+                "{:<12}  … and {} more (see --json)",
+                "",
+                self.lost.len() - LOST_LISTED
+            )?;
+        }
+        histogram(f, "rx x tx", &self.chains)?;
+        histogram(f, "bandwidth", &self.bandwidth)?;
+        histogram(f, "rates", &self.rates)?;
+        writeln!(
+            f,
+            "{:<12}{} records with an invalid permutation (left in chain order)",
+            "perm", self.invalid_perm
+        )?;
+        match (self.first_time_s, self.duration_s) {
+            (Some(t0), Some(d)) => {
+                write!(f, "{:<12}{d:.3} s from NIC time {t0:.6} s", "duration")?;
+                if let Some(rate) = self.packet_rate_hz {
+                    write!(f, ", {rate:.1} packets/s")?;
+                }
+                writeln!(f)?;
+            }
+            _ => writeln!(f, "{:<12}-", "duration")?,
+        }
+        writeln!(
+            f,
+            "{:<12}{} backward time steps, {} reports missing by bfee_count",
+            "continuity", self.timestamp_backsteps, self.bfee_count_gaps
+        )?;
+        for (chain, s) in ["A", "B", "C"].iter().zip(&self.rssi_db) {
+            stats(f, &format!("rssi {chain}"), s, "dB")?;
+        }
+        stats(f, "total rss", &self.total_rss_dbm, "dBm")?;
+        stats(f, "noise", &self.noise_dbm, "dBm")?;
+        if self.noise_unknown > 0 {
+            writeln!(
+                f,
+                "{:<12}unknown (-127) on {} records; scaling assumes -92 dBm",
+                "", self.noise_unknown
+            )?;
+        }
+        stats(f, "agc", &self.agc_db, "dB")?;
+        writeln!(
+            f,
+            "{:<12}{} records cannot be scaled (no RSSI or all-zero CSI)",
+            "unscalable", self.unscalable
+        )
     }
 }
 

@@ -1,0 +1,74 @@
+//! The `wins` binary end to end: exit codes and what it prints.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn wins(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wins"))
+        .args(args)
+        .current_dir(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.."))
+        .output()
+        .expect("wins runs")
+}
+
+const MIXED: &str = "data/intel5300/csikit_log.all_csi.6.7.6.dat";
+
+#[test]
+fn csi_info_reports_records_shapes_and_rates() {
+    let out = wins(&["csi", "info", MIXED, "data/intel5300/csikit_example.dat"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(text.contains("29 CSI, 0 non-CSI"), "{text}");
+    assert!(text.contains("3x1: 10, 3x2: 9, 3x3: 10"), "{text}");
+    assert!(text.contains("HT20 MCS 16 (0x0110): 10"), "{text}");
+    assert!(text.contains("26 CSI"), "{text}");
+
+    let out = wins(&["csi", "info", "--json", MIXED]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["summary"]["csi_records"], 29);
+    assert_eq!(v["summary"]["lost_bytes"], 0);
+}
+
+#[test]
+fn csi_export_jsonl_has_one_line_per_record_and_csv_one_row_per_entry() {
+    let out = wins(&["csi", "export", MIXED, "--format", "jsonl"]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert_eq!(text.lines().count(), 29);
+    let first: serde_json::Value = serde_json::from_str(text.lines().next().expect("a line")).expect("json");
+    assert_eq!(first["nrx"], 3);
+    assert_eq!(first["perm"], serde_json::json!([3, 2, 1]));
+
+    let out = wins(&["csi", "export", MIXED, "--format", "csv"]);
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    // 10·3 + 9·6 + 10·9 entries of 30 subcarriers, plus the header row.
+    assert_eq!(text.lines().count(), 1 + (10 * 3 + 9 * 6 + 10 * 9) * 30);
+}
+
+#[test]
+fn corrupt_and_missing_input() {
+    let dir = std::env::temp_dir().join(format!("wins-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut bytes = std::fs::read(root.join(MIXED)).expect("sample");
+    bytes.truncate(bytes.len() - 100);
+    let bad = dir.join("cut.dat");
+    std::fs::write(&bad, &bytes).expect("write");
+    let bad = bad.to_str().expect("utf-8 path");
+
+    let out = wins(&["csi", "export", bad]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("28 CSI records written"), "{err}");
+    assert!(err.contains("truncated tail"), "{err}");
+
+    let out = wins(&["csi", "info", bad]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("lost") && text.contains("truncated tail"), "{text}");
+
+    let out = wins(&["csi", "info", "no/such/file.dat"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cannot read no/such/file.dat"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
