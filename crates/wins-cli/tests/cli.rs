@@ -16,7 +16,11 @@ const MIXED: &str = "data/intel5300/csikit_log.all_csi.6.7.6.dat";
 #[test]
 fn csi_info_reports_records_shapes_and_rates() {
     let out = wins(&["csi", "info", MIXED, "data/intel5300/csikit_example.dat"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8(out.stdout).expect("utf-8");
     assert!(text.contains("29 CSI, 0 non-CSI"), "{text}");
     assert!(text.contains("3x1: 10, 3x2: 9, 3x3: 10"), "{text}");
@@ -35,7 +39,8 @@ fn csi_export_jsonl_has_one_line_per_record_and_csv_one_row_per_entry() {
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).expect("utf-8");
     assert_eq!(text.lines().count(), 29);
-    let first: serde_json::Value = serde_json::from_str(text.lines().next().expect("a line")).expect("json");
+    let first: serde_json::Value =
+        serde_json::from_str(text.lines().next().expect("a line")).expect("json");
     assert_eq!(first["nrx"], 3);
     assert_eq!(first["perm"], serde_json::json!([3, 2, 1]));
 
@@ -64,7 +69,10 @@ fn corrupt_and_missing_input() {
 
     let out = wins(&["csi", "info", bad]);
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("lost") && text.contains("truncated tail"), "{text}");
+    assert!(
+        text.contains("lost") && text.contains("truncated tail"),
+        "{text}"
+    );
 
     let out = wins(&["csi", "info", "no/such/file.dat"]);
     assert!(!out.status.success());
