@@ -78,7 +78,11 @@ impl BfeeHeader {
 ///
 /// MATLAB applies `perm` when `sum(perm(1:Nrx))` equals 1, 3 or 6; that accepts non-permutations such
 /// as (2, 2, 2). Here it is applied only when the first `nrx` entries are a permutation of
-/// `0..nrx`; on every real log we have, the two rules agree.
+/// `0..nrx`; on every real log we have, the two rules agree. csiread differs from both: it moves
+/// every chain to `perm[k]`, even with one chain or an invalid permutation
+/// (`scripts/csiread_crosscheck.py` shows where). When the permutation is not applied,
+/// [`BfeeHeader::raw_perm`] still says which antenna each chain is wired to: with two chains on
+/// antennas A and C, for example, the array geometry needs it.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "status", content = "perm")]
 pub enum Perm {
