@@ -4,8 +4,8 @@
 use num_complex::Complex;
 use proptest::prelude::*;
 use wins::csi::intel5300::{
-    BfeeHeader, CsiLog, CsiRecord, Event, FramingError, RateFlags, Skip, SkipReason, SliceDecoder,
-    StreamDecoder, encode_record,
+    BfeeHeader, CsiLog, CsiRecord, Event, FramingError, MAX_UNFRAMED, RateFlags, Skip, SkipReason,
+    SliceDecoder, StreamDecoder, encode_record,
 };
 use wins::time::Timestamp;
 
@@ -261,7 +261,7 @@ fn a_cut_record_followed_by_a_restarted_log_loses_only_the_cut_record() {
         vec![unframed(
             starts[1],
             50,
-            FramingError::CutShort { next_at: 50 }
+            FramingError::OverlapsCsi { next_at: 50 }
         )]
     );
 }
@@ -287,8 +287,62 @@ fn timestamps_unwrap_across_the_32_bit_wrap() {
     );
 }
 
+#[test]
+fn a_stream_of_garbage_keeps_memory_bounded_and_is_reported_in_pieces() {
+    // 300 KB of pseudo-random bytes (no valid CSI header by construction: nrx bytes are never 1-3).
+    let mut x = 0x2545_F491_4F6C_DD1Du64;
+    let mut bytes: Vec<u8> = (0..300_000)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 56) as u8 | 0x40
+        })
+        .collect();
+    let (recs, good, _) = three();
+    bytes.extend_from_slice(&good);
+    let mut d = StreamDecoder::new();
+    let mut events = Vec::new();
+    let mut max_pending = 0;
+    for chunk in bytes.chunks(1000) {
+        d.push(chunk);
+        while let Some(e) = d.next_event() {
+            events.push(e);
+        }
+        max_pending = max_pending.max(d.pending());
+    }
+    d.finish();
+    while let Some(e) = d.next_event() {
+        events.push(e);
+    }
+    assert_tiles(&bytes, &events);
+    assert_eq!(events, SliceDecoder::new(&bytes).collect::<Vec<_>>());
+    assert!(
+        max_pending <= StreamDecoder::MAX_PENDING + 1000,
+        "decoder held {max_pending} bytes"
+    );
+    let skips: Vec<&Skip> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Skipped(s) => Some(s),
+            Event::Csi(_) => None,
+        })
+        .collect();
+    assert_eq!(skips.len(), 300_000usize.div_ceil(MAX_UNFRAMED));
+    assert!(skips.iter().all(|s| s.len <= MAX_UNFRAMED as u64));
+    let decoded: Vec<&CsiRecord> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Csi(r) => Some(&**r),
+            Event::Skipped(_) => None,
+        })
+        .collect();
+    assert_eq!(decoded.len(), 3);
+    assert!(decoded.iter().zip(&recs).all(|(a, b)| same(a, b)));
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(crate::proptest_config(256))]
 
     #[test]
     fn random_bytes_never_panic_and_are_fully_accounted(

@@ -42,7 +42,7 @@ fn arb_record() -> impl Strategy<Value = CsiRecord> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(crate::proptest_config(200))]
 
     #[test]
     fn writer_then_reader_is_exact(records in proptest::collection::vec(arb_record(), 1..12)) {

@@ -4,3 +4,13 @@ mod data;
 mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
+
+/// Property-test settings: a fixed seed, so a run is reproducible (set `PROPTEST_RNG_SEED` and edit
+/// here to explore further); failures found are kept in `tests/proptest-regressions/`.
+pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
+    proptest::test_runner::Config {
+        cases,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_0002),
+        ..proptest::test_runner::Config::default()
+    }
+}

@@ -27,6 +27,10 @@ pub const LEN_FIELD: usize = 2;
 /// Bytes from the start of a CSI record to its packed CSI: length, code, header.
 pub const CSI_PREFIX: usize = LEN_FIELD + 1 + HEADER_LEN;
 
+/// Longest unframed region reported as one skip. A longer run of garbage is reported in pieces, so a
+/// stream of garbage (a wrong port, a wrong file) keeps the decoder's memory bounded.
+pub const MAX_UNFRAMED: usize = 1 << 16;
+
 /// Bytes that were skipped, where, and why.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Skip {
@@ -99,9 +103,10 @@ pub enum FramingError {
         /// `1 + 20 + 60·nrx·ntx + 12`.
         expected: u16,
     },
-    /// A CSI record cut short: a consistent CSI header starts inside it.
-    #[error("CSI record cut short by a record starting {next_at} bytes in")]
-    CutShort {
+    /// A consistent CSI header starts inside the record: a CSI record cut short by the next one, or a
+    /// garbage length field spanning real records.
+    #[error("record overlaps a CSI record starting {next_at} bytes in")]
+    OverlapsCsi {
         /// Bytes from the cut record's start to the record inside it.
         next_at: u64,
     },
@@ -253,8 +258,8 @@ fn probe(buf: &[u8], eof: bool) -> Probe {
         return match check_csi_header(buf) {
             Err(e) => Probe::Bad(e),
             Ok(_) if buf.len() < total => need(total),
-            Ok((len, header)) => match embedded_csi_start(&buf[..len]) {
-                Some(at) => Probe::Bad(FramingError::CutShort { next_at: at as u64 }),
+            Ok((len, header)) => match embedded_csi_start(&buf[..len], CSI_PREFIX) {
+                Some(at) => Probe::Bad(FramingError::OverlapsCsi { next_at: at as u64 }),
                 None => Probe::Csi { len, header },
             },
         };
@@ -262,6 +267,9 @@ fn probe(buf: &[u8], eof: bool) -> Probe {
     let Some(rest) = buf.get(total..) else {
         return need(total);
     };
+    if let Some(at) = embedded_csi_start(&buf[..total], LEN_FIELD + 1) {
+        return Probe::Bad(FramingError::OverlapsCsi { next_at: at as u64 });
+    }
     match plausible_start(rest, eof) {
         Plausible::NeedMore => Probe::NeedMore,
         Plausible::Yes => Probe::Other { len: total, code },
@@ -269,16 +277,17 @@ fn probe(buf: &[u8], eof: bool) -> Probe {
     }
 }
 
-/// Where a consistent CSI header starts inside `record` (past its own header, and wholly inside it),
-/// which means the record was cut short and another one follows. Looks only at the record's own
-/// bytes, so a live stream gets each record without waiting for the next. A cut in the last 22
-/// bytes of a record is not seen here; the record after it is then reported as unframed.
-fn embedded_csi_start(record: &[u8]) -> Option<usize> {
+/// Where a consistent CSI header starts inside `record`, at or after byte `first` and wholly inside
+/// it. For a CSI record that means it was cut short and another one follows; for any other record,
+/// that its length field is garbage spanning real records. Looks only at the record's own bytes, so
+/// a live stream gets each record without waiting for the next. A cut in the last 22 bytes of a
+/// record is not seen here; the record after it is then reported as unframed.
+fn embedded_csi_start(record: &[u8], first: usize) -> Option<usize> {
     let last = record.len().checked_sub(CSI_PREFIX)?;
-    let codes = record.get(CSI_PREFIX + LEN_FIELD..=last + LEN_FIELD)?;
+    let codes = record.get(first + LEN_FIELD..=last + LEN_FIELD)?;
     let mut from = 0;
     while let Some(i) = codes.get(from..)?.iter().position(|&b| b == CODE_CSI) {
-        let k = CSI_PREFIX + from + i;
+        let k = first + from + i;
         if check_csi_header(record.get(k..)?).is_ok() {
             return Some(k);
         }
@@ -324,6 +333,9 @@ enum Scan {
 fn resync(buf: &[u8], eof: bool, scan_from: &mut usize) -> Scan {
     let mut k = (*scan_from).max(1);
     while k < buf.len() {
+        if k >= MAX_UNFRAMED {
+            return Scan::Found(k);
+        }
         match resync_candidate(&buf[k..]) {
             Some(true) => return Scan::Found(k),
             Some(false) => k += 1,

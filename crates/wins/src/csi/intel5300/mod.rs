@@ -39,7 +39,7 @@ mod writer;
 
 pub use bfee::{HEADER_LEN, packed_csi_len, unpack_reference};
 pub use export::{ExportFormat, ExportStats, export};
-pub use framing::{CODE_CSI, CODE_FRAME, FramingError, Skip, SkipReason};
+pub use framing::{CODE_CSI, CODE_FRAME, FramingError, MAX_UNFRAMED, Skip, SkipReason};
 pub use rate::{Modulation, RateFlags};
 pub use reader::{CsiLog, Event, LogReader, ReadError, SliceDecoder, StreamDecoder, read_log};
 pub use record::{

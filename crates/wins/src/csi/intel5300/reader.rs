@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use super::bfee::unpack_csi;
-use super::framing::{CSI_PREFIX, Skip, Step, step};
+use super::framing::{CSI_PREFIX, LEN_FIELD, MAX_UNFRAMED, Skip, Step, step};
 use super::record::CsiRecord;
 use crate::time::MicrosUnwrapper;
 
@@ -100,6 +100,11 @@ pub struct StreamDecoder {
 }
 
 impl StreamDecoder {
+    /// Most bytes the decoder holds before it decides, beyond the chunk just pushed: a record may
+    /// claim up to 64 KiB and is judged once the next record's header is in, and a resynchronization
+    /// scan reports at most [`MAX_UNFRAMED`] bytes at a time.
+    pub const MAX_PENDING: usize = LEN_FIELD + u16::MAX as usize + CSI_PREFIX + MAX_UNFRAMED;
+
     /// A decoder at stream offset 0.
     pub fn new() -> Self {
         Self::default()

@@ -159,6 +159,11 @@ impl CsiRecord {
         }
     }
 
+    /// The true 802.11n indices of the 30 reported subcarriers, from the bandwidth bit of the rate.
+    pub fn subcarrier_indices(&self) -> &'static [i32; NUM_SUBCARRIERS] {
+        self.header.rate.bandwidth().subcarrier_indices()
+    }
+
     /// Bytes this record takes in a log: framing, header and packed CSI.
     pub fn encoded_len(&self) -> usize {
         super::framing::CSI_PREFIX + super::bfee::packed_csi_len(self.header.nrx, self.header.ntx)
