@@ -3,27 +3,10 @@
 
 use num_complex::Complex;
 
+use super::layout::{ENTRY_BITS, HEADER_LEN, NRX_AT, NTX_AT, SUBCARRIER_PAD_BITS, packed_csi_len};
 use super::rate::RateFlags;
 use super::record::{BfeeHeader, MAX_ENTRIES};
 use crate::csi::subcarriers::NUM_SUBCARRIERS;
-
-/// Bytes of the little-endian header in front of the packed CSI.
-pub const HEADER_LEN: usize = 20;
-/// Header byte holding `nrx`.
-pub(crate) const NRX_AT: usize = 8;
-/// Header byte holding `ntx`.
-pub(crate) const NTX_AT: usize = 9;
-/// Bits the firmware leaves in front of each subcarrier's entries.
-const SUBCARRIER_PAD_BITS: usize = 3;
-/// Bits per complex entry: signed 8-bit real, then signed 8-bit imaginary.
-const ENTRY_BITS: usize = 16;
-
-/// Bytes of packed CSI for `nrx · ntx` entries per subcarrier: ⌈30·(16·nrx·ntx + 3) / 8⌉,
-/// which is 60·nrx·ntx + 12 (`calc_len` in `read_bfee.c`).
-pub const fn packed_csi_len(nrx: u8, ntx: u8) -> usize {
-    let n = nrx as usize * ntx as usize;
-    (NUM_SUBCARRIERS * (ENTRY_BITS * n + SUBCARRIER_PAD_BITS)).div_ceil(8)
-}
 
 /// Parses the header; `bytes` must hold at least [`HEADER_LEN`] bytes.
 pub(crate) fn parse_header(bytes: &[u8; HEADER_LEN]) -> (BfeeHeader, u16) {
@@ -148,17 +131,8 @@ pub fn unpack_reference(nrx: u8, ntx: u8, payload: &[u8]) -> Option<Vec<Complex<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::csi::intel5300::layout::packed_csi_len;
     use proptest::prelude::*;
-
-    #[test]
-    fn packed_length_matches_the_design_formula() {
-        for nrx in 1..=3u8 {
-            for ntx in 1..=3u8 {
-                let n = usize::from(nrx) * usize::from(ntx);
-                assert_eq!(packed_csi_len(nrx, ntx), 60 * n + 12);
-            }
-        }
-    }
 
     proptest! {
         #![proptest_config(ProptestConfig {

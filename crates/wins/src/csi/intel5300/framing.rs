@@ -15,17 +15,11 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::bfee::{HEADER_LEN, NRX_AT, NTX_AT, packed_csi_len, parse_header};
+use super::bfee::parse_header;
+use super::layout::{
+    CODE_CSI, CODE_FRAME, CSI_PREFIX, HEADER_LEN, LEN_FIELD, NRX_AT, NTX_AT, packed_csi_len,
+};
 use super::record::BfeeHeader;
-
-/// Record code of CSI ("beamforming feedback") records.
-pub const CODE_CSI: u8 = 0xBB;
-/// Record code of frame records (MAC header + payload, logged in monitor mode).
-pub const CODE_FRAME: u8 = 0xC1;
-/// Bytes of the big-endian length field.
-pub const LEN_FIELD: usize = 2;
-/// Bytes from the start of a CSI record to its packed CSI: length, code, header.
-pub const CSI_PREFIX: usize = LEN_FIELD + 1 + HEADER_LEN;
 
 /// Longest unframed region reported as one skip. A longer run of garbage is reported in pieces, so a
 /// stream of garbage (a wrong port, a wrong file) keeps the decoder's memory bounded.

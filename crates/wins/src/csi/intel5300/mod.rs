@@ -31,15 +31,17 @@
 mod bfee;
 mod export;
 mod framing;
+mod layout;
 mod rate;
 mod reader;
 mod record;
 mod summary;
 mod writer;
 
-pub use bfee::{HEADER_LEN, packed_csi_len, unpack_reference};
+pub use bfee::unpack_reference;
 pub use export::{ExportFormat, ExportStats, export};
-pub use framing::{CODE_CSI, CODE_FRAME, FramingError, MAX_UNFRAMED, Skip, SkipReason};
+pub use framing::{FramingError, MAX_UNFRAMED, Skip, SkipReason};
+pub use layout::{CODE_CSI, CODE_FRAME, CSI_PREFIX, HEADER_LEN, LEN_FIELD, packed_csi_len};
 pub use rate::{Modulation, RateFlags};
 pub use reader::{CsiLog, Event, LogReader, ReadError, SliceDecoder, StreamDecoder, read_log};
 pub use record::{

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use super::bfee::unpack_csi;
-use super::framing::{CSI_PREFIX, LEN_FIELD, MAX_UNFRAMED, Skip, Step, step};
+use super::framing::{MAX_UNFRAMED, Skip, Step, step};
+use super::layout::{CSI_PREFIX, LEN_FIELD};
 use super::record::CsiRecord;
 use crate::time::MicrosUnwrapper;
 

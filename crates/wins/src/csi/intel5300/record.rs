@@ -8,6 +8,7 @@ use thiserror::Error;
 use crate::csi::subcarriers::NUM_SUBCARRIERS;
 use crate::time::Timestamp;
 
+use super::layout::{CSI_PREFIX, packed_csi_len};
 use super::rate::RateFlags;
 
 /// Most receive or transmit chains the Intel 5300 reports.
@@ -166,7 +167,7 @@ impl CsiRecord {
 
     /// Bytes this record takes in a log: framing, header and packed CSI.
     pub fn encoded_len(&self) -> usize {
-        super::framing::CSI_PREFIX + super::bfee::packed_csi_len(self.header.nrx, self.header.ntx)
+        CSI_PREFIX + packed_csi_len(self.header.nrx, self.header.ntx)
     }
 
     /// Raw CSI, `[tx][rx][subcarrier]` (index `(tx·nrx + rx)·30 + sc`), after the permutation.

@@ -2,8 +2,8 @@
 
 use std::io::{self, Write};
 
-use super::bfee::{HEADER_LEN, pack_csi, packed_csi_len, write_header};
-use super::framing::{CODE_CSI, LEN_FIELD};
+use super::bfee::{pack_csi, write_header};
+use super::layout::{CODE_CSI, HEADER_LEN, LEN_FIELD, packed_csi_len};
 use super::record::CsiRecord;
 
 /// Appends the bytes of one CSI record: the framing, the 20-byte header (reserved bytes 0) and the
