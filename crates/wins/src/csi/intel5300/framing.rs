@@ -279,15 +279,9 @@ fn probe(buf: &[u8], eof: bool) -> Probe {
 fn embedded_csi_start(record: &[u8], first: usize) -> Option<usize> {
     let last = record.len().checked_sub(CSI_PREFIX)?;
     let codes = record.get(first + LEN_FIELD..=last + LEN_FIELD)?;
-    let mut from = 0;
-    while let Some(i) = codes.get(from..)?.iter().position(|&b| b == CODE_CSI) {
-        let k = first + from + i;
-        if check_csi_header(record.get(k..)?).is_ok() {
-            return Some(k);
-        }
-        from += i + 1;
-    }
-    None
+    memchr::memchr_iter(CODE_CSI, codes)
+        .map(|i| first + i)
+        .find(|&k| record.get(k..).is_some_and(|r| check_csi_header(r).is_ok()))
 }
 
 enum Plausible {
