@@ -3,7 +3,7 @@
 
     python3 -m venv /tmp/venv && /tmp/venv/bin/pip install csiread==1.4.1 numpy
     cargo build --release -p wins-cli
-    /tmp/venv/bin/python scripts/csiread_crosscheck.py [FILE.dat] [--random N --seed S]
+    /tmp/venv/bin/python scripts/csiread_crosscheck.py [FILE.dat] [--random N --seed S] [--time]
 
 Without FILE it writes N random records with an encoder written here from the format description
 (independent of the Rust writer), with 0xC1 frame records between some of them. Records are grouped
@@ -11,7 +11,7 @@ by how csiread and MATLAB's read_bf_file.m differ: csiread applies the antenna p
 record, MATLAB (and wins) only when nrx > 1 and it is a permutation; csiread scales a record with no
 RSSI as if it had 0 dBm, MATLAB gives zeros and wins reports it unscalable.
 """
-import argparse, json, math, os, random, struct, subprocess, sys, tempfile
+import argparse, json, math, os, random, struct, subprocess, sys, tempfile, time
 
 import numpy as np
 import csiread
@@ -52,6 +52,7 @@ def main():
     ap.add_argument('file', nargs='?')
     ap.add_argument('--random', type=int, default=2000)
     ap.add_argument('--seed', type=int, default=1)
+    ap.add_argument('--time', action='store_true', help="also time csiread's read (best of 20)")
     ap.add_argument('--wins', default=os.path.join(os.path.dirname(__file__), '../target/release/wins'))
     a = ap.parse_args()
     tmp = tempfile.mkdtemp()
@@ -92,6 +93,14 @@ def main():
             count('scaled equals csiread (1e-9)' if np.allclose(s, scaled[i][:, :nrx, :ntx].transpose(2, 1, 0), rtol=1e-9, atol=0)
                   else 'scaled differs from csiread (csiread buffer has entries outside nrx x ntx)'
                   if np.abs(scaled[i]).sum() > np.abs(scaled[i][:, :nrx, :ntx]).sum() else 'SCALED DIFFERS FROM CSIREAD')
+    if a.time:
+        best = float('inf')
+        for _ in range(20):
+            t = time.perf_counter()
+            csiread.Intel(path, nrxnum=3, ntxnum=3, if_report=False).read()
+            best = min(best, time.perf_counter() - t)
+        print(f'csiread {csiread.__version__} read: best of 20 {best * 1e3:.3f} ms, '
+              f'{d.count / best / 1e6:.2f} M CSI records/s (file read included)')
     for k, v in sorted(tally.items()):
         print(f'{v:6d}  {k}')
     return 1 if any(k.isupper() or 'DIFFERS' in k for k in tally) else 0

@@ -204,11 +204,21 @@ impl CsiRecord {
     /// plus the quantization error, and raised by √2 or √(4.5 dB) for 2 or 3 transmit streams.
     /// Same layout as [`Self::csi`].
     pub fn scaled_csi(&self) -> Result<Vec<Complex64>, ScaleError> {
+        let factor = self.scale_factor()?;
+        Ok(self
+            .csi()
+            .iter()
+            .map(|c| Complex64::new(f64::from(c.re) * factor, f64::from(c.im) * factor))
+            .collect())
+    }
+
+    /// The factor [`Self::scaled_csi`] multiplies the raw CSI by.
+    pub fn scale_factor(&self) -> Result<f64, ScaleError> {
         if self.header.rssi.iter().all(|&r| r == 0) {
             return Err(ScaleError::NoRssi);
         }
-        let csi = self.csi();
-        let csi_pwr: f64 = csi
+        let csi_pwr: f64 = self
+            .csi()
             .iter()
             .map(|c| f64::from(c.re).powi(2) + f64::from(c.im).powi(2))
             .sum();
@@ -231,10 +241,7 @@ impl CsiRecord {
             3 => factor *= db_inv(4.5).sqrt(),
             _ => {}
         }
-        Ok(csi
-            .iter()
-            .map(|c| Complex64::new(f64::from(c.re) * factor, f64::from(c.im) * factor))
-            .collect())
+        Ok(factor)
     }
 }
 

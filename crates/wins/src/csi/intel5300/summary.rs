@@ -146,7 +146,7 @@ impl LogSummary {
         if matches!(r.perm, Perm::Invalid(_)) {
             self.invalid_perm += 1;
         }
-        if r.scaled_csi().is_err() {
+        if r.scale_factor().is_err() {
             self.unscalable += 1;
         }
         let t = r.timestamp.as_nanos();
