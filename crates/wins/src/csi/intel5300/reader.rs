@@ -174,10 +174,7 @@ impl LogReader<File> {
     /// Opens a log file.
     pub fn open(path: impl AsRef<Path>) -> Result<Self, ReadError> {
         let path = path.as_ref();
-        let file = File::open(path).map_err(|source| ReadError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let file = File::open(path).map_err(ReadError::io(path))?;
         Ok(Self::new(file))
     }
 }
@@ -244,13 +241,20 @@ pub enum ReadError {
     },
 }
 
+impl ReadError {
+    /// Wraps an I/O error on `path` (for `map_err`).
+    pub fn io(path: &Path) -> impl FnOnce(io::Error) -> ReadError + '_ {
+        move |source| ReadError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
 /// Reads and decodes a whole log file into memory (about 600 bytes per record; use [`LogReader`]
 /// for long captures).
 pub fn read_log(path: impl AsRef<Path>) -> Result<CsiLog, ReadError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(ReadError::io(path))?;
     Ok(CsiLog::from_bytes(&bytes))
 }

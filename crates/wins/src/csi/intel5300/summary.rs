@@ -97,11 +97,7 @@ impl LogSummary {
         let path = path.as_ref();
         let mut summary = Self::new();
         for event in LogReader::open(path)? {
-            let event = event.map_err(|source| ReadError::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            summary.add(&event);
+            summary.add(&event.map_err(ReadError::io(path))?);
         }
         Ok(summary)
     }
