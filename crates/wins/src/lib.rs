@@ -44,5 +44,8 @@
 
 #![warn(missing_docs)]
 
+pub mod aoa;
 pub mod csi;
+pub mod imu;
+pub mod sim;
 pub mod time;

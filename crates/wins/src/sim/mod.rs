@@ -1,0 +1,37 @@
+//! The simulator: flights, IMU and Wi-Fi channels, written as the files a real rig produces.
+//!
+//! ```text
+//!  scenario (TOML) ─► trajectory + yaw ─► body motion (quadrotor flatness) ─► IMU samples ─► imu.csv
+//!                                            │
+//!                       room + APs ─► image-method paths ─► CSI per packet ─► <ap>.dat (Intel 5300)
+//!                                            └──────────► truth/ (poses, AP positions, per-packet AoA)
+//! ```
+//!
+//! Every random stream (IMU noise, each AP's channel noise, packet timing, the random flight) has
+//! its own seed derived from the scenario seed and the stream's name, so changing one sensor's
+//! rate does not change another's noise.
+
+pub mod motion;
+pub mod room;
+pub mod trajectory;
+pub mod yaw;
+
+/// A scenario value that cannot be simulated.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("invalid scenario: {field}: {reason}")]
+pub struct ConfigError {
+    /// Dotted path of the offending field, e.g. `room.size_m`.
+    pub field: String,
+    /// What is wrong with it, with the value.
+    pub reason: String,
+}
+
+impl ConfigError {
+    /// An error for `field`.
+    pub fn new(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+}
