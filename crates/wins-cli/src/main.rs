@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
+use wins::sim::{self, Scenario};
 
 /// WiFi-inertial pose estimation for micro aerial vehicles.
 #[derive(Parser)]
@@ -24,6 +25,33 @@ enum Command {
         #[command(subcommand)]
         command: CsiCommand,
     },
+    /// Simulate a flight (trajectory, IMU, Wi-Fi CSI per AP) and write it as a dataset directory.
+    Simulate(SimulateArgs),
+}
+
+#[derive(clap::Args)]
+struct SimulateArgs {
+    /// Built-in scenario to run (see --list).
+    #[arg(long, default_value = "paper-circle", conflicts_with = "scenario_file")]
+    scenario: String,
+    /// Run a scenario TOML file instead (start from `--print-scenario NAME`).
+    #[arg(long, value_name = "FILE")]
+    scenario_file: Option<PathBuf>,
+    /// Output directory (created; existing files in it are replaced).
+    #[arg(long, short, required_unless_present_any = ["print_scenario", "list"])]
+    out: Option<PathBuf>,
+    /// Override the scenario's master seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Override the flight duration, s.
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+    /// Print a built-in scenario's TOML and exit.
+    #[arg(long, value_name = "NAME", conflicts_with = "out")]
+    print_scenario: Option<String>,
+    /// List the built-in scenarios and exit.
+    #[arg(long, conflicts_with = "out")]
+    list: bool,
 }
 
 #[derive(Subcommand)]
@@ -80,6 +108,7 @@ fn run(cli: Cli) -> Result<()> {
             CsiCommand::Info { files, json } => csi_info(&files, json),
             CsiCommand::Export { file, format, out } => csi_export(&file, format, out),
         },
+        Command::Simulate(args) => simulate(args),
     }
 }
 
@@ -128,6 +157,69 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
             "warning: offset {}: {} bytes lost: {}",
             s.offset, s.len, s.reason
         );
+    }
+    Ok(())
+}
+
+fn simulate(args: SimulateArgs) -> Result<()> {
+    let stdout = io::stdout();
+    let mut out = stdout.lock();
+    if args.list {
+        for (name, text) in sim::scenario::BUILT_IN {
+            let scenario = Scenario::from_toml(text, name)?;
+            writeln!(out, "{name:<24}{}", scenario.description)?;
+        }
+        return Ok(());
+    }
+    if let Some(name) = &args.print_scenario {
+        write!(out, "{}", sim::scenario::built_in_toml(name)?)?;
+        return Ok(());
+    }
+    let mut scenario = match &args.scenario_file {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            Scenario::from_toml(&text, &path.display().to_string())?
+        }
+        None => Scenario::built_in(&args.scenario)?,
+    };
+    if let Some(seed) = args.seed {
+        scenario.seed = seed;
+    }
+    if let Some(d) = args.duration {
+        scenario.duration_s = d;
+    }
+    let Some(dir) = args.out else {
+        anyhow::bail!("--out is required");
+    };
+    let bar = indicatif::ProgressBar::new(1000);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar.set_message(format!("simulating {}", scenario.name));
+    let started = std::time::Instant::now();
+    let output = sim::simulate(&scenario, &mut |f| bar.set_position((f * 1000.0) as u64))?;
+    let simulated = started.elapsed();
+    let report = sim::write_dataset(&dir, &scenario, &output)?;
+    bar.finish_and_clear();
+    writeln!(
+        out,
+        "{} (seed {}): {:.1} s of flight simulated in {:.3} s, written to {} in {:.3} s",
+        scenario.name,
+        scenario.seed,
+        scenario.duration_s,
+        simulated.as_secs_f64(),
+        dir.display(),
+        (started.elapsed() - simulated).as_secs_f64()
+    )?;
+    write!(out, "{}", output.summary())?;
+    if report.clipped > 0 {
+        writeln!(
+            out,
+            "warning: {} CSI components clipped by the 8-bit quantizer",
+            report.clipped
+        )?;
     }
     Ok(())
 }

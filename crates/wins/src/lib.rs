@@ -46,6 +46,7 @@
 
 pub mod aoa;
 pub mod csi;
+pub mod dataset;
 pub mod imu;
 pub mod sim;
 pub mod time;

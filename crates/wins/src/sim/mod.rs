@@ -11,10 +11,23 @@
 //! its own seed derived from the scenario seed and the stream's name, so changing one sensor's
 //! rate does not change another's noise.
 
+pub mod csi;
+pub mod imu;
 pub mod motion;
+pub mod packets;
+pub mod radio;
+pub mod rng;
 pub mod room;
+pub mod run;
+pub mod scenario;
+pub mod summary;
 pub mod trajectory;
+pub mod write;
 pub mod yaw;
+
+pub use run::{SimOutput, simulate};
+pub use scenario::Scenario;
+pub use write::write_dataset;
 
 /// A scenario value that cannot be simulated.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

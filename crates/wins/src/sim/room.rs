@@ -1,1 +1,822 @@
-//! (in progress)
+//! Radio propagation geometry of a box room by the image method.
+//!
+//! The room is the axis-aligned box [0, size_x] × [0, size_y] × [0, size_z] in the world frame
+//! `w` (z up, floor at z = 0). Its six faces are ideal specular mirrors with a real amplitude
+//! reflection coefficient Γ. A path that reflects off planes P₁, then P₂, … has the same length
+//! as the straight line from the receiver to the *image* of the transmitter, Pₙ(…P₁(tx)), and
+//! arrives from that image's direction.
+//!
+//! ## Which images exist (counts per order)
+//!
+//! - Order 0: the direct path, 1.
+//! - Order 1: one mirror per face, 6.
+//! - Order 2: mirror compositions over two *distinct* planes (a plane twice is the identity), so
+//!   at most 6·5 = 30 ordered pairs:
+//!   - the two opposite planes of one axis do not commute: x → −x → 2L + x (near plane first)
+//!     and x → 2L − x → x − 2L (far plane first) are different images, both valid: 3 axes × 2
+//!     orders = **6**;
+//!   - planes of two different axes act on different coordinates, so they commute and both orders
+//!     give the same *corner image*. Only one order is physical: the unfolded line from the
+//!     receiver crosses one of the two planes first, and that one must be the *last* reflection
+//!     (the other order puts a reflection point off its finite face). 3 axis pairs × 2 × 2 planes
+//!     = **12** images, one path each (24 ordered pairs → 12).
+//!
+//!   Total second order: 6 + 12 = **18** paths, so `max_order = 2` gives 1 + 6 + 18 = 25.
+//!
+//! Every reflection point is computed (walking the unfolded line back from the receiver, one
+//! mirror at a time) and a path is kept only if each point lies on its finite face; for a
+//! transmitter and a receiver inside the box this always holds for the paths above (tested).
+//! The same walk gives the real segments that are tested against the obstacle.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::sim::ConfigError;
+
+/// How far (m) a reflection point may lie outside its finite face and still count as on it,
+/// to absorb rounding when the path passes through an edge or a corner of the room.
+const FACE_TOLERANCE_M: f64 = 1e-9;
+
+/// Most paths `paths_into` can produce (orders 0, 1 and 2): 1 + 6 + 18.
+const MAX_PATHS: usize = 25;
+
+/// The room: an axis-aligned box with reflecting walls, floor and ceiling.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RoomConfig {
+    /// Inner size (x, y, z), metres; the room spans [0, size] on each axis. Default [12, 8, 4],
+    /// the paper's test site; wrong for any other building.
+    pub size_m: [f64; 3],
+    /// Amplitude reflection coefficient of the four walls (x and y faces); real, |Γ| < 1,
+    /// negative = phase flip. Default 0.4: plasterboard and concrete at 5 GHz have
+    /// |Γ| ≈ 0.3–0.6, and a typical indoor Rician K of a few dB follows. Wrong for metal walls
+    /// (|Γ| → 1) or glass.
+    pub wall_reflection: f64,
+    /// Amplitude reflection coefficient of the floor (z = 0), same conventions. Default 0.5.
+    pub floor_reflection: f64,
+    /// Amplitude reflection coefficient of the ceiling (z = size_z), same conventions.
+    /// Default 0.4.
+    pub ceiling_reflection: f64,
+    /// Highest reflection order of the image method: 0 (direct path only), 1 (adds the six
+    /// first-order images) or 2 (adds the 18 second-order images). Default 1.
+    pub max_order: u8,
+}
+
+impl Default for RoomConfig {
+    fn default() -> Self {
+        Self {
+            size_m: [12.0, 8.0, 4.0],
+            wall_reflection: 0.4,
+            floor_reflection: 0.5,
+            ceiling_reflection: 0.4,
+            max_order: 1,
+        }
+    }
+}
+
+impl RoomConfig {
+    /// Checks the values; `field` is this config's dotted path, used in the error
+    /// (e.g. `room` gives `room.size_m`).
+    pub fn validate(&self, field: &str) -> Result<(), ConfigError> {
+        if self.size_m.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ConfigError::new(
+                format!("{field}.size_m"),
+                format!("every size must be finite and > 0 m, got {:?}", self.size_m),
+            ));
+        }
+        for (name, gamma) in [
+            ("wall_reflection", self.wall_reflection),
+            ("floor_reflection", self.floor_reflection),
+            ("ceiling_reflection", self.ceiling_reflection),
+        ] {
+            if !(gamma.is_finite() && gamma.abs() <= 1.0) {
+                return Err(ConfigError::new(
+                    format!("{field}.{name}"),
+                    format!("a reflection coefficient must satisfy |Γ| ≤ 1, got {gamma}"),
+                ));
+            }
+        }
+        if self.max_order > 2 {
+            return Err(ConfigError::new(
+                format!("{field}.max_order"),
+                format!(
+                    "the image method is implemented up to order 2, got {}",
+                    self.max_order
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Whether `p` (world frame, m) lies strictly inside the room (not on a face).
+    pub fn contains(&self, p: &Vector3<f64>) -> bool {
+        (0..3).all(|k| p[k] > 0.0 && p[k] < self.size_m[k])
+    }
+
+    /// The six mirror planes, in the order x = 0, x = size_x, y = 0, y = size_y, floor, ceiling.
+    fn planes(&self) -> [Plane; 6] {
+        let [sx, sy, sz] = self.size_m;
+        let (wall, floor, ceiling) = (
+            self.wall_reflection,
+            self.floor_reflection,
+            self.ceiling_reflection,
+        );
+        [
+            Plane::new(0, 0.0, wall),
+            Plane::new(0, sx, wall),
+            Plane::new(1, 0.0, wall),
+            Plane::new(1, sy, wall),
+            Plane::new(2, 0.0, floor),
+            Plane::new(2, sz, ceiling),
+        ]
+    }
+}
+
+/// A box that attenuates every path segment passing through it (the paper's board in front of
+/// the AP).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleConfig {
+    /// Lower corner (x, y, z) in the world frame, m.
+    pub min_m: [f64; 3],
+    /// Upper corner (x, y, z) in the world frame, m; ≥ `min_m` on each axis (equal = a thin
+    /// sheet).
+    pub max_m: [f64; 3],
+    /// Power attenuation per crossing, dB (≥ 0).
+    pub attenuation_db: f64,
+}
+
+impl ObstacleConfig {
+    /// Checks the values; `field` is this config's dotted path, used in the error
+    /// (e.g. `obstacle` gives `obstacle.max_m`).
+    pub fn validate(&self, field: &str) -> Result<(), ConfigError> {
+        if self.min_m.iter().any(|v| !v.is_finite()) {
+            return Err(ConfigError::new(
+                format!("{field}.min_m"),
+                format!("must be finite, got {:?}", self.min_m),
+            ));
+        }
+        if self.max_m.iter().any(|v| !v.is_finite()) {
+            return Err(ConfigError::new(
+                format!("{field}.max_m"),
+                format!("must be finite, got {:?}", self.max_m),
+            ));
+        }
+        if (0..3).any(|k| self.max_m[k] < self.min_m[k]) {
+            return Err(ConfigError::new(
+                format!("{field}.max_m"),
+                format!(
+                    "must be ≥ min_m on every axis, got max {:?} < min {:?}",
+                    self.max_m, self.min_m
+                ),
+            ));
+        }
+        if !(self.attenuation_db.is_finite() && self.attenuation_db >= 0.0) {
+            return Err(ConfigError::new(
+                format!("{field}.attenuation_db"),
+                format!("must be finite and ≥ 0 dB, got {}", self.attenuation_db),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Slab test: does the closed segment a→b intersect the closed box?
+    ///
+    /// Both are closed: a segment that only touches a face, an edge or a corner, or that runs
+    /// along a face, counts as crossing (a path grazing the board is attenuated). A segment
+    /// parallel to a face crosses only if it lies within that face's slab (bounds inclusive).
+    /// A zero-length segment is a point-in-box test.
+    pub fn blocks_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> bool {
+        let (mut t_enter, mut t_exit) = (0.0_f64, 1.0_f64);
+        for k in 0..3 {
+            let (lo, hi) = (self.min_m[k], self.max_m[k]);
+            let d = b[k] - a[k];
+            if d == 0.0 {
+                if a[k] < lo || a[k] > hi {
+                    return false;
+                }
+                continue;
+            }
+            // Division (not multiplication by 1/d) keeps 0/d = 0 when a lies on a slab bound.
+            let (t_lo, t_hi) = ((lo - a[k]) / d, (hi - a[k]) / d);
+            let (t_near, t_far) = if t_lo <= t_hi {
+                (t_lo, t_hi)
+            } else {
+                (t_hi, t_lo)
+            };
+            t_enter = t_enter.max(t_near);
+            t_exit = t_exit.min(t_far);
+            if t_enter > t_exit {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Amplitude factor of one crossing, 10^(−dB/20).
+    fn amplitude_factor(&self) -> f64 {
+        10f64.powf(-self.attenuation_db / 20.0)
+    }
+}
+
+/// One propagation path from a transmitter to a receiver point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Path {
+    /// Unfolded length (= distance from the image source to the receiver), m.
+    pub length_m: f64,
+    /// Unit vector at the receiver pointing toward where the path arrives from (toward the
+    /// image source), world frame. Zero only for a direct path of zero length.
+    pub toward_source_in_w: Vector3<f64>,
+    /// Amplitude factor excluding free-space spreading: product of the reflection coefficients
+    /// and of the obstacle's amplitude factor 10^(−dB/20) for each segment that crosses the
+    /// obstacle.
+    pub gain: f64,
+    /// Number of reflections (0 = direct path).
+    pub order: u8,
+    /// Whether any segment of this path crosses the obstacle.
+    pub obstructed: bool,
+}
+
+/// One mirror plane of the room: `p[axis] = coord`.
+#[derive(Clone, Copy, Debug)]
+struct Plane {
+    axis: usize,
+    coord: f64,
+    reflection: f64,
+}
+
+impl Plane {
+    const fn new(axis: usize, coord: f64, reflection: f64) -> Self {
+        Self {
+            axis,
+            coord,
+            reflection,
+        }
+    }
+
+    /// Mirror image of `p` through this plane.
+    fn mirror(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        let mut q = *p;
+        q[self.axis] = 2.0 * self.coord - q[self.axis];
+        q
+    }
+}
+
+/// Whether `r` (on the plane's infinite extension) lies on the room's finite face.
+fn on_face(room: &RoomConfig, plane: &Plane, r: &Vector3<f64>) -> bool {
+    (0..3)
+        .filter(|&k| k != plane.axis)
+        .all(|k| r[k] >= -FACE_TOLERANCE_M && r[k] <= room.size_m[k] + FACE_TOLERANCE_M)
+}
+
+/// Walks the path that reflects off `mirrors` (in the order the wave meets them, starting at
+/// the transmitter) back from the receiver to the transmitter, one reflection at a time.
+///
+/// `image` is the transmitter mirrored through all of `mirrors` in order. Returns the number of
+/// real segments crossing the obstacle, or `None` if a reflection point misses its finite face
+/// (the mirror sequence is not a physical path).
+fn trace(
+    room: &RoomConfig,
+    obstacle: Option<&ObstacleConfig>,
+    p_tx_in_w: &Vector3<f64>,
+    p_rx_in_w: &Vector3<f64>,
+    mirrors: &[Plane],
+    image: &Vector3<f64>,
+) -> Option<i32> {
+    let blocks =
+        |a: &Vector3<f64>, b: &Vector3<f64>| obstacle.is_some_and(|o| o.blocks_segment(a, b));
+    let mut crossings = 0;
+    let mut start = *p_rx_in_w;
+    let mut image = *image;
+    for plane in mirrors.iter().rev() {
+        let d = image - start;
+        let along = d[plane.axis];
+        if along == 0.0 {
+            return None;
+        }
+        let t = (plane.coord - start[plane.axis]) / along;
+        if !(0.0..=1.0).contains(&t) {
+            return None;
+        }
+        let mut reflection_point = start + d * t;
+        reflection_point[plane.axis] = plane.coord;
+        if !on_face(room, plane, &reflection_point) {
+            return None;
+        }
+        if blocks(&start, &reflection_point) {
+            crossings += 1;
+        }
+        start = reflection_point;
+        image = plane.mirror(&image);
+    }
+    if blocks(&start, p_tx_in_w) {
+        crossings += 1;
+    }
+    Some(crossings)
+}
+
+/// Shared per-call state of [`paths_into`].
+struct Tracer<'a> {
+    room: &'a RoomConfig,
+    obstacle: Option<&'a ObstacleConfig>,
+    p_tx_in_w: &'a Vector3<f64>,
+    p_rx_in_w: &'a Vector3<f64>,
+    /// Obstacle amplitude factor per crossing, computed once per call.
+    crossing_factor: f64,
+}
+
+impl Tracer<'_> {
+    /// The path reflecting off `mirrors` (order met by the wave), if it is physical.
+    fn path(&self, mirrors: &[Plane], image: &Vector3<f64>) -> Option<Path> {
+        let crossings = trace(
+            self.room,
+            self.obstacle,
+            self.p_tx_in_w,
+            self.p_rx_in_w,
+            mirrors,
+            image,
+        )?;
+        let reflection: f64 = mirrors.iter().map(|p| p.reflection).product();
+        Some(self.make_path(image, reflection, crossings, mirrors.len() as u8))
+    }
+
+    fn make_path(&self, image: &Vector3<f64>, reflection: f64, crossings: i32, order: u8) -> Path {
+        let to_image = image - self.p_rx_in_w;
+        let length_m = to_image.norm();
+        let toward_source_in_w = if length_m > 0.0 {
+            to_image / length_m
+        } else {
+            Vector3::zeros()
+        };
+        let obstructed = crossings > 0;
+        let gain = if obstructed {
+            reflection * self.crossing_factor.powi(crossings)
+        } else {
+            reflection
+        };
+        Path {
+            length_m,
+            toward_source_in_w,
+            gain,
+            order,
+            obstructed,
+        }
+    }
+}
+
+/// All paths from `p_tx_in_w` to `p_rx_in_w` up to `room.max_order`, written into `out`.
+///
+/// `out` is cleared first so the caller can reuse its allocation across calls (this runs tens of
+/// thousands of times per simulation); nothing else is allocated. Order of the output: the
+/// direct path first (always present), then the first-order paths (faces x = 0, x = size_x,
+/// y = 0, y = size_y, floor, ceiling), then the second-order paths (see the module doc: 18 for
+/// points inside the box).
+///
+/// Both points are expected strictly inside the room ([`RoomConfig::contains`]); reflected paths
+/// whose reflection points miss their finite faces are dropped. If the two points coincide the
+/// direct path has length 0 and a zero direction.
+pub fn paths_into(
+    room: &RoomConfig,
+    obstacle: Option<&ObstacleConfig>,
+    p_tx_in_w: &Vector3<f64>,
+    p_rx_in_w: &Vector3<f64>,
+    out: &mut Vec<Path>,
+) {
+    out.clear();
+    out.reserve(MAX_PATHS);
+    let tracer = Tracer {
+        room,
+        obstacle,
+        p_tx_in_w,
+        p_rx_in_w,
+        crossing_factor: obstacle.map_or(1.0, ObstacleConfig::amplitude_factor),
+    };
+    let direct_crossings =
+        i32::from(obstacle.is_some_and(|o| o.blocks_segment(p_rx_in_w, p_tx_in_w)));
+    out.push(tracer.make_path(p_tx_in_w, 1.0, direct_crossings, 0));
+    if room.max_order == 0 {
+        return;
+    }
+    let planes = room.planes();
+    for plane in &planes {
+        let image = plane.mirror(p_tx_in_w);
+        out.extend(tracer.path(&[*plane], &image));
+    }
+    if room.max_order == 1 {
+        return;
+    }
+    for (i, first) in planes.iter().enumerate() {
+        for second in &planes[i + 1..] {
+            let forward = [*first, *second];
+            let image = second.mirror(&first.mirror(p_tx_in_w));
+            if first.axis == second.axis {
+                // Opposite faces: the two orders give two different images, both physical.
+                out.extend(tracer.path(&forward, &image));
+                let backward = [*second, *first];
+                let image = first.mirror(&second.mirror(p_tx_in_w));
+                out.extend(tracer.path(&backward, &image));
+            } else {
+                // Different axes: one corner image; only one order has both reflection points
+                // on their faces (at a tie through the room's edge, keep the first).
+                let path = tracer
+                    .path(&forward, &image)
+                    .or_else(|| tracer.path(&[*second, *first], &image));
+                out.extend(path);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TOL: f64 = 1e-9;
+
+    fn v(x: f64, y: f64, z: f64) -> Vector3<f64> {
+        Vector3::new(x, y, z)
+    }
+
+    fn room(max_order: u8) -> RoomConfig {
+        RoomConfig {
+            size_m: [12.0, 8.0, 4.0],
+            wall_reflection: 0.4,
+            floor_reflection: 0.5,
+            ceiling_reflection: -0.3,
+            max_order,
+        }
+    }
+
+    /// A deterministic spread of interior points, including ones near faces, edges and corners.
+    fn interior_points() -> Vec<Vector3<f64>> {
+        let mut points = vec![
+            v(1.0, 2.0, 1.5),
+            v(10.0, 6.5, 3.0),
+            v(6.0, 4.0, 2.0),
+            v(0.01, 0.01, 0.01),
+            v(11.99, 7.99, 3.99),
+            v(0.05, 7.9, 2.0),
+        ];
+        // A simple LCG: seeded, no dependency.
+        let mut state: u64 = 0x5EED_1234;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64).clamp(0.001, 0.999)
+        };
+        for _ in 0..20 {
+            points.push(v(12.0 * next(), 8.0 * next(), 4.0 * next()));
+        }
+        points
+    }
+
+    fn assert_close(a: f64, b: f64, what: &str) {
+        assert!((a - b).abs() < TOL, "{what}: {a} vs {b}");
+    }
+
+    /// Finds the path arriving from `image`, by direction and length.
+    fn find<'a>(paths: &'a [Path], rx: &Vector3<f64>, image: &Vector3<f64>) -> Option<&'a Path> {
+        let d = image - rx;
+        paths.iter().find(|p| {
+            (p.length_m - d.norm()).abs() < TOL
+                && (p.toward_source_in_w - d / d.norm()).norm() < TOL
+        })
+    }
+
+    #[test]
+    fn direct_path_matches_geometry() {
+        let (tx, rx) = (v(2.0, 3.0, 1.0), v(8.0, 5.0, 2.5));
+        let mut out = Vec::new();
+        paths_into(&room(0), None, &tx, &rx, &mut out);
+        assert_eq!(out.len(), 1);
+        let p = out[0];
+        let d = tx - rx;
+        assert_close(p.length_m, d.norm(), "length");
+        assert!((p.toward_source_in_w - d / d.norm()).norm() < TOL);
+        assert_close(p.toward_source_in_w.norm(), 1.0, "unit");
+        assert_eq!((p.order, p.obstructed, p.gain), (0, false, 1.0));
+    }
+
+    #[test]
+    fn coincident_points_give_zero_length_direct_path() {
+        let tx = v(2.0, 3.0, 1.0);
+        let mut out = Vec::new();
+        paths_into(&room(1), None, &tx, &tx, &mut out);
+        assert_eq!(out[0].length_m, 0.0);
+        assert_eq!(out[0].toward_source_in_w, Vector3::zeros());
+        assert_eq!(out.len(), 7);
+    }
+
+    #[test]
+    fn first_order_paths_match_hand_images_and_reflection_points() {
+        let r = room(1);
+        let (tx, rx) = (v(2.0, 3.0, 1.0), v(9.0, 6.0, 2.5));
+        let mut out = Vec::new();
+        paths_into(&r, None, &tx, &rx, &mut out);
+        assert_eq!(out.len(), 7);
+        // (axis, plane coordinate, hand-mirrored image, expected Γ), in output order.
+        let cases = [
+            (0, 0.0, v(-2.0, 3.0, 1.0), 0.4),
+            (0, 12.0, v(22.0, 3.0, 1.0), 0.4),
+            (1, 0.0, v(2.0, -3.0, 1.0), 0.4),
+            (1, 8.0, v(2.0, 13.0, 1.0), 0.4),
+            (2, 0.0, v(2.0, 3.0, -1.0), 0.5),
+            (2, 4.0, v(2.0, 3.0, 7.0), -0.3),
+        ];
+        for (i, (axis, c, image, gamma)) in cases.into_iter().enumerate() {
+            let p = out[1 + i];
+            assert_eq!(p.order, 1);
+            assert_close(p.gain, gamma, "gain");
+            assert_close(p.length_m, (rx - image).norm(), "image length");
+            let d = image - rx;
+            assert!(
+                (p.toward_source_in_w - d / d.norm()).norm() < TOL,
+                "direction"
+            );
+            // Reflection point by similar triangles, independent of the image.
+            let (dt, dr) = ((tx[axis] - c).abs(), (rx[axis] - c).abs());
+            let mut refl = tx + (rx - tx) * (dt / (dt + dr));
+            refl[axis] = c;
+            assert_close(
+                p.length_m,
+                (tx - refl).norm() + (refl - rx).norm(),
+                "unfolded",
+            );
+            // Law of reflection: equal angles to the normal.
+            let mut normal = Vector3::zeros();
+            normal[axis] = 1.0;
+            let (inc, outg) = ((tx - refl).normalize(), (rx - refl).normalize());
+            assert_close(inc.dot(&normal).abs(), outg.dot(&normal).abs(), "angles");
+            assert!(
+                (0..3).all(|k| refl[k] >= 0.0 && refl[k] <= r.size_m[k]),
+                "on face"
+            );
+        }
+    }
+
+    #[test]
+    fn every_path_points_toward_its_image_and_count_is_25() {
+        let r = room(2);
+        let l = r.size_m;
+        let mut out = Vec::new();
+        let points = interior_points();
+        for (tx, rx) in points.iter().zip(points.iter().rev()) {
+            paths_into(&r, None, tx, rx, &mut out);
+            assert_eq!(out.len(), 25, "tx {tx:?} rx {rx:?}");
+            // Hand-computed images with their orders: 1 + 6 + 18, all distinct, so finding each
+            // one among the 25 paths is a one-to-one match.
+            let mut images = vec![(*tx, 0)];
+            for k in 0..3 {
+                for x in [-tx[k], 2.0 * l[k] - tx[k]] {
+                    let mut im = *tx;
+                    im[k] = x;
+                    images.push((im, 1));
+                }
+                // Same-axis pairs: near face first gives 2L + x, far face first gives x − 2L.
+                for x in [2.0 * l[k] + tx[k], tx[k] - 2.0 * l[k]] {
+                    let mut im = *tx;
+                    im[k] = x;
+                    images.push((im, 2));
+                }
+            }
+            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+                for ca in [-tx[a], 2.0 * l[a] - tx[a]] {
+                    for cb in [-tx[b], 2.0 * l[b] - tx[b]] {
+                        let mut im = *tx;
+                        im[a] = ca;
+                        im[b] = cb;
+                        images.push((im, 2));
+                    }
+                }
+            }
+            assert_eq!(images.len(), 25);
+            for (im, order) in &images {
+                let p = find(&out, rx, im).unwrap_or_else(|| panic!("no path from {im:?}"));
+                assert_eq!(p.order, *order);
+            }
+            assert_eq!(out[0].order, 0);
+            assert_eq!(out.iter().filter(|p| p.order == 2).count(), 18);
+            for p in &out {
+                assert_close(p.toward_source_in_w.norm(), 1.0, "unit direction");
+            }
+        }
+    }
+
+    #[test]
+    fn corner_images_have_exactly_one_physical_order() {
+        let r = room(2);
+        let planes = r.planes();
+        for tx in interior_points() {
+            for rx in [v(3.17, 2.29, 1.13), v(10.93, 0.51, 3.37)] {
+                for i in 0..6 {
+                    for j in 0..6 {
+                        if planes[i].axis == planes[j].axis {
+                            continue;
+                        }
+                        let image = planes[j].mirror(&planes[i].mirror(&tx));
+                        let ij = trace(&r, None, &tx, &rx, &[planes[i], planes[j]], &image);
+                        let ji = trace(&r, None, &tx, &rx, &[planes[j], planes[i]], &image);
+                        assert!(ij.is_some() != ji.is_some(), "{i} {j} {tx:?} {rx:?}");
+                    }
+                }
+            }
+        }
+        // A tie: the line from rx to the (x = 12, ceiling) image (14, 6.5, 5) passes through the
+        // room's edge (12, 2.5, 4), so both orders are valid; paths_into keeps one path.
+        let (tx, rx) = (v(10.0, 6.5, 3.0), v(11.0, 0.5, 3.5));
+        let image = v(14.0, 6.5, 5.0);
+        let (x12, ceiling) = (planes[1], planes[5]);
+        assert!(trace(&r, None, &tx, &rx, &[x12, ceiling], &image).is_some());
+        assert!(trace(&r, None, &tx, &rx, &[ceiling, x12], &image).is_some());
+        let mut out = Vec::new();
+        paths_into(&r, None, &tx, &rx, &mut out);
+        assert_eq!(out.len(), 25);
+        // Receiver close to x = 0 and far from y = 0: the line to the (x0, y0) corner image
+        // crosses x = 0 first, so the wave reflects off y = 0 first and x = 0 last.
+        let (tx, rx) = (v(3.0, 1.0, 2.0), v(0.5, 6.0, 2.0));
+        let image = v(-3.0, -1.0, 2.0);
+        let (x0, y0) = (planes[0], planes[2]);
+        assert_eq!(trace(&r, None, &tx, &rx, &[y0, x0], &image), Some(0));
+        assert_eq!(trace(&r, None, &tx, &rx, &[x0, y0], &image), None);
+    }
+
+    #[test]
+    fn second_order_gains_multiply_and_lengths_match() {
+        let r = room(2);
+        let (tx, rx) = (v(2.0, 3.0, 1.0), v(9.0, 6.0, 2.5));
+        let mut out = Vec::new();
+        paths_into(&r, None, &tx, &rx, &mut out);
+        let cases = [
+            (v(24.0 + 2.0, 3.0, 1.0), 0.16), // x = 0 then x = 12
+            (v(2.0 - 24.0, 3.0, 1.0), 0.16), // x = 12 then x = 0
+            (v(2.0, 3.0, 8.0 + 1.0), -0.15), // floor then ceiling: 2·4 + 1
+            (v(2.0, 3.0, 1.0 - 8.0), -0.15), // ceiling then floor
+            (v(-2.0, 3.0, -1.0), 0.2),       // x = 0 and floor
+            (v(2.0, 13.0, 7.0), -0.12),      // y = 8 and ceiling
+            (v(22.0, -3.0, 1.0), 0.16),      // x = 12 and y = 0
+        ];
+        for (image, gain) in cases {
+            let p = find(&out, &rx, &image).unwrap_or_else(|| panic!("no path from {image:?}"));
+            assert_close(p.gain, gain, "gain");
+            assert_close(p.length_m, (image - rx).norm(), "length");
+            assert_eq!(p.order, 2);
+        }
+    }
+
+    fn board() -> ObstacleConfig {
+        ObstacleConfig {
+            min_m: [1.0, 1.0, 1.0],
+            max_m: [2.0, 3.0, 4.0],
+            attenuation_db: 6.0,
+        }
+    }
+
+    #[test]
+    fn obstacle_slab_test_is_closed() {
+        let b = board();
+        // Through the middle, and beside it.
+        assert!(b.blocks_segment(&v(0.0, 2.0, 2.0), &v(3.0, 2.0, 2.0)));
+        assert!(!b.blocks_segment(&v(0.0, 3.5, 2.0), &v(3.0, 3.5, 2.0)));
+        // Diagonal through, and a diagonal that passes a corner outside.
+        assert!(b.blocks_segment(&v(0.0, 0.0, 0.0), &v(3.0, 4.0, 5.0)));
+        assert!(!b.blocks_segment(&v(0.0, 2.5, 2.0), &v(1.4, 4.0, 2.0)));
+        // Ends before the box; starts inside it; a point inside and outside.
+        assert!(!b.blocks_segment(&v(0.0, 2.0, 2.0), &v(0.99, 2.0, 2.0)));
+        assert!(b.blocks_segment(&v(1.5, 2.0, 2.0), &v(5.0, 5.0, 5.0)));
+        assert!(b.blocks_segment(&v(1.5, 2.0, 2.0), &v(1.5, 2.0, 2.0)));
+        assert!(!b.blocks_segment(&v(0.5, 2.0, 2.0), &v(0.5, 2.0, 2.0)));
+        // Parallel to the x = 1 face: in the face plane (closed) crosses; just outside does not.
+        assert!(b.blocks_segment(&v(1.0, 0.0, 2.0), &v(1.0, 5.0, 2.0)));
+        assert!(!b.blocks_segment(&v(0.999, 0.0, 2.0), &v(0.999, 5.0, 2.0)));
+        assert!(b.blocks_segment(&v(2.0, 2.0, 0.0), &v(2.0, 2.0, 9.0)));
+        // Along an edge, touching an edge at one point, touching a corner at one point.
+        assert!(b.blocks_segment(&v(1.0, 1.0, 0.0), &v(1.0, 1.0, 9.0)));
+        assert!(b.blocks_segment(&v(0.0, 0.0, 2.0), &v(2.0, 2.0, 2.0)));
+        assert!(b.blocks_segment(&v(0.0, 2.0, 2.0), &v(1.0, 1.0, 2.0)));
+        assert!(b.blocks_segment(&v(0.0, 0.0, 0.0), &v(1.0, 1.0, 1.0)));
+        assert!(!b.blocks_segment(&v(0.0, 0.0, 0.0), &v(0.999, 0.999, 0.999)));
+        // Endpoint exactly on a face.
+        assert!(b.blocks_segment(&v(0.0, 2.0, 2.0), &v(1.0, 2.0, 2.0)));
+        // Direction does not matter.
+        assert!(b.blocks_segment(&v(3.0, 4.0, 5.0), &v(0.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn obstructed_paths_are_attenuated() {
+        let r = room(1);
+        let ob = ObstacleConfig {
+            min_m: [4.0, 0.0, 0.0],
+            max_m: [4.1, 8.0, 4.0],
+            attenuation_db: 10.0,
+        };
+        let (tx, rx) = (v(2.0, 4.0, 2.0), v(8.0, 4.0, 2.0));
+        let mut out = Vec::new();
+        paths_into(&r, Some(&ob), &tx, &rx, &mut out);
+        let a = 10f64.powf(-10.0 / 20.0);
+        assert!(out[0].obstructed);
+        assert_close(out[0].gain, a, "direct");
+        // Wall x = 0: the path tx → (0, 4, 2) → rx crosses the board once (on the way back).
+        assert!(out[1].obstructed);
+        assert_close(out[1].gain, 0.4 * a, "x0");
+        // Wall x = 12: tx → (12, 4, 2) → rx crosses once (first segment).
+        assert_close(out[2].gain, 0.4 * a, "x12");
+        // Floor: crosses once.
+        assert_close(out[5].gain, 0.5 * a, "floor");
+        // A small board on the direct line only.
+        let (tx2, rx2) = (v(2.0, 3.0, 1.5), v(8.0, 5.0, 2.5));
+        let hit = tx2 + (rx2 - tx2) / 3.0; // (4, 3.667, 1.833)
+        let small = ObstacleConfig {
+            min_m: [hit.x - 0.05, hit.y - 0.1, hit.z - 0.1],
+            max_m: [hit.x + 0.05, hit.y + 0.1, hit.z + 0.1],
+            attenuation_db: 10.0,
+        };
+        paths_into(&r, Some(&small), &tx2, &rx2, &mut out);
+        assert_eq!(out.len(), 7);
+        assert!(out[0].obstructed && out[1..].iter().all(|p| !p.obstructed));
+        assert_close(out[0].gain, a, "direct only");
+        assert_close(out[3].gain, 0.4, "y0 unobstructed");
+        // A board enclosing tx and the x = 0 reflection point is crossed by both real segments.
+        let wide = ObstacleConfig {
+            min_m: [0.0, 3.0, 1.0],
+            max_m: [3.0, 5.0, 3.0],
+            attenuation_db: 10.0,
+        };
+        paths_into(&r, Some(&wide), &tx, &rx, &mut out);
+        assert_close(out[1].gain, 0.4 * a * a, "two crossings");
+    }
+
+    #[test]
+    fn output_buffer_is_reused() {
+        let r = room(2);
+        let mut out = Vec::new();
+        paths_into(&r, None, &v(1.0, 1.0, 1.0), &v(5.0, 5.0, 2.0), &mut out);
+        let (ptr, cap) = (out.as_ptr(), out.capacity());
+        for rx in interior_points() {
+            paths_into(&r, None, &v(1.0, 1.0, 1.0), &rx, &mut out);
+            assert_eq!((out.as_ptr(), out.capacity()), (ptr, cap));
+        }
+        assert_eq!(out.len(), 25);
+    }
+
+    #[test]
+    fn validation_rejects_bad_values() {
+        assert!(RoomConfig::default().validate("room").is_ok());
+        let bad = RoomConfig {
+            size_m: [12.0, 0.0, 4.0],
+            ..RoomConfig::default()
+        };
+        assert_eq!(
+            bad.validate("room").map_err(|e| e.field),
+            Err("room.size_m".into())
+        );
+        let bad = RoomConfig {
+            floor_reflection: -1.5,
+            ..RoomConfig::default()
+        };
+        assert_eq!(
+            bad.validate("r").map_err(|e| e.field),
+            Err("r.floor_reflection".into())
+        );
+        let bad = RoomConfig {
+            max_order: 3,
+            ..RoomConfig::default()
+        };
+        assert_eq!(
+            bad.validate("r").map_err(|e| e.field),
+            Err("r.max_order".into())
+        );
+        assert!(board().validate("o").is_ok());
+        let mut bad = board();
+        bad.max_m[1] = 0.5;
+        assert_eq!(
+            bad.validate("o").map_err(|e| e.field),
+            Err("o.max_m".into())
+        );
+        let mut bad = board();
+        bad.attenuation_db = -1.0;
+        assert_eq!(
+            bad.validate("o").map_err(|e| e.field),
+            Err("o.attenuation_db".into())
+        );
+    }
+
+    #[test]
+    fn contains_is_strict_and_serde_defaults_apply() {
+        let r = RoomConfig::default();
+        assert!(r.contains(&v(6.0, 4.0, 2.0)));
+        assert!(!r.contains(&v(0.0, 4.0, 2.0)));
+        assert!(!r.contains(&v(6.0, 8.0, 2.0)));
+        assert!(!r.contains(&v(6.0, 4.0, -0.1)));
+        let parsed: RoomConfig = toml::from_str("max_order = 2").unwrap();
+        assert_eq!(
+            parsed,
+            RoomConfig {
+                max_order: 2,
+                ..RoomConfig::default()
+            }
+        );
+        assert!(toml::from_str::<RoomConfig>("walls = 0.3").is_err());
+        assert!(toml::from_str::<ObstacleConfig>("min_m = [0.0, 0.0, 0.0]").is_err());
+    }
+}

@@ -1,1 +1,686 @@
-//! (in progress)
+//! Flight trajectories with exact analytic derivatives.
+//!
+//! Every trajectory is an offset plus a sum of sinusoids with vector amplitudes,
+//!
+//! ```text
+//! p(t) = c + Σ_k A_k sin(ω_k t + φ_k)
+//! v(t) =     Σ_k A_k ω_k  cos(ω_k t + φ_k)
+//! a(t) =    −Σ_k A_k ω_k² sin(ω_k t + φ_k)
+//! j(t) =    −Σ_k A_k ω_k³ cos(ω_k t + φ_k)
+//! ```
+//!
+//! so position, velocity, acceleration and jerk are exact to rounding at any time, with no
+//! numerical differentiation. The quadrotor attitude ([`super::motion`]) needs all four.
+
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::{FRAC_PI_2, TAU};
+
+use super::ConfigError;
+
+/// Largest `num_harmonics` of [`TrajectoryConfig::RandomSmooth`].
+pub const MAX_HARMONICS: usize = 16;
+
+/// Smallest relative weight of a random harmonic's amplitude (weights are drawn in
+/// `[MIN_HARMONIC_WEIGHT, 1)` before normalisation), so no drawn harmonic is negligible.
+const MIN_HARMONIC_WEIGHT: f64 = 0.1;
+
+/// Translational state at one instant, world frame `w` (z up), exact derivatives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Translation {
+    /// Position of the body origin in `w`, m.
+    pub p_b_in_w: Vector3<f64>,
+    /// Velocity of the body origin in `w`, m/s.
+    pub v_b_in_w: Vector3<f64>,
+    /// Acceleration of the body origin in `w`, m/s².
+    pub a_b_in_w: Vector3<f64>,
+    /// Jerk (time derivative of the acceleration) in `w`, m/s³.
+    pub j_b_in_w: Vector3<f64>,
+}
+
+/// The flight path of a scenario, in the world frame `w` (z up).
+///
+/// In TOML the variant is chosen by `kind`, e.g.
+/// `kind = "circle"`, `kind = "figure-eight"`, `kind = "random-smooth"`, `kind = "hover"`.
+/// Unknown fields are rejected.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum TrajectoryConfig {
+    /// Horizontal circle at constant speed (the paper's flight: radius ~2.5 m, height 1.5 m,
+    /// 1.27 m/s).
+    ///
+    /// θ(t) = θ₀ + s·(v/r)·t with s = −1 when clockwise (seen from above), +1 otherwise;
+    /// p(t) = c + r (cos θ, sin θ, 0).
+    Circle {
+        /// Centre of the circle, m; its z is the flight height.
+        center_m: [f64; 3],
+        /// Radius, m (> 0).
+        radius_m: f64,
+        /// Constant speed along the circle, m/s (> 0).
+        speed_m_s: f64,
+        /// Angle θ₀ of the start point, measured from world +x toward +y, degrees.
+        start_angle_deg: f64,
+        /// Fly clockwise when seen from above (+z).
+        clockwise: bool,
+    },
+    /// Figure-eight (lemniscate of Gerono) at constant height, with ω = 2π/T:
+    /// x = c_x + L sin(ωt), y = c_y + W sin(2ωt), z = c_z.
+    ///
+    /// It starts at the crossing point `c`, heading along +x (and +y); the speed never vanishes.
+    FigureEight {
+        /// Centre (crossing point) of the eight, m; its z is the flight height.
+        center_m: [f64; 3],
+        /// Half the extent along world x, `L`, m (> 0).
+        half_length_m: f64,
+        /// Half the extent along world y, `W`, m (> 0).
+        half_width_m: f64,
+        /// Time for one full eight, `T`, s (> 0).
+        period_s: f64,
+    },
+    /// Smooth random flight drawn from the seed given to [`TrajectoryConfig::build`].
+    ///
+    /// Per axis, `num_harmonics` sinusoids with periods uniform in
+    /// `[min_period_s, max_period_s]`, phases uniform in `[0, 2π)` and random weights, around the
+    /// centre of the box. The amplitudes of an axis sum to the box's half-width on that axis, so
+    /// `bounds_min_m ≤ p(t) ≤ bounds_max_m` for all time; then all amplitudes are scaled down,
+    /// if needed, so the speed bound `|(Σ_k |A_xk| ω_k, Σ_k |A_yk| ω_k, Σ_k |A_zk| ω_k)|` is at
+    /// most `max_speed_m_s`, which makes `|v(t)| ≤ max_speed_m_s` for all time. An axis with
+    /// `min == max` stays constant (planar flight).
+    RandomSmooth {
+        /// Lower corner of the box the flight stays in, m.
+        bounds_min_m: [f64; 3],
+        /// Upper corner of the box the flight stays in, m (≥ `bounds_min_m` per axis, > on some).
+        bounds_max_m: [f64; 3],
+        /// Upper bound on the speed, m/s (> 0).
+        max_speed_m_s: f64,
+        /// Sinusoids per axis, 1 to [`MAX_HARMONICS`].
+        num_harmonics: usize,
+        /// Shortest period of a sinusoid, s (> 0).
+        min_period_s: f64,
+        /// Longest period of a sinusoid, s (≥ `min_period_s`).
+        max_period_s: f64,
+    },
+    /// Hover at a fixed point.
+    Hover {
+        /// Where to hover, m.
+        position_m: [f64; 3],
+    },
+}
+
+impl Default for TrajectoryConfig {
+    /// The paper's flight: counter-clockwise circle of radius 2.5 m at 1.5 m height, 1.27 m/s,
+    /// centred at (6, 4, 1.5) m. Wrong for any room it does not fit in.
+    fn default() -> Self {
+        Self::Circle {
+            center_m: [6.0, 4.0, 1.5],
+            radius_m: 2.5,
+            speed_m_s: 1.27,
+            start_angle_deg: 0.0,
+            clockwise: false,
+        }
+    }
+}
+
+/// Error unless every entry of `values` is finite.
+fn check_finite(field: &str, name: &str, values: &[f64]) -> Result<(), ConfigError> {
+    if values.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(ConfigError::new(
+            format!("{field}.{name}"),
+            format!("must be finite, got {values:?}"),
+        ))
+    }
+}
+
+/// Error unless `value` is finite and > 0.
+fn check_positive(field: &str, name: &str, value: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ConfigError::new(
+            format!("{field}.{name}"),
+            format!("must be finite and > 0, got {value}"),
+        ))
+    }
+}
+
+impl TrajectoryConfig {
+    /// Checks that the trajectory can be built: finite numbers, positive radius, speed, sizes
+    /// and periods, `min ≤ max` for bounds and periods, `num_harmonics` in `1..=16`.
+    ///
+    /// `field` is the dotted prefix used in error messages, e.g. `"trajectory"`.
+    pub fn validate(&self, field: &str) -> Result<(), ConfigError> {
+        match self {
+            Self::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+                start_angle_deg,
+                clockwise: _,
+            } => {
+                check_finite(field, "center_m", center_m)?;
+                check_positive(field, "radius_m", *radius_m)?;
+                check_positive(field, "speed_m_s", *speed_m_s)?;
+                check_finite(field, "start_angle_deg", &[*start_angle_deg])
+            }
+            Self::FigureEight {
+                center_m,
+                half_length_m,
+                half_width_m,
+                period_s,
+            } => {
+                check_finite(field, "center_m", center_m)?;
+                check_positive(field, "half_length_m", *half_length_m)?;
+                check_positive(field, "half_width_m", *half_width_m)?;
+                check_positive(field, "period_s", *period_s)
+            }
+            Self::RandomSmooth {
+                bounds_min_m,
+                bounds_max_m,
+                max_speed_m_s,
+                num_harmonics,
+                min_period_s,
+                max_period_s,
+            } => {
+                check_finite(field, "bounds_min_m", bounds_min_m)?;
+                check_finite(field, "bounds_max_m", bounds_max_m)?;
+                let ordered = bounds_min_m
+                    .iter()
+                    .zip(bounds_max_m)
+                    .all(|(lo, hi)| lo <= hi);
+                let some_room = bounds_min_m
+                    .iter()
+                    .zip(bounds_max_m)
+                    .any(|(lo, hi)| lo < hi);
+                if !ordered || !some_room {
+                    return Err(ConfigError::new(
+                        format!("{field}.bounds_max_m"),
+                        format!(
+                            "must be >= bounds_min_m on every axis and > on at least one, \
+                             got min {bounds_min_m:?}, max {bounds_max_m:?}"
+                        ),
+                    ));
+                }
+                check_positive(field, "max_speed_m_s", *max_speed_m_s)?;
+                if !(1..=MAX_HARMONICS).contains(num_harmonics) {
+                    return Err(ConfigError::new(
+                        format!("{field}.num_harmonics"),
+                        format!("must be in 1..={MAX_HARMONICS}, got {num_harmonics}"),
+                    ));
+                }
+                check_positive(field, "min_period_s", *min_period_s)?;
+                check_positive(field, "max_period_s", *max_period_s)?;
+                if min_period_s > max_period_s {
+                    return Err(ConfigError::new(
+                        format!("{field}.max_period_s"),
+                        format!("must be >= min_period_s ({min_period_s}), got {max_period_s}"),
+                    ));
+                }
+                Ok(())
+            }
+            Self::Hover { position_m } => check_finite(field, "position_m", position_m),
+        }
+    }
+
+    /// Builds the trajectory. `seed` is used only by [`TrajectoryConfig::RandomSmooth`]
+    /// (`ChaCha8Rng::seed_from_u64(seed)`); the same seed gives the same flight.
+    ///
+    /// Call [`TrajectoryConfig::validate`] first: an invalid config builds a trajectory that
+    /// may return non-finite values (it never panics).
+    pub fn build(&self, seed: u64) -> Trajectory {
+        match self {
+            Self::Circle {
+                center_m,
+                radius_m,
+                speed_m_s,
+                start_angle_deg,
+                clockwise,
+            } => {
+                let sign = if *clockwise { -1.0 } else { 1.0 };
+                let omega_rad_s = sign * speed_m_s / radius_m;
+                let theta0_rad = start_angle_deg.to_radians();
+                // r cos θ = r sin(θ + π/2).
+                Trajectory {
+                    center_m: Vector3::from(*center_m),
+                    harmonics: vec![
+                        Harmonic {
+                            amplitude_m: Vector3::new(*radius_m, 0.0, 0.0),
+                            omega_rad_s,
+                            phase_rad: theta0_rad + FRAC_PI_2,
+                        },
+                        Harmonic {
+                            amplitude_m: Vector3::new(0.0, *radius_m, 0.0),
+                            omega_rad_s,
+                            phase_rad: theta0_rad,
+                        },
+                    ],
+                }
+            }
+            Self::FigureEight {
+                center_m,
+                half_length_m,
+                half_width_m,
+                period_s,
+            } => {
+                let omega_rad_s = TAU / period_s;
+                Trajectory {
+                    center_m: Vector3::from(*center_m),
+                    harmonics: vec![
+                        Harmonic {
+                            amplitude_m: Vector3::new(*half_length_m, 0.0, 0.0),
+                            omega_rad_s,
+                            phase_rad: 0.0,
+                        },
+                        Harmonic {
+                            amplitude_m: Vector3::new(0.0, *half_width_m, 0.0),
+                            omega_rad_s: 2.0 * omega_rad_s,
+                            phase_rad: 0.0,
+                        },
+                    ],
+                }
+            }
+            Self::RandomSmooth {
+                bounds_min_m,
+                bounds_max_m,
+                max_speed_m_s,
+                num_harmonics,
+                min_period_s,
+                max_period_s,
+            } => random_smooth(
+                Vector3::from(*bounds_min_m),
+                Vector3::from(*bounds_max_m),
+                *max_speed_m_s,
+                *num_harmonics,
+                (*min_period_s, *max_period_s),
+                seed,
+            ),
+            Self::Hover { position_m } => Trajectory {
+                center_m: Vector3::from(*position_m),
+                harmonics: Vec::new(),
+            },
+        }
+    }
+}
+
+/// Draws the random flight described at [`TrajectoryConfig::RandomSmooth`].
+///
+/// Draw order (part of the reproducibility contract): for each axis x, y, z, for each harmonic,
+/// period, phase, weight.
+fn random_smooth(
+    min_m: Vector3<f64>,
+    max_m: Vector3<f64>,
+    max_speed_m_s: f64,
+    num_harmonics: usize,
+    (min_period_s, max_period_s): (f64, f64),
+    seed: u64,
+) -> Trajectory {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let half_width_m = (max_m - min_m) / 2.0;
+    let mut harmonics = Vec::with_capacity(3 * num_harmonics);
+    for axis in 0..3 {
+        let start = harmonics.len();
+        let mut weight_sum = 0.0;
+        for _ in 0..num_harmonics {
+            // u ∈ [0, 1): avoids `random_range` panicking on an empty range when min == max.
+            let period_s = min_period_s + (max_period_s - min_period_s) * rng.random::<f64>();
+            let phase_rad = TAU * rng.random::<f64>();
+            let weight = MIN_HARMONIC_WEIGHT + (1.0 - MIN_HARMONIC_WEIGHT) * rng.random::<f64>();
+            weight_sum += weight;
+            let mut amplitude_m = Vector3::zeros();
+            amplitude_m[axis] = weight;
+            harmonics.push(Harmonic {
+                amplitude_m,
+                omega_rad_s: TAU / period_s,
+                phase_rad,
+            });
+        }
+        // Σ_k A_k = half-width: |p − c| ≤ half-width on this axis for all t.
+        for h in &mut harmonics[start..] {
+            h.amplitude_m *= half_width_m[axis] / weight_sum;
+        }
+    }
+    let mut trajectory = Trajectory {
+        center_m: (min_m + max_m) / 2.0,
+        harmonics,
+    };
+    let speed_bound_m_s = trajectory.speed_bound_m_s();
+    if speed_bound_m_s > max_speed_m_s {
+        // Shrinking about the centre keeps the flight in the box.
+        let scale = max_speed_m_s / speed_bound_m_s;
+        for h in &mut trajectory.harmonics {
+            h.amplitude_m *= scale;
+        }
+    }
+    trajectory
+}
+
+/// One term `A sin(ω t + φ)` of a trajectory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Harmonic {
+    /// Vector amplitude `A` in `w`, m.
+    amplitude_m: Vector3<f64>,
+    /// Angular frequency `ω`, rad/s (may be negative).
+    omega_rad_s: f64,
+    /// Phase `φ`, rad.
+    phase_rad: f64,
+}
+
+/// A built trajectory, evaluated at any time: `p(t) = c + Σ_k A_k sin(ω_k t + φ_k)`.
+#[derive(Clone, Debug)]
+pub struct Trajectory {
+    /// Offset `c` in `w`, m.
+    center_m: Vector3<f64>,
+    /// The sinusoids.
+    harmonics: Vec<Harmonic>,
+}
+
+impl Trajectory {
+    /// Position, velocity, acceleration and jerk at `t_s` (seconds from the start), exact.
+    pub fn at(&self, t_s: f64) -> Translation {
+        let mut tr = Translation {
+            p_b_in_w: self.center_m,
+            v_b_in_w: Vector3::zeros(),
+            a_b_in_w: Vector3::zeros(),
+            j_b_in_w: Vector3::zeros(),
+        };
+        for h in &self.harmonics {
+            let w = h.omega_rad_s;
+            let (s, c) = (w * t_s + h.phase_rad).sin_cos();
+            tr.p_b_in_w += h.amplitude_m * s;
+            tr.v_b_in_w += h.amplitude_m * (w * c);
+            tr.a_b_in_w -= h.amplitude_m * (w * w * s);
+            tr.j_b_in_w -= h.amplitude_m * (w * w * w * c);
+        }
+        tr
+    }
+
+    /// Bound on the norm of the `order`-th derivative over all time:
+    /// `|(Σ_k |A_xk| |ω_k|ⁿ, Σ_k |A_yk| |ω_k|ⁿ, Σ_k |A_zk| |ω_k|ⁿ)|`.
+    fn derivative_bound(&self, order: i32) -> f64 {
+        self.harmonics
+            .iter()
+            .map(|h| h.amplitude_m.abs() * h.omega_rad_s.abs().powi(order))
+            .sum::<Vector3<f64>>()
+            .norm()
+    }
+
+    /// An upper bound on the speed `|v(t)|` over all time, m/s (exact for a hover, √2× the true
+    /// speed for a circle).
+    pub fn speed_bound_m_s(&self) -> f64 {
+        self.derivative_bound(1)
+    }
+
+    /// An upper bound on `|a(t)|` over all time, m/s². The quadrotor attitude
+    /// ([`super::motion::body_state`]) needs `|a| < g`; this checks it once for the whole flight.
+    pub fn acceleration_bound_m_s2(&self) -> f64 {
+        self.derivative_bound(2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paper_circle() -> TrajectoryConfig {
+        TrajectoryConfig::Circle {
+            center_m: [6.0, 4.0, 1.5],
+            radius_m: 2.5,
+            speed_m_s: 1.27,
+            start_angle_deg: 30.0,
+            clockwise: true,
+        }
+    }
+
+    fn figure_eight() -> TrajectoryConfig {
+        TrajectoryConfig::FigureEight {
+            center_m: [5.0, 5.0, 1.2],
+            half_length_m: 3.0,
+            half_width_m: 1.5,
+            period_s: 20.0,
+        }
+    }
+
+    fn random() -> TrajectoryConfig {
+        TrajectoryConfig::RandomSmooth {
+            bounds_min_m: [1.0, 2.0, 0.5],
+            bounds_max_m: [9.0, 8.0, 2.5],
+            max_speed_m_s: 1.5,
+            num_harmonics: 5,
+            min_period_s: 5.0,
+            max_period_s: 40.0,
+        }
+    }
+
+    fn all_kinds() -> Vec<TrajectoryConfig> {
+        vec![
+            paper_circle(),
+            figure_eight(),
+            random(),
+            TrajectoryConfig::Hover {
+                position_m: [1.0, 2.0, 3.0],
+            },
+        ]
+    }
+
+    #[test]
+    fn derivatives_match_central_differences() {
+        let h = 1e-4;
+        for config in all_kinds() {
+            config.validate("trajectory").unwrap();
+            let traj = config.build(7);
+            for &t in &[0.0, 0.37, 3.1, 17.9, 123.4] {
+                let (lo, mid, hi) = (traj.at(t - h), traj.at(t), traj.at(t + h));
+                let fd = |a: Vector3<f64>, b: Vector3<f64>| (b - a) / (2.0 * h);
+                let pairs = [
+                    (fd(lo.p_b_in_w, hi.p_b_in_w), mid.v_b_in_w),
+                    (fd(lo.v_b_in_w, hi.v_b_in_w), mid.a_b_in_w),
+                    (fd(lo.a_b_in_w, hi.a_b_in_w), mid.j_b_in_w),
+                ];
+                for (i, (numeric, exact)) in pairs.iter().enumerate() {
+                    let err = (numeric - exact).norm();
+                    assert!(err < 1e-7, "{config:?} t={t} derivative {i}: error {err}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn circle_keeps_radius_speed_height_and_direction() {
+        let traj = paper_circle().build(0);
+        let center = Vector3::new(6.0, 4.0, 1.5);
+        let start = traj.at(0.0).p_b_in_w - center;
+        assert!((start.y.atan2(start.x) - 30f64.to_radians()).abs() < 1e-12);
+        for i in 0..500 {
+            let t = 0.1 * i as f64;
+            let tr = traj.at(t);
+            let d = tr.p_b_in_w - center;
+            assert!((d.xy().norm() - 2.5).abs() < 1e-12);
+            assert!(d.z.abs() < 1e-12);
+            assert!((tr.v_b_in_w.norm() - 1.27).abs() < 1e-12);
+            assert!(tr.v_b_in_w.z.abs() < 1e-12);
+            // Centripetal acceleration v²/r toward the centre.
+            let a_expected = -d * (1.27 * 1.27 / 2.5 / 2.5);
+            assert!((tr.a_b_in_w - a_expected).norm() < 1e-12);
+            // Clockwise from above: angular momentum along −z.
+            assert!(d.cross(&tr.v_b_in_w).z < 0.0);
+        }
+    }
+
+    #[test]
+    fn figure_eight_shape() {
+        let traj = figure_eight().build(0);
+        assert!((traj.at(0.0).p_b_in_w - Vector3::new(5.0, 5.0, 1.2)).norm() < 1e-12);
+        assert!((traj.at(5.0).p_b_in_w - Vector3::new(8.0, 5.0, 1.2)).norm() < 1e-12);
+        assert!((traj.at(2.5).p_b_in_w.y - 6.5).abs() < 1e-12);
+        assert!((traj.at(20.0).p_b_in_w - traj.at(0.0).p_b_in_w).norm() < 1e-12);
+        let min_speed = (0..2000)
+            .map(|i| traj.at(0.01 * i as f64).v_b_in_w.norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(min_speed > 0.1, "speed dips to {min_speed}");
+    }
+
+    #[test]
+    fn random_flight_stays_in_bounds_and_below_max_speed() {
+        let config = random();
+        for seed in [1, 2, 3] {
+            let traj = config.build(seed);
+            let mut max_speed = 0.0_f64;
+            for i in 0..=300_000 {
+                let tr = traj.at(1e-3 * i as f64);
+                let p = tr.p_b_in_w;
+                assert!((1.0..=9.0).contains(&p.x), "seed {seed}: {p:?}");
+                assert!((2.0..=8.0).contains(&p.y), "seed {seed}: {p:?}");
+                assert!((0.5..=2.5).contains(&p.z), "seed {seed}: {p:?}");
+                max_speed = max_speed.max(tr.v_b_in_w.norm());
+            }
+            assert!(max_speed <= 1.5, "seed {seed}: speed {max_speed}");
+            // Not degenerate: it actually moves.
+            assert!(max_speed > 0.3, "seed {seed}: speed {max_speed}");
+            assert!(traj.speed_bound_m_s() <= 1.5 + 1e-12);
+        }
+    }
+
+    #[test]
+    fn random_flight_is_reproducible_and_seed_dependent() {
+        let config = random();
+        let (a, b, c) = (config.build(42), config.build(42), config.build(43));
+        for &t in &[0.0, 1.0, 77.7] {
+            assert_eq!(a.at(t), b.at(t));
+            assert!((a.at(t).p_b_in_w - c.at(t).p_b_in_w).norm() > 1e-3);
+        }
+    }
+
+    #[test]
+    fn planar_random_flight_keeps_height() {
+        let config = TrajectoryConfig::RandomSmooth {
+            bounds_min_m: [0.0, 0.0, 1.5],
+            bounds_max_m: [4.0, 4.0, 1.5],
+            max_speed_m_s: 1.0,
+            num_harmonics: 3,
+            min_period_s: 10.0,
+            max_period_s: 10.0,
+        };
+        config.validate("trajectory").unwrap();
+        let traj = config.build(5);
+        for i in 0..100 {
+            let tr = traj.at(i as f64 * 0.77);
+            assert_eq!(tr.p_b_in_w.z, 1.5);
+            assert_eq!(tr.v_b_in_w.z, 0.0);
+        }
+    }
+
+    #[test]
+    fn hover_has_zero_derivatives() {
+        let traj = TrajectoryConfig::Hover {
+            position_m: [1.0, 2.0, 3.0],
+        }
+        .build(0);
+        for &t in &[0.0, 5.0, 1e4] {
+            let tr = traj.at(t);
+            assert_eq!(tr.p_b_in_w, Vector3::new(1.0, 2.0, 3.0));
+            assert_eq!(tr.v_b_in_w, Vector3::zeros());
+            assert_eq!(tr.a_b_in_w, Vector3::zeros());
+            assert_eq!(tr.j_b_in_w, Vector3::zeros());
+        }
+        assert_eq!(traj.speed_bound_m_s(), 0.0);
+    }
+
+    #[test]
+    fn bounds_hold() {
+        for config in all_kinds() {
+            let traj = config.build(3);
+            let (vb, ab) = (traj.speed_bound_m_s(), traj.acceleration_bound_m_s2());
+            for i in 0..5000 {
+                let tr = traj.at(0.05 * i as f64);
+                assert!(tr.v_b_in_w.norm() <= vb + 1e-12);
+                assert!(tr.a_b_in_w.norm() <= ab + 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn validate_rejects_bad_values() {
+        let bad = [
+            TrajectoryConfig::Circle {
+                center_m: [0.0, 0.0, f64::NAN],
+                radius_m: 1.0,
+                speed_m_s: 1.0,
+                start_angle_deg: 0.0,
+                clockwise: false,
+            },
+            TrajectoryConfig::Circle {
+                center_m: [0.0; 3],
+                radius_m: 0.0,
+                speed_m_s: 1.0,
+                start_angle_deg: 0.0,
+                clockwise: false,
+            },
+            TrajectoryConfig::FigureEight {
+                center_m: [0.0; 3],
+                half_length_m: 1.0,
+                half_width_m: 1.0,
+                period_s: -1.0,
+            },
+            TrajectoryConfig::RandomSmooth {
+                bounds_min_m: [0.0; 3],
+                bounds_max_m: [1.0, -1.0, 1.0],
+                max_speed_m_s: 1.0,
+                num_harmonics: 3,
+                min_period_s: 1.0,
+                max_period_s: 2.0,
+            },
+            TrajectoryConfig::RandomSmooth {
+                bounds_min_m: [0.0; 3],
+                bounds_max_m: [1.0; 3],
+                max_speed_m_s: 1.0,
+                num_harmonics: 0,
+                min_period_s: 1.0,
+                max_period_s: 2.0,
+            },
+            TrajectoryConfig::RandomSmooth {
+                bounds_min_m: [0.0; 3],
+                bounds_max_m: [1.0; 3],
+                max_speed_m_s: 1.0,
+                num_harmonics: 3,
+                min_period_s: 3.0,
+                max_period_s: 2.0,
+            },
+            TrajectoryConfig::Hover {
+                position_m: [f64::INFINITY, 0.0, 0.0],
+            },
+        ];
+        for config in bad {
+            let err = config.validate("trajectory").unwrap_err();
+            assert!(err.field.starts_with("trajectory."), "{err}");
+        }
+        for config in all_kinds() {
+            config.validate("trajectory").unwrap();
+        }
+        TrajectoryConfig::default().validate("t").unwrap();
+    }
+
+    #[test]
+    fn toml_round_trip_and_unknown_fields_rejected() {
+        let text = r#"
+            kind = "figure-eight"
+            center_m = [5.0, 5.0, 1.2]
+            half_length_m = 3.0
+            half_width_m = 1.5
+            period_s = 20.0
+        "#;
+        let parsed: TrajectoryConfig = toml::from_str(text).unwrap();
+        assert_eq!(parsed, figure_eight());
+        for config in all_kinds() {
+            let back: TrajectoryConfig =
+                toml::from_str(&toml::to_string(&config).unwrap()).unwrap();
+            assert_eq!(back, config);
+        }
+        let misspelt = text.replace("period_s", "periode_s");
+        assert!(toml::from_str::<TrajectoryConfig>(&misspelt).is_err());
+        let extra = format!("{text}\nspeed_m_s = 1.0\n");
+        assert!(toml::from_str::<TrajectoryConfig>(&extra).is_err());
+    }
+}

@@ -1,0 +1,193 @@
+//! Reading a dataset directory back into typed data.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use super::imu_csv::{self, ImuCsvError};
+use super::manifest::{FORMAT, Manifest, VERSION};
+use crate::csi::intel5300::{CsiRecord, ReadError, Skip, read_log};
+use crate::imu::ImuSample;
+use crate::time::{NANOS_PER_MICRO, Timestamp};
+
+/// The manifest's file name inside a dataset directory.
+pub const MANIFEST_FILE: &str = "dataset.toml";
+
+/// A dataset that cannot be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// A file could not be read.
+    #[error("cannot read {path}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// `dataset.toml` does not parse.
+    #[error("{path}: {source}")]
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// The parser's message.
+        source: toml::de::Error,
+    },
+    /// `dataset.toml` parses but says something unusable.
+    #[error("{path}: {reason}")]
+    Invalid {
+        /// The manifest.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The IMU CSV is malformed.
+    #[error("{path}: {source}")]
+    Imu {
+        /// The CSV.
+        path: PathBuf,
+        /// Which line and why.
+        source: ImuCsvError,
+    },
+    /// A CSI log could not be read (corrupt content is skipped and counted, not an error).
+    #[error(transparent)]
+    Log(#[from] ReadError),
+}
+
+/// One CSI record with its time on the IMU clock.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CsiPacket {
+    /// Reception time on the IMU clock (the NIC time shifted by the manifest's offset).
+    pub t: Timestamp,
+    /// The record as logged (its `timestamp` stays on the NIC clock).
+    pub record: CsiRecord,
+}
+
+/// One AP's log, decoded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ApLog {
+    /// The AP's name from the manifest.
+    pub name: String,
+    /// Its CSI records in file order.
+    pub packets: Vec<CsiPacket>,
+    /// Byte ranges of the log that were skipped, with reasons.
+    pub skips: Vec<Skip>,
+    /// Records whose bandwidth differs from the manifest's channel (kept; the AoA stage decides).
+    pub bandwidth_mismatches: usize,
+}
+
+/// A dataset in memory: the manifest, the IMU stream and every AP's CSI.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    /// The directory it was read from.
+    pub dir: PathBuf,
+    /// `dataset.toml`.
+    pub manifest: Manifest,
+    /// IMU samples, strictly increasing in time.
+    pub imu: Vec<ImuSample>,
+    /// Per AP, in manifest order.
+    pub aps: Vec<ApLog>,
+}
+
+impl Dataset {
+    /// Loads `dir/dataset.toml` and everything it names.
+    pub fn load(dir: impl AsRef<Path>) -> Result<Self, DatasetError> {
+        let dir = dir.as_ref();
+        let manifest = read_manifest(dir)?;
+        let imu_path = dir.join(&manifest.imu.file);
+        let file = File::open(&imu_path).map_err(|source| DatasetError::Io {
+            path: imu_path.clone(),
+            source,
+        })?;
+        let imu = imu_csv::read(BufReader::new(file)).map_err(|source| DatasetError::Imu {
+            path: imu_path.clone(),
+            source,
+        })?;
+        let mut aps = Vec::with_capacity(manifest.aps.len());
+        for entry in &manifest.aps {
+            let log = read_log(dir.join(&entry.log))?;
+            let offset = entry.imu_minus_nic_ns;
+            let bandwidth_mismatches = log
+                .records
+                .iter()
+                .filter(|r| r.header.rate.bandwidth() != manifest.channel.bandwidth)
+                .count();
+            let packets = log
+                .records
+                .into_iter()
+                .map(|record| CsiPacket {
+                    t: Timestamp(record.timestamp.as_nanos() + offset),
+                    record,
+                })
+                .collect();
+            aps.push(ApLog {
+                name: entry.name.clone(),
+                packets,
+                skips: log.skips,
+                bandwidth_mismatches,
+            });
+        }
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            manifest,
+            imu,
+            aps,
+        })
+    }
+}
+
+/// Reads and checks `dir/dataset.toml`.
+pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
+    let path = dir.join(MANIFEST_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|source| DatasetError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    let manifest: Manifest = toml::from_str(&text).map_err(|source| DatasetError::Manifest {
+        path: path.clone(),
+        source,
+    })?;
+    let invalid = |reason: String| DatasetError::Invalid {
+        path: path.clone(),
+        reason,
+    };
+    if manifest.format != FORMAT {
+        return Err(invalid(format!(
+            "format is {:?}, expected {FORMAT:?}",
+            manifest.format
+        )));
+    }
+    if manifest.version != VERSION {
+        return Err(invalid(format!(
+            "version {} (this build reads version {VERSION})",
+            manifest.version
+        )));
+    }
+    if manifest.aps.is_empty() {
+        return Err(invalid("no access point".into()));
+    }
+    for (i, ap) in manifest.aps.iter().enumerate() {
+        if manifest.aps[..i].iter().any(|o| o.name == ap.name) {
+            return Err(invalid(format!("AP name {:?} appears twice", ap.name)));
+        }
+    }
+    let g = &manifest.array.geometry;
+    if !((1..=3).contains(&g.num_antennas) && g.spacing_m.is_finite() && g.spacing_m > 0.0) {
+        return Err(invalid(format!(
+            "array geometry {g:?} is not a 1–3 antenna array"
+        )));
+    }
+    let q = manifest.array.rotation_xyzw;
+    let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if !(norm.is_finite() && (norm - 1.0).abs() < 1e-6) {
+        return Err(invalid(format!(
+            "array.rotation_xyzw {q:?} is not a unit quaternion"
+        )));
+    }
+    Ok(manifest)
+}
+
+/// The IMU-clock offset for a NIC whose microsecond clock read `nic_us_at_imu_zero` when the IMU
+/// clock read 0: `imu_minus_nic_ns` of the manifest.
+pub fn imu_minus_nic_ns(nic_us_at_imu_zero: u64) -> i64 {
+    -(nic_us_at_imu_zero as i64) * NANOS_PER_MICRO
+}

@@ -1,0 +1,100 @@
+//! `dataset.toml`: what a recording needs to be interpreted.
+
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::aoa::steering::ArrayGeometry;
+use crate::csi::Bandwidth;
+
+/// The format name written in every manifest.
+pub const FORMAT: &str = "wins-dataset";
+/// The manifest version this library writes and reads.
+pub const VERSION: u32 = 1;
+
+/// The manifest of a recording.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Always `wins-dataset`.
+    pub format: String,
+    /// Manifest version (1).
+    pub version: u32,
+    /// Free text: where the recording comes from.
+    #[serde(default)]
+    pub description: String,
+    /// The IMU stream.
+    pub imu: ImuEntry,
+    /// The receive antenna array and its mounting.
+    pub array: ArrayEntry,
+    /// The Wi-Fi channel.
+    pub channel: ChannelEntry,
+    /// One entry per access point.
+    pub aps: Vec<ApEntry>,
+}
+
+/// The IMU stream.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuEntry {
+    /// CSV file, relative to the dataset directory.
+    pub file: String,
+    /// Nominal sample rate, Hz.
+    pub rate_hz: f64,
+}
+
+/// The antenna array: geometry plus `body_from_array`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArrayEntry {
+    /// Antenna count and spacing (antennas along the array's y axis, normal along x).
+    pub geometry: ArrayGeometry,
+    /// Array centre in the body (IMU) frame, m.
+    pub translation_m: [f64; 3],
+    /// Rotation `body_from_array` as a Hamilton quaternion `[x, y, z, w]`.
+    pub rotation_xyzw: [f64; 4],
+}
+
+impl ArrayEntry {
+    /// `body_from_array` as an isometry (the quaternion is normalized).
+    pub fn body_from_array(&self) -> Isometry3<f64> {
+        let [x, y, z, w] = self.rotation_xyzw;
+        Isometry3::from_parts(
+            Translation3::from(Vector3::from(self.translation_m)),
+            UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+        )
+    }
+
+    /// An entry from an isometry.
+    pub fn new(geometry: ArrayGeometry, body_from_array: &Isometry3<f64>) -> Self {
+        let q = body_from_array.rotation.quaternion();
+        let t = body_from_array.translation.vector;
+        Self {
+            geometry,
+            translation_m: [t.x, t.y, t.z],
+            rotation_xyzw: [q.i, q.j, q.k, q.w],
+        }
+    }
+}
+
+/// The Wi-Fi channel the NIC listened on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelEntry {
+    /// Carrier frequency, Hz.
+    pub center_freq_hz: f64,
+    /// `ht20` or `ht40` (each record's rate flags say so too; this is the expected value).
+    pub bandwidth: Bandwidth,
+}
+
+/// One access point's log.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ApEntry {
+    /// Name of the AP.
+    pub name: String,
+    /// Intel 5300 `.dat` log, relative to the dataset directory.
+    pub log: String,
+    /// IMU time = unwrapped NIC time + this offset, ns. The NIC time is the log's
+    /// `timestamp_low` in µs, unwrapped from the first record of the log (lap 0).
+    pub imu_minus_nic_ns: i64,
+}

@@ -1,0 +1,248 @@
+//! `truth/`: what only a simulator (or a motion-capture system) knows. The estimator never reads
+//! it; evaluation and tests do.
+
+use std::io::{self, BufRead, Write};
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::time::{NANOS_PER_SEC, Timestamp};
+
+/// The truth folder's name inside a dataset.
+pub const TRUTH_DIR: &str = "truth";
+
+/// One body pose (TUM: `t x y z qx qy qz qw`, seconds, `world_from_body`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Time on the IMU clock.
+    pub t: Timestamp,
+    /// Body (IMU) position in the world, m.
+    pub p_b_in_w: Vector3<f64>,
+    /// Body attitude.
+    pub world_from_body: UnitQuaternion<f64>,
+}
+
+/// One row of `truth/packets_<ap>.csv`: a packet slot of one AP.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PacketRow {
+    /// Arrival time on the IMU clock, ns.
+    pub t_ns: i64,
+    /// Whether the NIC logged it (lost packets are listed with `received = false`).
+    pub received: bool,
+    /// Its `bfee_count` in the log (only meaningful when received).
+    pub bfee_count: u16,
+    /// True direct-path AoA in the array frame (steering-vector convention), rad.
+    pub aoa_rad: f64,
+    /// The same in degrees.
+    pub aoa_deg: f64,
+    /// Elevation of the AP above the array's `a_x a_y` plane, rad.
+    pub elevation_rad: f64,
+    /// Whether the AP is in front of the array (`û·x̂_a > 0`).
+    pub in_front: bool,
+    /// Direct-path time of flight, s.
+    pub tof_s: f64,
+    /// Array-centre-to-AP distance, m.
+    pub range_m: f64,
+    /// Whether the obstacle attenuates the direct path.
+    pub direct_obstructed: bool,
+    /// Per-subcarrier SNR averaged over chains, dB.
+    pub snr_db: f64,
+    /// Direct over reflected power, dB.
+    pub k_factor_db: f64,
+    /// Sampling-time offset of the packet, s.
+    pub sto_s: f64,
+    /// Common phase of the packet, rad.
+    pub common_phase_rad: f64,
+    /// CSI components clipped by the 8-bit quantizer.
+    pub clipped: u32,
+}
+
+/// One row of `truth/aps.csv`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ApRow {
+    /// AP name (as in `dataset.toml`).
+    pub name: String,
+    /// Position in the world, m.
+    pub x_m: f64,
+    /// Position in the world, m.
+    pub y_m: f64,
+    /// Position in the world, m.
+    pub z_m: f64,
+}
+
+/// One row of `truth/imu_biases.csv`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BiasRow {
+    /// Sample time, ns.
+    pub t_ns: i64,
+    /// Gyro bias, rad/s.
+    pub bg_x: f64,
+    /// Gyro bias, rad/s.
+    pub bg_y: f64,
+    /// Gyro bias, rad/s.
+    pub bg_z: f64,
+    /// Accelerometer bias, m/s².
+    pub ba_x: f64,
+    /// Accelerometer bias, m/s².
+    pub ba_y: f64,
+    /// Accelerometer bias, m/s².
+    pub ba_z: f64,
+}
+
+/// `truth/truth.toml`: constants of the simulated hardware.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthInfo {
+    /// Scenario that produced the dataset.
+    pub scenario: String,
+    /// Its master seed.
+    pub seed: u64,
+    /// Fixed phase offset of each receive chain (A, B, C), rad: what `wins calibrate` estimates.
+    pub chain_phase_offsets_rad: Vec<f64>,
+    /// Gravity magnitude used, m/s².
+    pub gravity_m_s2: f64,
+}
+
+/// Everything in `truth/`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Truth {
+    /// Body poses at IMU rate.
+    pub poses: Vec<Pose>,
+    /// AP positions.
+    pub aps: Vec<ApRow>,
+    /// Per AP (in `aps` order), every packet slot.
+    pub packets: Vec<Vec<PacketRow>>,
+    /// IMU biases at each IMU sample.
+    pub imu_biases: Vec<BiasRow>,
+    /// Hardware constants.
+    pub info: TruthInfo,
+}
+
+/// A truth file that cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum TruthError {
+    /// I/O failure.
+    #[error("cannot read {path}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: io::Error,
+    },
+    /// A malformed CSV or TUM row.
+    #[error("{path}: {reason}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Line and reason.
+        reason: String,
+    },
+}
+
+/// File name of one AP's packet truth.
+pub fn packets_file(ap: &str) -> String {
+    format!("packets_{ap}.csv")
+}
+
+/// Writes poses in TUM format with a comment header.
+pub fn write_tum(out: &mut impl Write, poses: &[Pose]) -> io::Result<()> {
+    writeln!(out, "# timestamp tx ty tz qx qy qz qw")?;
+    for p in poses {
+        let q = p.world_from_body.quaternion();
+        let t = p.t.as_nanos();
+        writeln!(
+            out,
+            "{}.{:09} {} {} {} {} {} {} {}",
+            t.div_euclid(NANOS_PER_SEC),
+            t.rem_euclid(NANOS_PER_SEC),
+            p.p_b_in_w.x,
+            p.p_b_in_w.y,
+            p.p_b_in_w.z,
+            q.i,
+            q.j,
+            q.k,
+            q.w
+        )?;
+    }
+    Ok(())
+}
+
+/// Reads a TUM trajectory (`#` comments and blank lines skipped; times in seconds, rounded to ns).
+pub fn read_tum(input: impl BufRead) -> Result<Vec<Pose>, String> {
+    let mut out = Vec::new();
+    for (i, line) in input.lines().enumerate() {
+        let line = line.map_err(|e| e.to_string())?;
+        let text = line.trim();
+        if text.is_empty() || text.starts_with('#') {
+            continue;
+        }
+        let v: Vec<f64> = text
+            .split_whitespace()
+            .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect::<Option<_>>()
+            .ok_or_else(|| format!("line {}: not all numbers", i + 1))?;
+        if v.len() != 8 {
+            return Err(format!("line {}: {} fields, expected 8", i + 1, v.len()));
+        }
+        out.push(Pose {
+            t: Timestamp((v[0] * NANOS_PER_SEC as f64).round() as i64),
+            p_b_in_w: Vector3::new(v[1], v[2], v[3]),
+            world_from_body: UnitQuaternion::from_quaternion(Quaternion::new(
+                v[7], v[4], v[5], v[6],
+            )),
+        });
+    }
+    Ok(out)
+}
+
+impl Truth {
+    /// Loads `dataset_dir/truth/`; `ap_names` orders the packet files.
+    pub fn load(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
+        let dir = dataset_dir.as_ref().join(TRUTH_DIR);
+        let read = |name: &str| {
+            let path = dir.join(name);
+            std::fs::read(&path).map_err(|source| TruthError::Io { path, source })
+        };
+        let parse_err = |name: &str, reason: String| TruthError::Parse {
+            path: dir.join(name),
+            reason,
+        };
+        let info: TruthInfo = toml::from_str(&String::from_utf8_lossy(&read("truth.toml")?))
+            .map_err(|e| parse_err("truth.toml", e.to_string()))?;
+        let poses =
+            read_tum(read("poses.tum")?.as_slice()).map_err(|e| parse_err("poses.tum", e))?;
+        let aps: Vec<ApRow> = read_csv(&read("aps.csv")?).map_err(|e| parse_err("aps.csv", e))?;
+        let mut packets = Vec::with_capacity(aps.len());
+        for ap in &aps {
+            let name = packets_file(&ap.name);
+            packets.push(read_csv(&read(&name)?).map_err(|e| parse_err(&name, e))?);
+        }
+        let imu_biases =
+            read_csv(&read("imu_biases.csv")?).map_err(|e| parse_err("imu_biases.csv", e))?;
+        Ok(Self {
+            poses,
+            aps,
+            packets,
+            imu_biases,
+            info,
+        })
+    }
+}
+
+/// Serializes rows as CSV with a header.
+pub fn write_csv<T: Serialize>(out: impl Write, rows: &[T]) -> io::Result<()> {
+    let mut w = csv::Writer::from_writer(out);
+    for r in rows {
+        w.serialize(r).map_err(io::Error::other)?;
+    }
+    w.flush()
+}
+
+fn read_csv<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<Vec<T>, String> {
+    csv::Reader::from_reader(bytes)
+        .deserialize()
+        .enumerate()
+        .map(|(i, r)| r.map_err(|e| format!("row {}: {e}", i + 1)))
+        .collect()
+}

@@ -1,0 +1,220 @@
+//! The simulated IMU: perfect specific force and angular rate plus white noise, bias random walks
+//! and turn-on biases, discretized from continuous densities (DESIGN.md §2).
+//!
+//! Measurement model (both sensors, per axis): `y_k = x(t_k) + b_k + σ/√Δt · n_k`, with
+//! `b_0 ~ N(0, σ_turn-on²)` and `b_{k+1} = b_k + σ_rw·√Δt · n'_k`, `n, n' ~ N(0, 1)`.
+
+use nalgebra::Vector3;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use super::ConfigError;
+use super::motion::{BodyState, specific_force_in_b};
+use crate::imu::ImuSample;
+use crate::time::Timestamp;
+
+const DEG: f64 = std::f64::consts::PI / 180.0;
+const MICRO_G: f64 = 9.806_65e-6;
+const SECONDS_PER_HOUR: f64 = 3600.0;
+/// In-run bias stability is turned into a bias random walk that wanders by about that much over
+/// this interval (a common, rough conversion; datasheets give no random-walk figure).
+const BIAS_STABILITY_INTERVAL_S: f64 = 100.0;
+
+/// Continuous-time noise parameters of a 3-axis gyro and accelerometer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuNoise {
+    /// Gyro white noise density (angle random walk), rad/s/√Hz.
+    pub gyro_noise_density_rad_s_sqrt_hz: f64,
+    /// Gyro bias random walk, rad/s²/√Hz (rad/s per √s).
+    pub gyro_bias_random_walk_rad_s2_sqrt_hz: f64,
+    /// Standard deviation of the gyro bias at power-on, per axis, rad/s.
+    pub gyro_turn_on_bias_rad_s: f64,
+    /// Accelerometer white noise density (velocity random walk), m/s²/√Hz.
+    pub accel_noise_density_m_s2_sqrt_hz: f64,
+    /// Accelerometer bias random walk, m/s³/√Hz (m/s² per √s).
+    pub accel_bias_random_walk_m_s3_sqrt_hz: f64,
+    /// Standard deviation of the accelerometer bias at power-on, per axis, m/s².
+    pub accel_turn_on_bias_m_s2: f64,
+}
+
+/// Which noise model the IMU has.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "preset", rename_all = "kebab-case")]
+pub enum ImuModel {
+    /// The paper's IMU, a LORD MicroStrain 3DM-GX4-25, from its datasheet: gyro noise
+    /// 0.005 °/s/√Hz, in-run bias stability 10 °/h, initial bias ±0.08 °/s; accelerometer noise
+    /// 100 µg/√Hz, in-run bias stability 0.04 mg, initial bias ±0.002 g (the ± figures taken as 1σ).
+    #[serde(rename = "microstrain-3dm-gx4-25")]
+    Microstrain3dmGx4_25,
+    /// A consumer MEMS part of the BMI088 / ICM-42688 class on a drone frame: gyro 0.014 °/s/√Hz,
+    /// bias stability 20 °/h, turn-on ±0.5 °/s; accelerometer 175 µg/√Hz, 0.1 mg, turn-on ±20 mg.
+    ConsumerMems,
+    /// No noise and no bias (for checking the geometry).
+    Ideal,
+    /// Explicit densities.
+    Custom(ImuNoise),
+}
+
+impl ImuModel {
+    /// The continuous-time parameters of this model.
+    pub fn noise(&self) -> ImuNoise {
+        let from_datasheet = |gyro_dps_rthz: f64,
+                              gyro_stab_dph: f64,
+                              gyro_on_dps: f64,
+                              acc_ug_rthz: f64,
+                              acc_stab_mg: f64,
+                              acc_on_mg: f64| ImuNoise {
+            gyro_noise_density_rad_s_sqrt_hz: gyro_dps_rthz * DEG,
+            gyro_bias_random_walk_rad_s2_sqrt_hz: gyro_stab_dph * DEG
+                / SECONDS_PER_HOUR
+                / BIAS_STABILITY_INTERVAL_S.sqrt(),
+            gyro_turn_on_bias_rad_s: gyro_on_dps * DEG,
+            accel_noise_density_m_s2_sqrt_hz: acc_ug_rthz * MICRO_G,
+            accel_bias_random_walk_m_s3_sqrt_hz: acc_stab_mg * 1e3 * MICRO_G
+                / BIAS_STABILITY_INTERVAL_S.sqrt(),
+            accel_turn_on_bias_m_s2: acc_on_mg * 1e3 * MICRO_G,
+        };
+        match self {
+            Self::Microstrain3dmGx4_25 => from_datasheet(0.005, 10.0, 0.08, 100.0, 0.04, 2.0),
+            Self::ConsumerMems => from_datasheet(0.014, 20.0, 0.5, 175.0, 0.1, 20.0),
+            Self::Ideal => from_datasheet(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+            Self::Custom(n) => n.clone(),
+        }
+    }
+}
+
+/// The IMU of a scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImuConfig {
+    /// Sample rate, Hz. Default 200 (the paper's estimator assumes 100–200 Hz).
+    pub rate_hz: f64,
+    /// Noise model. Default: the paper's MicroStrain 3DM-GX4-25.
+    pub model: ImuModel,
+}
+
+impl Default for ImuConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 200.0,
+            model: ImuModel::Microstrain3dmGx4_25,
+        }
+    }
+}
+
+impl ImuConfig {
+    /// Checks rates and densities.
+    pub fn validate(&self, field: &str) -> Result<(), ConfigError> {
+        if !(self.rate_hz.is_finite() && (1.0..=10_000.0).contains(&self.rate_hz)) {
+            return Err(ConfigError::new(
+                format!("{field}.rate_hz"),
+                format!("{} is not in [1, 10000] Hz", self.rate_hz),
+            ));
+        }
+        let n = self.model.noise();
+        for (name, v) in [
+            (
+                "gyro_noise_density_rad_s_sqrt_hz",
+                n.gyro_noise_density_rad_s_sqrt_hz,
+            ),
+            (
+                "gyro_bias_random_walk_rad_s2_sqrt_hz",
+                n.gyro_bias_random_walk_rad_s2_sqrt_hz,
+            ),
+            ("gyro_turn_on_bias_rad_s", n.gyro_turn_on_bias_rad_s),
+            (
+                "accel_noise_density_m_s2_sqrt_hz",
+                n.accel_noise_density_m_s2_sqrt_hz,
+            ),
+            (
+                "accel_bias_random_walk_m_s3_sqrt_hz",
+                n.accel_bias_random_walk_m_s3_sqrt_hz,
+            ),
+            ("accel_turn_on_bias_m_s2", n.accel_turn_on_bias_m_s2),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ConfigError::new(
+                    format!("{field}.model.{name}"),
+                    format!("{v} is not a finite value ≥ 0"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Sample period in integer nanoseconds.
+    pub fn period_ns(&self) -> i64 {
+        (1e9 / self.rate_hz).round() as i64
+    }
+}
+
+/// The true biases at one sample (what an estimator would like to know).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuBiases {
+    /// Gyro bias, rad/s, body frame.
+    pub gyro_rad_s: Vector3<f64>,
+    /// Accelerometer bias, m/s², body frame.
+    pub accel_m_s2: Vector3<f64>,
+}
+
+/// A noisy IMU driven by the true body motion, sampled every `period_ns`.
+#[derive(Clone, Debug)]
+pub struct ImuSimulator {
+    noise: ImuNoise,
+    dt_s: f64,
+    rng: ChaCha8Rng,
+    biases: ImuBiases,
+}
+
+impl ImuSimulator {
+    /// A simulator with its own random stream; draws the turn-on biases.
+    pub fn new(config: &ImuConfig, mut rng: ChaCha8Rng) -> Self {
+        let noise = config.model.noise();
+        let biases = ImuBiases {
+            gyro_rad_s: normal3(&mut rng) * noise.gyro_turn_on_bias_rad_s,
+            accel_m_s2: normal3(&mut rng) * noise.accel_turn_on_bias_m_s2,
+        };
+        Self {
+            noise,
+            dt_s: config.period_ns() as f64 * 1e-9,
+            rng,
+            biases,
+        }
+    }
+
+    /// The biases the next sample will carry.
+    pub fn biases(&self) -> ImuBiases {
+        self.biases
+    }
+
+    /// Measures the state at time `t`, then advances the bias random walk by one period.
+    pub fn measure(&mut self, t: Timestamp, state: &BodyState, gravity_m_s2: f64) -> ImuSample {
+        let n = &self.noise;
+        let sqrt_dt = self.dt_s.sqrt();
+        let gyro_white = normal3(&mut self.rng) * (n.gyro_noise_density_rad_s_sqrt_hz / sqrt_dt);
+        let accel_white = normal3(&mut self.rng) * (n.accel_noise_density_m_s2_sqrt_hz / sqrt_dt);
+        let sample = ImuSample {
+            t,
+            gyro_rad_s: state.omega_b_in_b + self.biases.gyro_rad_s + gyro_white,
+            accel_m_s2: specific_force_in_b(state, gravity_m_s2)
+                + self.biases.accel_m_s2
+                + accel_white,
+        };
+        self.biases.gyro_rad_s +=
+            normal3(&mut self.rng) * (n.gyro_bias_random_walk_rad_s2_sqrt_hz * sqrt_dt);
+        self.biases.accel_m_s2 +=
+            normal3(&mut self.rng) * (n.accel_bias_random_walk_m_s3_sqrt_hz * sqrt_dt);
+        sample
+    }
+}
+
+/// Three independent standard normal draws.
+pub(crate) fn normal3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+    Vector3::new(
+        StandardNormal.sample(rng),
+        StandardNormal.sample(rng),
+        StandardNormal.sample(rng),
+    )
+}

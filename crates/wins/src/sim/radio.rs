@@ -1,0 +1,219 @@
+//! The radio side of a scenario: channel, link budget, the NIC's impairments and packet timing.
+
+use serde::{Deserialize, Serialize};
+
+use super::ConfigError;
+use crate::aoa::SPEED_OF_LIGHT_M_S;
+use crate::aoa::steering::CHANNEL_64_HZ;
+use crate::csi::Bandwidth;
+
+/// Thermal noise power spectral density at 290 K, dBm/Hz.
+pub const THERMAL_NOISE_DBM_HZ: f64 = -173.977;
+/// `get_total_rss.m`: RSSI (dB) − 44 − AGC = received power in dBm.
+pub const RSSI_TO_DBM_OFFSET: f64 = 44.0;
+
+/// Radio parameters shared by every AP of a scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioConfig {
+    /// Carrier frequency, Hz. Default 5.32 GHz (channel 64, the paper's).
+    pub center_freq_hz: f64,
+    /// Channel width: `ht20` or `ht40` (sets the 30 reported subcarrier indices). Default `ht20`
+    /// (channel 64 as a 20 MHz channel; an HT40− channel on 60+64 is centred at 5.31 GHz).
+    pub bandwidth: Bandwidth,
+    /// Transmit power of every AP unless the AP overrides it, dBm. Default 15.
+    pub tx_power_dbm: f64,
+    /// Antenna gain at the AP and at each receive antenna, dBi. Default 2 each.
+    pub tx_antenna_gain_dbi: f64,
+    /// Receive antenna gain, dBi.
+    pub rx_antenna_gain_dbi: f64,
+    /// Receiver noise figure, dB. Default 7.
+    pub noise_figure_db: f64,
+    /// Ceiling on the per-subcarrier SNR from hardware impairments (phase noise, I/Q imbalance,
+    /// channel-estimation error), dB. The 5300's CSI rarely looks cleaner than ~30 dB even next to
+    /// the AP. Default 30.
+    pub implementation_snr_db: f64,
+    /// Per-packet sampling-time offset (packet detection delay) is uniform in
+    /// [0, `sto_max_s`]; it adds a linear phase across subcarriers. Default 100 ns.
+    pub sto_max_s: f64,
+    /// Fixed phase offset of each receive chain (A, B, C), degrees. Empty = drawn uniformly in
+    /// [−180°, 180°) from the scenario seed (then written to `truth/`). Default empty.
+    pub chain_phase_offsets_deg: Vec<f64>,
+    /// The AGC aims the strongest chain's RSSI at this value, dB (real logs show 30–40).
+    /// Default 35.
+    pub agc_target_rssi_db: f64,
+    /// RMS magnitude, in 8-bit quantization steps, of a chain whose power is at the AGC target.
+    /// Real logs peak around ±50 on the strongest chain. Default 25.
+    pub quantization_rms: f64,
+    /// Packets per second from each AP unless the AP overrides it. Default 50.
+    pub packet_rate_hz: f64,
+    /// Standard deviation of the packet timing jitter around the nominal period, s (clipped to
+    /// ±40% of the period so packets stay in order). Default 2 ms.
+    pub timing_jitter_s: f64,
+    /// Probability that a packet is lost (no CSI). Default 0.05.
+    pub loss_probability: f64,
+    /// Reading of the NIC's free-running microsecond clock when the IMU clock reads 0. Default
+    /// 1 234 567 890 µs; set it near 2³² to make `timestamp_low` wrap during the flight.
+    pub nic_clock_at_imu_zero_us: u64,
+}
+
+impl Default for RadioConfig {
+    fn default() -> Self {
+        Self {
+            center_freq_hz: CHANNEL_64_HZ,
+            bandwidth: Bandwidth::Ht20,
+            tx_power_dbm: 15.0,
+            tx_antenna_gain_dbi: 2.0,
+            rx_antenna_gain_dbi: 2.0,
+            noise_figure_db: 7.0,
+            implementation_snr_db: 30.0,
+            sto_max_s: 100e-9,
+            chain_phase_offsets_deg: Vec::new(),
+            agc_target_rssi_db: 35.0,
+            quantization_rms: 25.0,
+            packet_rate_hz: 50.0,
+            timing_jitter_s: 0.002,
+            loss_probability: 0.05,
+            nic_clock_at_imu_zero_us: 1_234_567_890,
+        }
+    }
+}
+
+impl RadioConfig {
+    /// Checks every field.
+    pub fn validate(&self, field: &str, num_antennas: usize) -> Result<(), ConfigError> {
+        let bad = |name: &str, why: String| Err(ConfigError::new(format!("{field}.{name}"), why));
+        let in_range = |v: f64, lo: f64, hi: f64| v.is_finite() && v >= lo && v <= hi;
+        if !in_range(self.center_freq_hz, 1e9, 100e9) {
+            return bad(
+                "center_freq_hz",
+                format!("{} is not in [1, 100] GHz", self.center_freq_hz),
+            );
+        }
+        for (name, v) in [
+            ("tx_power_dbm", self.tx_power_dbm),
+            ("tx_antenna_gain_dbi", self.tx_antenna_gain_dbi),
+            ("rx_antenna_gain_dbi", self.rx_antenna_gain_dbi),
+            ("noise_figure_db", self.noise_figure_db),
+            ("implementation_snr_db", self.implementation_snr_db),
+            ("agc_target_rssi_db", self.agc_target_rssi_db),
+        ] {
+            if !in_range(v, -100.0, 100.0) {
+                return bad(name, format!("{v} is not in [-100, 100]"));
+            }
+        }
+        if !in_range(self.sto_max_s, 0.0, 1e-6) {
+            return bad(
+                "sto_max_s",
+                format!("{} is not in [0, 1 µs]", self.sto_max_s),
+            );
+        }
+        if !self.chain_phase_offsets_deg.is_empty()
+            && self.chain_phase_offsets_deg.len() != num_antennas
+        {
+            return bad(
+                "chain_phase_offsets_deg",
+                format!(
+                    "{} offsets for {num_antennas} antennas (give one per chain, or none to draw them)",
+                    self.chain_phase_offsets_deg.len()
+                ),
+            );
+        }
+        if self.chain_phase_offsets_deg.iter().any(|v| !v.is_finite()) {
+            return bad("chain_phase_offsets_deg", "not all finite".into());
+        }
+        if !in_range(self.quantization_rms, 0.5, 90.0) {
+            return bad(
+                "quantization_rms",
+                format!("{} is not in [0.5, 90]", self.quantization_rms),
+            );
+        }
+        if !in_range(self.packet_rate_hz, 0.1, 2000.0) {
+            return bad(
+                "packet_rate_hz",
+                format!("{} is not in [0.1, 2000] Hz", self.packet_rate_hz),
+            );
+        }
+        if !in_range(self.timing_jitter_s, 0.0, 1.0) {
+            return bad(
+                "timing_jitter_s",
+                format!("{} is not in [0, 1] s", self.timing_jitter_s),
+            );
+        }
+        if !in_range(self.loss_probability, 0.0, 0.99) {
+            return bad(
+                "loss_probability",
+                format!("{} is not in [0, 0.99]", self.loss_probability),
+            );
+        }
+        if self.nic_clock_at_imu_zero_us > u64::from(u32::MAX) {
+            return bad(
+                "nic_clock_at_imu_zero_us",
+                format!(
+                    "{} does not fit the 32-bit clock",
+                    self.nic_clock_at_imu_zero_us
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// Carrier wavelength, m.
+    pub fn wavelength_m(&self) -> f64 {
+        SPEED_OF_LIGHT_M_S / self.center_freq_hz
+    }
+
+    /// Noise bandwidth, Hz (20 or 40 MHz).
+    pub fn noise_bandwidth_hz(&self) -> f64 {
+        f64::from(self.bandwidth.mhz()) * 1e6
+    }
+
+    /// Thermal noise power at the receiver input over the channel, dBm:
+    /// −174 dBm/Hz + 10·log10(B) + NF.
+    pub fn noise_floor_dbm(&self) -> f64 {
+        THERMAL_NOISE_DBM_HZ + 10.0 * self.noise_bandwidth_hz().log10() + self.noise_figure_db
+    }
+
+    /// Free-space amplitude factor λ/(4πL) of a path of length `length_m` (Friis).
+    pub fn free_space_amplitude(&self, length_m: f64) -> f64 {
+        self.wavelength_m() / (4.0 * std::f64::consts::PI * length_m.max(1e-3))
+    }
+}
+
+/// Decibels to linear power.
+pub fn db_to_power(db: f64) -> f64 {
+    10f64.powf(db / 10.0)
+}
+
+/// Linear power to decibels.
+pub fn power_to_db(p: f64) -> f64 {
+    10.0 * p.log10()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn link_budget_numbers() {
+        let r = RadioConfig::default();
+        // 20 MHz, NF 7 dB: −174 + 73 + 7 ≈ −94 dBm.
+        assert!(
+            (r.noise_floor_dbm() - (-93.97)).abs() < 0.01,
+            "{}",
+            r.noise_floor_dbm()
+        );
+        // FSPL at 5.32 GHz and 5 m: 60.96 dB.
+        let fspl_db = -20.0 * r.free_space_amplitude(5.0).log10();
+        assert!((fspl_db - 60.96).abs() < 0.01, "{fspl_db}");
+        assert!(r.validate("radio", 3).is_ok());
+        let bad = RadioConfig {
+            chain_phase_offsets_deg: vec![0.0, 1.0],
+            ..RadioConfig::default()
+        };
+        assert_eq!(
+            bad.validate("radio", 3).unwrap_err().field,
+            "radio.chain_phase_offsets_deg"
+        );
+    }
+}

@@ -1,0 +1,190 @@
+//! Running a scenario: the body motion, the IMU, and every AP's packets, in memory.
+
+use nalgebra::{Isometry3, Vector3};
+
+use super::ConfigError;
+use super::csi::{CsiSynth, PacketTruth};
+use super::imu::{ImuBiases, ImuSimulator};
+use super::motion::{BodyState, sample};
+use super::packets::{self, PacketSlot};
+use super::rng;
+use super::room::{Path, paths_into};
+use super::scenario::{ApConfig, Scenario};
+use crate::csi::intel5300::CsiRecord;
+use crate::imu::ImuSample;
+use crate::time::Timestamp;
+
+/// One packet slot of one AP and, if it was received, its record and truth.
+#[derive(Clone, Debug)]
+pub struct SimPacket {
+    /// Arrival time on the IMU clock.
+    pub t: Timestamp,
+    /// The record the NIC logged; `None` when the packet was lost.
+    pub record: Option<CsiRecord>,
+    /// The geometry and impairments behind it (also for lost packets, whose CSI fields are then
+    /// those it would have had).
+    pub truth: PacketTruth,
+}
+
+/// Everything simulated for one AP.
+#[derive(Clone, Debug)]
+pub struct ApOutput {
+    /// The AP as configured.
+    pub config: ApConfig,
+    /// Every packet slot, lost ones included, in time order.
+    pub packets: Vec<SimPacket>,
+}
+
+impl ApOutput {
+    /// Received packets.
+    pub fn received(&self) -> impl Iterator<Item = (&SimPacket, &CsiRecord)> {
+        self.packets
+            .iter()
+            .filter_map(|p| p.record.as_ref().map(|r| (p, r)))
+    }
+}
+
+/// A simulated flight in memory.
+#[derive(Clone, Debug)]
+pub struct SimOutput {
+    /// The body state at every IMU sample time.
+    pub states: Vec<(Timestamp, BodyState)>,
+    /// IMU samples (same times as `states`).
+    pub imu: Vec<ImuSample>,
+    /// True IMU biases carried by each sample.
+    pub imu_biases: Vec<ImuBiases>,
+    /// Per-chain phase offsets of the NIC, rad.
+    pub chain_phase_offsets_rad: Vec<f64>,
+    /// Per AP, in scenario order.
+    pub aps: Vec<ApOutput>,
+}
+
+/// Simulates `scenario` (validated first). `progress` receives the fraction done, in [0, 1].
+pub fn simulate(
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(f64),
+) -> Result<SimOutput, ConfigError> {
+    scenario.validate()?;
+    let seed = scenario.seed;
+    let trajectory = scenario
+        .trajectory
+        .build(rng::stream_seed(seed, rng::TRAJECTORY_STREAM));
+    let gravity = scenario.gravity_m_s2;
+    let motion_at = |t: Timestamp| sample(&trajectory, &scenario.yaw, gravity, t.as_secs_f64());
+
+    // IMU: its own stream, so nothing else shifts its noise.
+    let period_ns = scenario.imu.period_ns();
+    let n_imu = (scenario.duration_ns() / period_ns + 1) as usize;
+    let mut imu_sim = ImuSimulator::new(&scenario.imu, rng::stream(seed, rng::IMU_STREAM));
+    let mut states = Vec::with_capacity(n_imu);
+    let mut imu = Vec::with_capacity(n_imu);
+    let mut imu_biases = Vec::with_capacity(n_imu);
+    for k in 0..n_imu {
+        let t = Timestamp(k as i64 * period_ns);
+        let s = motion_at(t);
+        imu_biases.push(imu_sim.biases());
+        imu.push(imu_sim.measure(t, &s, gravity));
+        states.push((t, s));
+    }
+    let total_packets: f64 = scenario
+        .aps
+        .iter()
+        .map(|ap| ap.packet_rate_hz.unwrap_or(scenario.radio.packet_rate_hz))
+        .sum::<f64>()
+        * scenario.duration_s;
+    let mut done_packets = 0.0;
+    let report_every = (total_packets / 100.0).max(1.0);
+    let mut next_report = 0.0;
+    progress(0.0);
+
+    let chain_phase_offsets_rad = chain_phase_offsets(scenario);
+    let body_from_array = scenario.body_from_array();
+    let mut aps = Vec::with_capacity(scenario.aps.len());
+    let mut paths: Vec<Path> = Vec::with_capacity(32);
+    for ap in &scenario.aps {
+        let radio = &scenario.radio;
+        let synth = CsiSynth::new(
+            radio,
+            scenario.array.geometry,
+            &chain_phase_offsets_rad,
+            ap.tx_power_dbm.unwrap_or(radio.tx_power_dbm),
+        );
+        let mut timing_rng = rng::stream(seed, &rng::packet_stream_name(&ap.name));
+        let mut csi_rng = rng::stream(seed, &rng::csi_stream_name(&ap.name));
+        let slots = packets::schedule(
+            ap.packet_rate_hz.unwrap_or(radio.packet_rate_hz),
+            radio.timing_jitter_s,
+            radio.loss_probability,
+            scenario.duration_ns(),
+            &mut timing_rng,
+        );
+        let p_ap_in_w = Vector3::from(ap.position_m);
+        let mut out = Vec::with_capacity(slots.len());
+        let mut bfee_count: u16 = 0;
+        for PacketSlot { t, lost } in slots {
+            let s = motion_at(t);
+            let world_from_array = world_from_array(&s, &body_from_array);
+            let p_array_in_w = world_from_array.translation.vector;
+            paths_into(
+                &scenario.room,
+                scenario.obstacle.as_ref(),
+                &p_ap_in_w,
+                &p_array_in_w,
+                &mut paths,
+            );
+            // Lost packets still draw their noise, so loss does not shift later packets' draws.
+            let (record, truth) = synth.packet(
+                &paths,
+                &p_array_in_w,
+                &p_ap_in_w,
+                &world_from_array.rotation,
+                t,
+                bfee_count,
+                &mut csi_rng,
+            );
+            let record = if lost {
+                None
+            } else {
+                bfee_count = bfee_count.wrapping_add(1);
+                Some(record)
+            };
+            out.push(SimPacket { t, record, truth });
+            done_packets += 1.0;
+            if done_packets >= next_report {
+                progress((done_packets / total_packets).min(1.0));
+                next_report += report_every;
+            }
+        }
+        aps.push(ApOutput {
+            config: ap.clone(),
+            packets: out,
+        });
+    }
+    progress(1.0);
+    Ok(SimOutput {
+        states,
+        imu,
+        imu_biases,
+        chain_phase_offsets_rad,
+        aps,
+    })
+}
+
+/// Pose of the array in the world at body state `s`.
+pub fn world_from_array(s: &BodyState, body_from_array: &Isometry3<f64>) -> Isometry3<f64> {
+    let world_from_body = Isometry3::from_parts(s.p_b_in_w.into(), s.world_from_body);
+    world_from_body * body_from_array
+}
+
+/// The configured per-chain offsets, or ones drawn from the scenario seed.
+fn chain_phase_offsets(scenario: &Scenario) -> Vec<f64> {
+    use rand::RngExt;
+    let configured = &scenario.radio.chain_phase_offsets_deg;
+    if !configured.is_empty() {
+        return configured.iter().map(|d| d.to_radians()).collect();
+    }
+    let mut r = rng::stream(scenario.seed, rng::CHAIN_OFFSET_STREAM);
+    (0..scenario.array.geometry.num_antennas)
+        .map(|_| (r.random::<f64>() - 0.5) * std::f64::consts::TAU)
+        .collect()
+}
