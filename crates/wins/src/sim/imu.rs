@@ -218,3 +218,105 @@ pub(crate) fn normal3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
         StandardNormal.sample(rng),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::motion::{STANDARD_GRAVITY_M_S2, body_state};
+    use crate::sim::rng;
+    use crate::sim::trajectory::Translation;
+
+    fn hover() -> BodyState {
+        let tr = Translation {
+            p_b_in_w: Vector3::new(1.0, 2.0, 1.5),
+            v_b_in_w: Vector3::zeros(),
+            a_b_in_w: Vector3::zeros(),
+            j_b_in_w: Vector3::zeros(),
+        };
+        body_state(&tr, 0.0, 0.0, STANDARD_GRAVITY_M_S2, 0.0)
+    }
+
+    fn custom(white: f64, rw: f64, on: f64) -> ImuConfig {
+        ImuConfig {
+            rate_hz: 200.0,
+            model: ImuModel::Custom(ImuNoise {
+                gyro_noise_density_rad_s_sqrt_hz: white,
+                gyro_bias_random_walk_rad_s2_sqrt_hz: rw,
+                gyro_turn_on_bias_rad_s: on,
+                accel_noise_density_m_s2_sqrt_hz: 10.0 * white,
+                accel_bias_random_walk_m_s3_sqrt_hz: 10.0 * rw,
+                accel_turn_on_bias_m_s2: 10.0 * on,
+            }),
+        }
+    }
+
+    #[test]
+    fn ideal_imu_at_hover_reads_plus_g_and_no_rotation() {
+        let mut imu = ImuSimulator::new(
+            &ImuConfig {
+                model: ImuModel::Ideal,
+                ..ImuConfig::default()
+            },
+            rng::stream(1, "imu"),
+        );
+        let s = imu.measure(Timestamp(0), &hover(), STANDARD_GRAVITY_M_S2);
+        assert_eq!(s.accel_m_s2, Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2));
+        assert_eq!(s.gyro_rad_s, Vector3::zeros());
+    }
+
+    #[test]
+    fn white_noise_is_density_over_root_dt() {
+        let mut imu = ImuSimulator::new(&custom(0.01, 0.0, 0.0), rng::stream(2, "imu"));
+        let state = hover();
+        let n = 40_000;
+        let (mut sg, mut sa) = (0.0, 0.0);
+        for k in 0..n {
+            let s = imu.measure(Timestamp(k * 5_000_000), &state, STANDARD_GRAVITY_M_S2);
+            sg += s.gyro_rad_s.norm_squared();
+            sa += (s.accel_m_s2 - Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2)).norm_squared();
+        }
+        let sd_g = (sg / (3 * n) as f64).sqrt();
+        let sd_a = (sa / (3 * n) as f64).sqrt();
+        // σ_d = σ_c·√(rate) = 0.01·√200 = 0.1414 (and 10× for the accelerometer).
+        assert!((sd_g / (0.01 * 200f64.sqrt()) - 1.0).abs() < 0.01, "{sd_g}");
+        assert!((sd_a / (0.1 * 200f64.sqrt()) - 1.0).abs() < 0.01, "{sd_a}");
+    }
+
+    #[test]
+    fn bias_random_walk_and_turn_on_bias_have_the_configured_spread() {
+        // Over 400 seeds: turn-on bias spread = σ_on; after T = 10 s the walk adds σ_rw²·T.
+        let (on, rw, steps) = (0.002, 0.0005, 2000);
+        let (mut v0, mut v_t) = (0.0, 0.0);
+        let seeds = 400;
+        for seed in 0..seeds {
+            let mut imu = ImuSimulator::new(&custom(0.0, rw, on), rng::stream(seed, "imu"));
+            let b0 = imu.biases().gyro_rad_s;
+            for k in 0..steps {
+                imu.measure(Timestamp(k * 5_000_000), &hover(), STANDARD_GRAVITY_M_S2);
+            }
+            v0 += b0.norm_squared() / 3.0;
+            v_t += (imu.biases().gyro_rad_s - b0).norm_squared() / 3.0;
+        }
+        let sd0 = (v0 / seeds as f64).sqrt();
+        let sd_t = (v_t / seeds as f64).sqrt();
+        // 1200 draws each: the sample σ is within ~6% (3σ of its own spread).
+        assert!((sd0 / on - 1.0).abs() < 0.06, "{sd0}");
+        assert!((sd_t / (rw * 10f64.sqrt()) - 1.0).abs() < 0.06, "{sd_t}");
+    }
+
+    #[test]
+    fn presets_match_their_datasheets() {
+        let n = ImuModel::Microstrain3dmGx4_25.noise();
+        assert!((n.gyro_noise_density_rad_s_sqrt_hz - 8.7266e-5).abs() < 1e-8);
+        assert!((n.accel_noise_density_m_s2_sqrt_hz - 9.80665e-4).abs() < 1e-9);
+        assert!((n.accel_turn_on_bias_m_s2 - 0.0196133).abs() < 1e-7);
+        let c = ImuModel::ConsumerMems.noise();
+        assert!(c.gyro_noise_density_rad_s_sqrt_hz > n.gyro_noise_density_rad_s_sqrt_hz);
+        assert!(ImuConfig::default().validate("imu").is_ok());
+        let bad = custom(-1.0, 0.0, 0.0);
+        assert_eq!(
+            bad.validate("imu").unwrap_err().field,
+            "imu.model.gyro_noise_density_rad_s_sqrt_hz"
+        );
+    }
+}

@@ -4,6 +4,8 @@ mod data;
 mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
+mod sim_dataset;
+mod sim_scenarios;
 
 /// Property-test settings: a fixed seed, so a run is reproducible (set `PROPTEST_RNG_SEED` and edit
 /// here to explore further); failures found are kept in `tests/proptest-regressions/`.
