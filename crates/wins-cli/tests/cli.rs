@@ -80,3 +80,95 @@ fn corrupt_and_missing_input() {
     assert!(err.contains("cannot read no/such/file.dat"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn simulate_lists_prints_and_runs_scenarios() {
+    let out = wins(&["simulate", "--list"]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    for name in [
+        "paper-circle ",
+        "paper-circle-3ap",
+        "paper-circle-obstacle",
+        "figure8-yaw",
+        "hover",
+    ] {
+        assert!(text.contains(name), "{text}");
+    }
+
+    let printed = wins(&["simulate", "--print-scenario", "hover"]);
+    assert!(printed.status.success());
+    let toml = String::from_utf8(printed.stdout).expect("utf-8");
+    assert!(toml.contains("kind = \"hover\""), "{toml}");
+
+    // Edit the printed scenario and run it: a 3 s hover with another seed.
+    let dir = std::env::temp_dir().join(format!("wins-cli-sim-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("short.toml");
+    std::fs::write(&file, toml.replace("duration_s = 30.0", "duration_s = 3.0")).unwrap();
+    let out_dir = dir.join("out");
+    let out = wins(&[
+        "simulate",
+        "--scenario-file",
+        file.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--seed",
+        "9",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(text.contains("hover (seed 9): 3.0 s of flight"), "{text}");
+    assert!(text.contains("packets received"), "{text}");
+    for f in [
+        "dataset.toml",
+        "imu.csv",
+        "ap0.dat",
+        "truth/poses.tum",
+        "truth/packets_ap0.csv",
+    ] {
+        assert!(out_dir.join(f).is_file(), "{f}");
+    }
+    // The written log is an ordinary Intel 5300 log.
+    let info = wins(&["csi", "info", out_dir.join("ap0.dat").to_str().unwrap()]);
+    assert!(info.status.success());
+    assert!(String::from_utf8_lossy(&info.stdout).contains("3x1:"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn simulate_rejects_unknown_scenarios_and_bad_files_with_a_message() {
+    let out = wins(&[
+        "simulate",
+        "--scenario",
+        "nope",
+        "--out",
+        "/tmp/unused-wins",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no built-in scenario \"nope\"") && err.contains("paper-circle"),
+        "{err}"
+    );
+
+    let dir = std::env::temp_dir().join(format!("wins-cli-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.toml");
+    std::fs::write(&file, "duration_s = -1.0\n").unwrap();
+    let out = wins(&[
+        "simulate",
+        "--scenario-file",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("duration_s"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
