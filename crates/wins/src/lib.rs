@@ -15,8 +15,10 @@
 //!                                      pose at PAoA rate, propagated at IMU rate ◄┘
 //! ```
 //!
-//! Built so far: [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and writer) and
-//! [`time`]. The stages downstream of CSI input arrive with later work.
+//! Built so far: [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and writer),
+//! [`sim`] (flights, IMU and multipath Intel 5300 CSI, written as datasets), [`dataset`] (the
+//! on-disk layout shared by real and simulated recordings), [`aoa::steering`] (the one steering
+//! vector), [`imu`] and [`time`]. The estimation stages arrive with later work.
 //!
 //! ## Conventions (stated once, used everywhere)
 //!

@@ -124,7 +124,8 @@ mod tests {
         let u = Vector3::new(1.0, 1.0, 0.0);
         assert!((aoa_rad(&u) - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
         let a = ArrayGeometry::default().steering(CHANNEL_64_HZ, sin_aoa(&u));
-        assert!((a[2] * a[0].conj()).arg() > 0.0);
+        // The +y antenna leads its neighbour (π·sin 45° of phase at λ/2).
+        assert!((a[2] * a[1].conj()).arg() > 0.0);
         // Behind the array: same cone angle.
         assert_eq!(aoa_rad(&Vector3::new(-1.0, 1.0, 0.0)), aoa_rad(&u));
         assert_eq!(sin_aoa(&Vector3::zeros()), 0.0);

@@ -48,3 +48,15 @@ impl ConfigError {
         }
     }
 }
+
+/// Error unless every entry of `values` is finite.
+pub(crate) fn check_finite(field: &str, name: &str, values: &[f64]) -> Result<(), ConfigError> {
+    if values.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(ConfigError::new(
+            format!("{field}.{name}"),
+            format!("must be finite, got {values:?}"),
+        ))
+    }
+}

@@ -155,14 +155,8 @@ mod tests {
     const G: f64 = STANDARD_GRAVITY_M_S2;
 
     fn paper_circle() -> Trajectory {
-        TrajectoryConfig::Circle {
-            center_m: [6.0, 4.0, 1.5],
-            radius_m: 2.5,
-            speed_m_s: 1.27,
-            start_angle_deg: 0.0,
-            clockwise: false,
-        }
-        .build(0)
+        // The paper's circle is the default.
+        TrajectoryConfig::default().build(0)
     }
 
     fn oscillating_toward_point() -> YawConfig {

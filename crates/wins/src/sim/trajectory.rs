@@ -18,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
-use super::ConfigError;
+use super::{ConfigError, check_finite};
 
 /// Largest `num_harmonics` of [`TrajectoryConfig::RandomSmooth`].
 pub const MAX_HARMONICS: usize = 16;
@@ -120,18 +120,6 @@ impl Default for TrajectoryConfig {
             start_angle_deg: 0.0,
             clockwise: false,
         }
-    }
-}
-
-/// Error unless every entry of `values` is finite.
-fn check_finite(field: &str, name: &str, values: &[f64]) -> Result<(), ConfigError> {
-    if values.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(ConfigError::new(
-            format!("{field}.{name}"),
-            format!("must be finite, got {values:?}"),
-        ))
     }
 }
 

@@ -13,8 +13,8 @@
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 
-use super::ConfigError;
 use super::trajectory::Translation;
+use super::{ConfigError, check_finite};
 
 /// Below this squared horizontal distance, m², [`YawMode::TowardPoint`] treats the body as
 /// standing at the point's bearing singularity and returns ψ = 0, ψ̇ = 0.
@@ -92,16 +92,7 @@ impl YawConfig {
     ///
     /// `field` is the dotted prefix used in error messages, e.g. `"yaw"`.
     pub fn validate(&self, field: &str) -> Result<(), ConfigError> {
-        let finite = |name: &str, values: &[f64]| {
-            if values.iter().all(|x| x.is_finite()) {
-                Ok(())
-            } else {
-                Err(ConfigError::new(
-                    format!("{field}.{name}"),
-                    format!("must be finite, got {values:?}"),
-                ))
-            }
-        };
+        let finite = |name: &str, values: &[f64]| check_finite(field, name, values);
         match &self.mode {
             YawMode::Fixed { yaw_deg } => finite("mode.yaw_deg", &[*yaw_deg])?,
             YawMode::TowardPoint { point_m } => finite("mode.point_m", point_m)?,
@@ -177,13 +168,7 @@ mod tests {
     }
 
     fn circle() -> TrajectoryConfig {
-        TrajectoryConfig::Circle {
-            center_m: [6.0, 4.0, 1.5],
-            radius_m: 2.5,
-            speed_m_s: 1.27,
-            start_angle_deg: 0.0,
-            clockwise: false,
-        }
+        TrajectoryConfig::default()
     }
 
     fn configs() -> Vec<YawConfig> {
