@@ -172,7 +172,7 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         return Ok(());
     }
     if let Some(name) = &args.print_scenario {
-        write!(out, "{}", sim::scenario::built_in_toml(name)?)?;
+        write!(out, "{}", sim::scenario::printable_toml(name)?)?;
         return Ok(());
     }
     let mut scenario = match &args.scenario_file {

@@ -189,6 +189,9 @@ pub enum ScenarioError {
         /// The parser's message (line and column included).
         source: toml::de::Error,
     },
+    /// The scenario cannot be written as TOML.
+    #[error("cannot write the scenario as TOML: {0}")]
+    Serialize(#[from] toml::ser::Error),
     /// It parses but cannot be simulated.
     #[error("scenario {origin}: {source}")]
     Invalid {
@@ -390,6 +393,21 @@ impl Scenario {
         }
         Ok(())
     }
+}
+
+/// Built-in scenario `name` as a TOML document to edit: the file's own comment header, then every
+/// field with its value, defaults included (what `wins simulate --print-scenario` prints).
+pub fn printable_toml(name: &str) -> Result<String, ScenarioError> {
+    let text = built_in_toml(name)?;
+    let scenario = Scenario::built_in(name)?;
+    let mut out: String = text
+        .lines()
+        .take_while(|l| l.starts_with('#'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    out.push_str("#\n# Every field with its value, defaults included; units are in the names.\n\n");
+    out.push_str(&scenario.to_toml()?);
+    Ok(out)
 }
 
 /// The TOML text of built-in scenario `name`.

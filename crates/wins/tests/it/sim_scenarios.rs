@@ -1,6 +1,6 @@
 //! Issue 3: scenarios are TOML; the built-ins parse, validate and round-trip; bad ones name the field.
 
-use wins::sim::scenario::{BUILT_IN, Scenario, ScenarioError, built_in_toml};
+use wins::sim::scenario::{BUILT_IN, Scenario, ScenarioError, built_in_toml, printable_toml};
 
 #[test]
 fn built_in_scenarios_validate_and_round_trip_through_toml() {
@@ -22,6 +22,14 @@ fn built_in_scenarios_validate_and_round_trip_through_toml() {
         assert_eq!(&s.name, name, "the file's name field matches its key");
         let again = Scenario::from_toml(&s.to_toml().unwrap(), "printed").unwrap();
         assert_eq!(again, s, "{name}");
+        // What `--print-scenario` prints: the header comments plus every field, defaults included.
+        let printed = printable_toml(name).unwrap();
+        assert_eq!(
+            Scenario::from_toml(&printed, "printed").unwrap(),
+            s,
+            "{name}"
+        );
+        assert!(printed.starts_with("# ") && printed.contains("implementation_snr_db"));
     }
 }
 
