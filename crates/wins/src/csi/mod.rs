@@ -1,6 +1,8 @@
-//! Channel state information: types shared by every CSI source, and the Intel 5300 log format.
+//! Channel state information: types shared by every CSI source, the Intel 5300 log format, and
+//! sanitization (SpotFi Algorithm 1).
 
 pub mod intel5300;
+pub mod sanitize;
 pub mod subcarriers;
 
 pub use subcarriers::{Bandwidth, NUM_SUBCARRIERS, SUBCARRIER_SPACING_HZ};

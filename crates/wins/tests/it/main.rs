@@ -4,6 +4,7 @@ mod data;
 mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
+mod sanitize;
 mod sim_dataset;
 mod sim_scenarios;
 
