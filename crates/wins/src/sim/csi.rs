@@ -19,11 +19,11 @@ use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::radio::{RSSI_TO_DBM_OFFSET, RadioConfig, db_to_power, power_to_db};
+use super::radio::{RadioConfig, db_to_power, free_space_amplitude, power_to_db};
 use super::room::Path;
 use crate::aoa::steering::{ArrayGeometry, SPEED_OF_LIGHT_M_S, sin_aoa};
 use crate::csi::NUM_SUBCARRIERS;
-use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RateFlags};
+use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RSSI_TO_DBM_OFFSET, RateFlags};
 use crate::time::Timestamp;
 
 /// Receive chains the Intel 5300 has.
@@ -144,7 +144,7 @@ impl CsiSynth {
     }
 
     fn free_space(&self, length_m: f64) -> f64 {
-        self.wavelength_m / (4.0 * std::f64::consts::PI * length_m.max(1e-3))
+        free_space_amplitude(self.wavelength_m, length_m)
     }
 
     /// One received packet: the Intel 5300 record and what the simulator knows about it.
@@ -188,17 +188,14 @@ impl CsiSynth {
         }
 
         // AGC in whole dB from the strongest chain, RSSI per chain, 8-bit quantization.
-        let powers_dbm: Vec<f64> = h
-            .iter()
-            .take(m_count)
-            .map(|r| power_to_db(mean_power(r)))
-            .collect();
+        let powers_dbm = h.map(|r| power_to_db(mean_power(&r)));
+        let powers_dbm = &powers_dbm[..m_count];
         let strongest = powers_dbm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let agc = (self.agc_target_rssi_db - RSSI_TO_DBM_OFFSET - strongest)
             .round()
             .clamp(0.0, 127.0);
         let mut rssi = [0u8; 3];
-        for (r, p) in rssi.iter_mut().zip(&powers_dbm) {
+        for (r, p) in rssi.iter_mut().zip(powers_dbm) {
             *r = (p + RSSI_TO_DBM_OFFSET + agc).round().clamp(1.0, 255.0) as u8;
         }
         let target_mw = db_to_power(self.agc_target_rssi_db - RSSI_TO_DBM_OFFSET - agc);

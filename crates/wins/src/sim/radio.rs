@@ -9,8 +9,6 @@ use crate::csi::Bandwidth;
 
 /// Thermal noise power spectral density at 290 K, dBm/Hz.
 pub const THERMAL_NOISE_DBM_HZ: f64 = -173.977;
-/// `get_total_rss.m`: RSSI (dB) − 44 − AGC = received power in dBm.
-pub const RSSI_TO_DBM_OFFSET: f64 = 44.0;
 
 /// Radio parameters shared by every AP of a scenario.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -174,10 +172,15 @@ impl RadioConfig {
         THERMAL_NOISE_DBM_HZ + 10.0 * self.noise_bandwidth_hz().log10() + self.noise_figure_db
     }
 
-    /// Free-space amplitude factor λ/(4πL) of a path of length `length_m` (Friis).
+    /// Free-space amplitude factor λ/(4πL) of a path of length `length_m` at the carrier.
     pub fn free_space_amplitude(&self, length_m: f64) -> f64 {
-        self.wavelength_m() / (4.0 * std::f64::consts::PI * length_m.max(1e-3))
+        free_space_amplitude(self.wavelength_m(), length_m)
     }
+}
+
+/// Free-space (Friis) amplitude factor λ/(4πL) of a path of length `length_m` (L ≥ 1 mm).
+pub fn free_space_amplitude(wavelength_m: f64, length_m: f64) -> f64 {
+    wavelength_m / (4.0 * std::f64::consts::PI * length_m.max(1e-3))
 }
 
 /// Decibels to linear power.

@@ -66,9 +66,7 @@ pub fn simulate(
 ) -> Result<SimOutput, ConfigError> {
     scenario.validate()?;
     let seed = scenario.seed;
-    let trajectory = scenario
-        .trajectory
-        .build(rng::stream_seed(seed, rng::TRAJECTORY_STREAM));
+    let trajectory = scenario.build_trajectory();
     let gravity = scenario.gravity_m_s2;
     let motion_at = |t: Timestamp| sample(&trajectory, &scenario.yaw, gravity, t.as_secs_f64());
 

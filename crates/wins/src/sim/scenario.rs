@@ -11,7 +11,7 @@ use super::imu::ImuConfig;
 use super::motion::{STANDARD_GRAVITY_M_S2, sample};
 use super::radio::RadioConfig;
 use super::room::{ObstacleConfig, RoomConfig};
-use super::trajectory::TrajectoryConfig;
+use super::trajectory::{Trajectory, TrajectoryConfig};
 use super::yaw::YawConfig;
 use crate::aoa::steering::ArrayGeometry;
 
@@ -346,11 +346,16 @@ impl Scenario {
         Ok(())
     }
 
-    fn validate_flight(&self) -> Result<(), ConfigError> {
-        let traj = self.trajectory.build(super::rng::stream_seed(
+    /// The flight path, built with the trajectory stream's seed (only the random flight uses it).
+    pub fn build_trajectory(&self) -> Trajectory {
+        self.trajectory.build(super::rng::stream_seed(
             self.seed,
             super::rng::TRAJECTORY_STREAM,
-        ));
+        ))
+    }
+
+    fn validate_flight(&self) -> Result<(), ConfigError> {
+        let traj = self.build_trajectory();
         let body_from_array = self.body_from_array();
         let steps = (self.duration_s / VALIDATION_STEP_S).ceil() as usize;
         for i in 0..=steps {

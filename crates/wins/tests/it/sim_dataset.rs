@@ -64,13 +64,14 @@ fn noise_free_imu_from_the_dataset_integrates_back_to_the_truth_over_60_s() {
         s.imu.model = ImuModel::Ideal;
         s.duration_s = 60.0;
         let dir = temp_dir(name);
-        write_dataset(&dir, &s, &run(&s)).unwrap();
+        let out = run(&s);
+        write_dataset(&dir, &s, &out).unwrap();
         // Everything from disk: the IMU CSV and the TUM truth, as a user would.
         let data = Dataset::load(&dir).unwrap();
         let truth = Truth::load(&dir).unwrap();
         let first = &truth.poses[0];
         // Initial velocity from the truth poses' neighbours is not exact; take it from the model.
-        let v0 = run(&s).states[0].1.v_b_in_w;
+        let v0 = out.states[0].1.v_b_in_w;
         let (q, _, p, t_end) = integrate(
             &data.imu,
             s.gravity_m_s2,

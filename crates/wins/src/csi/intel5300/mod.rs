@@ -46,7 +46,7 @@ pub use rate::{Modulation, RateFlags};
 pub use reader::{CsiLog, Event, LogReader, ReadError, SliceDecoder, StreamDecoder, read_log};
 pub use record::{
     BfeeHeader, CsiRecord, DEFAULT_NOISE_DBM, MAX_CHAINS, MAX_ENTRIES, NOISE_UNKNOWN_DBM, Perm,
-    ScaleError, ShapeError,
+    RSSI_TO_DBM_OFFSET, ScaleError, ShapeError,
 };
 pub use summary::{LogSummary, Stats};
 pub use writer::{LogWriter, encode_record};

@@ -20,7 +20,7 @@ pub const NOISE_UNKNOWN_DBM: i8 = -127;
 /// The noise floor `get_scaled_csi.m` assumes when the firmware reports none.
 pub const DEFAULT_NOISE_DBM: f64 = -92.0;
 /// `get_total_rss.m`: RSSI (dB) − 44 − AGC = received power in dBm.
-const RSSI_TO_DBM_OFFSET: f64 = 44.0;
+pub const RSSI_TO_DBM_OFFSET: f64 = 44.0;
 
 /// The 20-byte little-endian header of a CSI record, as the firmware wrote it.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
