@@ -74,6 +74,13 @@ impl ArrayGeometry {
     }
 }
 
+/// Phase (radians) that a delay `tof_s` puts on a tone `freq_hz`: `−2π·f·τ`. The simulator applies
+/// it at each subcarrier's absolute frequency; MUSIC's ToF steering uses the subcarrier offsets
+/// (the carrier part is common to all subcarriers and lands in the path gain).
+pub fn tof_phase_rad(freq_hz: f64, tof_s: f64) -> f64 {
+    -std::f64::consts::TAU * freq_hz * tof_s
+}
+
 /// sin θ for a direction toward the source expressed in the array frame (need not be unit
 /// length; a zero vector gives 0).
 pub fn sin_aoa(toward_source_in_a: &Vector3<f64>) -> f64 {

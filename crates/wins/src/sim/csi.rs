@@ -21,7 +21,7 @@ use rand_distr::{Distribution, StandardNormal};
 
 use super::radio::{RadioConfig, db_to_power, free_space_amplitude, power_to_db};
 use super::room::Path;
-use crate::aoa::steering::{ArrayGeometry, SPEED_OF_LIGHT_M_S, sin_aoa};
+use crate::aoa::steering::{ArrayGeometry, SPEED_OF_LIGHT_M_S, sin_aoa, tof_phase_rad};
 use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RSSI_TO_DBM_OFFSET, RateFlags};
 use crate::time::Timestamp;
@@ -133,7 +133,7 @@ impl CsiSynth {
             let tau_s = path.length_m / SPEED_OF_LIGHT_M_S;
             let s = sin_aoa(&world_from_array.inverse_transform_vector(&path.toward_source_in_w));
             for (k, &f) in self.freqs_hz.iter().enumerate() {
-                let tof_phase = -std::f64::consts::TAU * f * tau_s;
+                let tof_phase = tof_phase_rad(f, tau_s);
                 for (m, row) in h.iter_mut().enumerate().take(m_count) {
                     let phase = tof_phase + self.geometry.antenna_phase_rad(m, f, s);
                     row[k] += Complex64::from_polar(amplitude, phase);

@@ -1,5 +1,6 @@
 //! Integration tests of the wins library (one test binary).
 
+mod aoa_accuracy;
 mod data;
 mod intel5300_corrupt;
 mod intel5300_real;

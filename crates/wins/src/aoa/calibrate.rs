@@ -1,0 +1,211 @@
+//! Estimating the receive chains' phase offsets from a capture at a known angle.
+//!
+//! A circular mean of the inter-antenna phase is biased by multipath: in a static capture the
+//! reflections add the same error to every packet. Instead each packet's *direct-path array
+//! response* is measured without assuming any array model, by the rank-reduction idea (RARE,
+//! Pesavento et al. 2002): MUSIC without antenna smoothing (`M_s = M`, every antenna in each
+//! window; smoothing over subcarriers only, and no forward–backward averaging, both of which
+//! assume a calibrated array). For an unknown response `v` the steering vector is `v ⊗ b(τ)`, and
+//! the best `v` at ToF τ is the top eigenvector of the `M × M` matrix `G(τ)` of [`super::music`]
+//! (its eigenvalue over `M·W` is the in-subspace fraction). The lowest-ToF credible minimum of
+//! `1 − λ_max(G(τ))/W` (for a unit-norm `v`) is the direct path; its eigenvector is `v ∝ diag(e^{jψ})·a(θ_known)`,
+//! so `ψ_m − ψ_0 = arg(v_m·v̄_0) − arg(a_m·ā_0)`. Packets are combined by a circular mean.
+//! Reflections separated from the direct path in ToF do not bias it; a moving capture averages
+//! out the rest.
+
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+
+use super::calibration::ChainCalibration;
+use super::estimator::{AoaConfig, AoaError, raw_csi};
+use super::music::{Music, MusicConfig};
+use super::steering::ArrayGeometry;
+use crate::csi::intel5300::CsiRecord;
+use crate::csi::sanitize::sanitize;
+
+/// What went into a calibration.
+#[derive(Debug, Default)]
+pub struct CalibrateReport {
+    /// Packets whose direct-path response was used.
+    pub used: usize,
+    /// Packets skipped: their index in the input and why.
+    pub skipped: Vec<(usize, String)>,
+}
+
+/// Why no calibration came out.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    /// No packet gave a direct-path response.
+    #[error("no usable packet ({skipped} skipped; first reason: {first})")]
+    NoPackets {
+        /// Packets skipped.
+        skipped: usize,
+        /// The first skip reason.
+        first: String,
+    },
+    /// The known angle is not in [−90°, 90°].
+    #[error("known AoA {0} rad outside [−π/2, π/2]")]
+    Angle(f64),
+    /// The estimator settings do not fit.
+    #[error(transparent)]
+    Aoa(#[from] AoaError),
+}
+
+/// Chain offsets from `records` captured with the AP at `known_aoa_rad` (a per-packet angle can
+/// be given instead with [`calibrate_with`]).
+pub fn calibrate<'a>(
+    records: impl IntoIterator<Item = &'a CsiRecord>,
+    known_aoa_rad: f64,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
+    config: &AoaConfig,
+) -> Result<(ChainCalibration, CalibrateReport), CalibrateError> {
+    calibrate_with(
+        records.into_iter().map(|r| (r, known_aoa_rad)),
+        geometry,
+        center_freq_hz,
+        config,
+    )
+}
+
+/// Chain offsets from `(record, true AoA)` pairs, e.g. a moving capture with a reference system
+/// (or the simulator's truth).
+pub fn calibrate_with<'a>(
+    packets: impl IntoIterator<Item = (&'a CsiRecord, f64)>,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
+    config: &AoaConfig,
+) -> Result<(ChainCalibration, CalibrateReport), CalibrateError> {
+    let m = geometry.num_antennas;
+    let unsmoothed = MusicConfig {
+        antennas_per_window: m,
+        forward_backward: false,
+        ..config.music.clone()
+    };
+    let musics = [crate::csi::Bandwidth::Ht20, crate::csi::Bandwidth::Ht40].map(|bw| {
+        let w = match bw {
+            crate::csi::Bandwidth::Ht20 => config.music.subcarriers_per_window_ht20,
+            crate::csi::Bandwidth::Ht40 => config.music.subcarriers_per_window_ht40,
+        };
+        Music::new(
+            &unsmoothed,
+            geometry,
+            center_freq_hz,
+            &bw.subcarrier_offsets_hz(),
+            w,
+        )
+    });
+    let [ht20, ht40] = musics;
+    let (ht20, ht40) = (ht20.map_err(AoaError::from)?, ht40.map_err(AoaError::from)?);
+    let mut sums = vec![Complex64::new(0.0, 0.0); m];
+    let mut report = CalibrateReport::default();
+    for (i, (record, aoa)) in packets.into_iter().enumerate() {
+        if aoa.is_nan() || aoa.abs() > std::f64::consts::FRAC_PI_2 {
+            return Err(CalibrateError::Angle(aoa));
+        }
+        let bw = record.header.rate.bandwidth();
+        let music = match bw {
+            crate::csi::Bandwidth::Ht20 => &ht20,
+            crate::csi::Bandwidth::Ht40 => &ht40,
+        };
+        match direct_response(record, music, config.tx, m) {
+            Ok(v) => {
+                let expected = geometry.steering(center_freq_hz, aoa.sin());
+                let reference = v[0] * expected[0].conj();
+                for (k, sum) in sums.iter_mut().enumerate() {
+                    let z = v[k] * expected[k].conj() * reference.conj();
+                    if z.norm() > 0.0 {
+                        *sum += z / z.norm();
+                    }
+                }
+                report.used += 1;
+            }
+            Err(reason) => report.skipped.push((i, reason)),
+        }
+    }
+    if report.used == 0 {
+        return Err(CalibrateError::NoPackets {
+            skipped: report.skipped.len(),
+            first: report
+                .skipped
+                .first()
+                .map(|s| s.1.clone())
+                .unwrap_or_else(|| "no packets given".into()),
+        });
+    }
+    let n = report.used as f64;
+    let calibration = ChainCalibration {
+        phase_offsets_rad: sums.iter().map(|s| s.arg()).collect(),
+        source: String::new(),
+        spread_rad: sums
+            .iter()
+            .map(|s| (-2.0 * (s.norm() / n).clamp(1e-12, 1.0).ln()).sqrt())
+            .collect(),
+        packets: report.used,
+    };
+    Ok((calibration, report))
+}
+
+/// The direct path's array response of one packet (see the module docs), or why there is none.
+fn direct_response(
+    record: &CsiRecord,
+    music: &Music,
+    tx: usize,
+    m: usize,
+) -> Result<Vec<Complex64>, String> {
+    let mut csi = raw_csi(record, tx, m).map_err(|e| e.to_string())?;
+    sanitize(
+        &mut csi,
+        m,
+        &record.header.rate.bandwidth().subcarrier_offsets_hz(),
+    )
+    .map_err(|e| e.to_string())?;
+    let subspace = music.subspace(&csi).map_err(|e| e.to_string())?;
+    let w_len = music.layout().subcarriers_per_window() as f64;
+    let top = |tof: f64| -> (f64, Vec<Complex64>) {
+        let mut g = vec![Complex64::new(0.0, 0.0); m * m];
+        music.gram_from(&subspace.basis, &music.tof_phasors(tof), &mut g);
+        let eig = DMatrix::from_row_slice(m, m, &g).symmetric_eigen();
+        let (i, &lambda) = eig
+            .eigenvalues
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap_or((0, &0.0));
+        // A unit-norm v: ‖v ⊗ b‖² = W.
+        let residual = (1.0 - lambda / w_len).clamp(1e-12, 1.0);
+        (
+            residual,
+            eig.eigenvectors.column(i).iter().copied().collect(),
+        )
+    };
+    let grid = music.tof_grid();
+    let residual: Vec<f64> = grid.iter().map(|&t| top(t).0).collect();
+    let minima: Vec<usize> = (1..grid.len().saturating_sub(1))
+        .filter(|&i| residual[i] < residual[i - 1] && residual[i] <= residual[i + 1])
+        .collect();
+    let strongest = minima
+        .iter()
+        .map(|&i| residual[i])
+        .fold(f64::INFINITY, f64::min);
+    let cfg = music.config();
+    let floor = strongest * 10f64.powf(cfg.max_below_strongest_db / 10.0);
+    let Some(&first) = minima
+        .iter()
+        .find(|&&i| residual[i] <= cfg.max_residual && residual[i] <= floor)
+    else {
+        return Err("no credible direct path".into());
+    };
+    // Golden-section refinement of τ between the neighbouring grid points.
+    let (mut lo, mut hi) = (grid[first - 1], grid[first + 1]);
+    let phi = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..30 {
+        let (a, b) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+        if top(a).0 < top(b).0 {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    Ok(top(0.5 * (lo + hi)).1)
+}

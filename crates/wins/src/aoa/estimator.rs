@@ -1,0 +1,210 @@
+//! One packet from record to peaks: select a transmit stream, remove the chain offsets
+//! ([`ChainCalibration`]), sanitize the ToF ([`crate::csi::sanitize`]), then MUSIC with the
+//! layout of the record's bandwidth.
+
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+use super::calibration::{CalibrationError, ChainCalibration};
+use super::music::{AoaWindow, Music, MusicConfig, MusicError};
+use super::peak::Peak;
+use super::spotfi::SpotfiConfig;
+use super::steering::ArrayGeometry;
+use super::subspace::Subspace;
+use crate::csi::intel5300::{CsiRecord, Perm};
+use crate::csi::sanitize::{SanitizeError, sanitize};
+use crate::csi::{Bandwidth, NUM_SUBCARRIERS};
+
+/// Settings of the AoA stage (the `[aoa]` table of a configuration).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AoaConfig {
+    /// MUSIC.
+    pub music: MusicConfig,
+    /// PAoA searches the predicted AoA ± this, degrees (paper: 20°).
+    pub paoa_half_width_deg: f64,
+    /// SpotFi's direct-path clustering.
+    pub spotfi: SpotfiConfig,
+    /// Transmit stream whose CSI is used (0-based).
+    pub tx: usize,
+}
+
+impl Default for AoaConfig {
+    fn default() -> Self {
+        Self {
+            music: MusicConfig::default(),
+            paoa_half_width_deg: 20.0,
+            spotfi: SpotfiConfig::default(),
+            tx: 0,
+        }
+    }
+}
+
+/// Why a packet yields no AoA (every case is counted by the callers, never dropped silently).
+#[derive(Debug, thiserror::Error)]
+pub enum AoaError {
+    /// The record has a different number of receive chains than the array has antennas.
+    #[error("record has {nrx} receive chains, the array has {antennas} antennas")]
+    Chains {
+        /// Chains in the record.
+        nrx: usize,
+        /// Antennas of the configured array.
+        antennas: usize,
+    },
+    /// The antenna permutation is not valid, so the chains' antennas are unknown.
+    #[error("antenna selection {0:?} is not a permutation: chain order unknown")]
+    Permutation([u8; 3]),
+    /// The configured transmit stream is not in the record.
+    #[error("transmit stream {tx} not in a record with {ntx}")]
+    Tx {
+        /// Stream asked for.
+        tx: usize,
+        /// Streams in the record.
+        ntx: usize,
+    },
+    /// Sanitization failed.
+    #[error("sanitize: {0}")]
+    Sanitize(#[from] SanitizeError),
+    /// MUSIC failed (zero CSI, bad configuration).
+    #[error(transparent)]
+    Music(#[from] MusicError),
+    /// The calibration does not fit the array.
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
+}
+
+/// Per-packet AoA estimation for one array and channel.
+#[derive(Clone, Debug)]
+pub struct AoaEstimator {
+    config: AoaConfig,
+    geometry: ArrayGeometry,
+    calibration: ChainCalibration,
+    ht20: Music,
+    ht40: Music,
+}
+
+impl AoaEstimator {
+    /// An estimator for `geometry` on a channel centred at `center_freq_hz`. Without a calibration
+    /// the chains are assumed to add no phase (fine for the simulator's `ideal` cases only).
+    pub fn new(
+        config: &AoaConfig,
+        geometry: ArrayGeometry,
+        center_freq_hz: f64,
+        calibration: Option<ChainCalibration>,
+    ) -> Result<Self, AoaError> {
+        let calibration =
+            calibration.unwrap_or_else(|| ChainCalibration::identity(geometry.num_antennas));
+        if calibration.phase_offsets_rad.len() != geometry.num_antennas {
+            return Err(CalibrationError::Mismatch {
+                given: calibration.phase_offsets_rad.len(),
+                antennas: geometry.num_antennas,
+            }
+            .into());
+        }
+        if !(config.paoa_half_width_deg > 0.0 && config.paoa_half_width_deg <= 90.0) {
+            return Err(MusicError::Config {
+                field: "paoa_half_width_deg",
+                reason: "must be in (0, 90]".into(),
+            }
+            .into());
+        }
+        let music = |bw: Bandwidth, w| {
+            Music::new(
+                &config.music,
+                geometry,
+                center_freq_hz,
+                &bw.subcarrier_offsets_hz(),
+                w,
+            )
+        };
+        Ok(Self {
+            ht20: music(Bandwidth::Ht20, config.music.subcarriers_per_window_ht20)?,
+            ht40: music(Bandwidth::Ht40, config.music.subcarriers_per_window_ht40)?,
+            config: config.clone(),
+            geometry,
+            calibration,
+        })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &AoaConfig {
+        &self.config
+    }
+
+    /// The calibration applied.
+    pub fn calibration(&self) -> &ChainCalibration {
+        &self.calibration
+    }
+
+    /// MUSIC for a bandwidth.
+    pub fn music(&self, bandwidth: Bandwidth) -> &Music {
+        match bandwidth {
+            Bandwidth::Ht20 => &self.ht20,
+            Bandwidth::Ht40 => &self.ht40,
+        }
+    }
+
+    /// The record's CSI of the configured stream, calibrated and sanitized, row-major
+    /// (antenna `m`'s subcarrier `k` at `m·30 + k`).
+    pub fn prepare(&self, record: &CsiRecord) -> Result<Vec<Complex64>, AoaError> {
+        let mut csi = raw_csi(record, self.config.tx, self.geometry.num_antennas)?;
+        self.calibration
+            .apply(&mut csi, self.geometry.num_antennas)?;
+        sanitize(
+            &mut csi,
+            self.geometry.num_antennas,
+            &record.header.rate.bandwidth().subcarrier_offsets_hz(),
+        )?;
+        Ok(csi)
+    }
+
+    /// The signal subspace of a record, with the MUSIC that fits its bandwidth.
+    pub fn subspace(&self, record: &CsiRecord) -> Result<(&Music, Subspace), AoaError> {
+        let csi = self.prepare(record)?;
+        let music = self.music(record.header.rate.bandwidth());
+        Ok((music, music.subspace(&csi)?))
+    }
+
+    /// Every credible peak of a record inside `window`, lowest ToF first.
+    pub fn peaks(&self, record: &CsiRecord, window: AoaWindow) -> Result<Vec<Peak>, AoaError> {
+        let (music, subspace) = self.subspace(record)?;
+        Ok(music.peaks(&subspace, window))
+    }
+
+    /// The direct path of one packet by full-range MUSIC: its lowest-ToF credible peak, or `None`
+    /// when no peak is credible.
+    pub fn direct_path(&self, record: &CsiRecord) -> Result<Option<Peak>, AoaError> {
+        Ok(self.peaks(record, AoaWindow::FULL)?.first().copied())
+    }
+}
+
+/// The CSI of transmit stream `tx` as complex doubles, row-major over `num_antennas` antennas.
+/// The raw integers are used: MUSIC does not need the absolute scale, and a record without RSSI
+/// still has a usable phase.
+pub fn raw_csi(
+    record: &CsiRecord,
+    tx: usize,
+    num_antennas: usize,
+) -> Result<Vec<Complex64>, AoaError> {
+    let (nrx, ntx) = (
+        usize::from(record.header.nrx),
+        usize::from(record.header.ntx),
+    );
+    if nrx != num_antennas {
+        return Err(AoaError::Chains {
+            nrx,
+            antennas: num_antennas,
+        });
+    }
+    if let Perm::Invalid(p) = record.perm {
+        return Err(AoaError::Permutation(p));
+    }
+    if tx >= ntx {
+        return Err(AoaError::Tx { tx, ntx });
+    }
+    let start = tx * nrx * NUM_SUBCARRIERS;
+    Ok(record.csi()[start..start + nrx * NUM_SUBCARRIERS]
+        .iter()
+        .map(|c| Complex64::new(f64::from(c.re), f64::from(c.im)))
+        .collect())
+}

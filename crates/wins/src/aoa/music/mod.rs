@@ -1,0 +1,392 @@
+//! MUSIC over (AoA, ToF) (SpotFi §3.2), with the spectrum evaluated through the Kronecker
+//! structure of the steering vector (DESIGN.md §3).
+//!
+//! The steering vector of a window is `s(θ, τ) = a(θ) ⊗ b(τ)`: `a_m = exp(+j·2π·f_c·y_m·sin θ/c)`
+//! over the window's `M_s` antennas ([`ArrayGeometry::antenna_phase_rad`], the one definition
+//! shared with the simulator) and `b_w = exp(−j·2π·w·Δf·τ)` over its `W` subcarriers
+//! ([`tof_phase_rad`]). With `E` the n × L signal basis (n = M_s·W), MUSIC's pseudo-spectrum is
+//! `1 / ‖(I − E·Eᴴ)·s‖² = 1 / (n − Σ_l |e_lᴴ·s|²)`, and
+//!
+//! ```text
+//!   e_lᴴ·s = Σ_m a_m · c_lm(τ),   c_lm(τ) = Σ_w conj(E[(m,w), l]) · b_w(τ)
+//!   Σ_l |e_lᴴ·s|² = aᴴ·G(τ)·a,    G_ij(τ) = Σ_l conj(c_li(τ)) · c_lj(τ)      (M_s × M_s)
+//! ```
+//!
+//! so each ToF costs `L·M_s·W` multiply-adds once, and each grid point an `M_s × M_s` form
+//! (for SpotFi's `M_s = 2`: one complex product), instead of an n × n quadratic form per point
+//! ([`super::reference`] does it that way, as the benchmark's baseline and the tests' oracle).
+//!
+//! Results are reported as the *residual* `ρ = 1 − aᴴGa / n ∈ [0, 1]`, the fraction of the
+//! steering vector outside the signal subspace; the normalized pseudo-spectrum is `1/ρ`.
+
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+use super::smoothing::SmoothingLayout;
+use super::steering::{ArrayGeometry, tof_phase_rad};
+use super::subspace::{PathCount, Subspace, signal_subspace};
+
+/// Why MUSIC cannot run on a packet or with a configuration.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MusicError {
+    /// The smoothing windows do not fit the subcarriers or antennas.
+    #[error("smoothing layout: {0}")]
+    Layout(String),
+    /// The CSI has the wrong number of entries.
+    #[error("{len} CSI entries, expected {expected}")]
+    CsiLength {
+        /// Entries given.
+        len: usize,
+        /// Antennas × subcarriers of the layout.
+        expected: usize,
+    },
+    /// The CSI holds NaN or infinity.
+    #[error("CSI holds a non-finite value")]
+    NonFinite,
+    /// The CSI is all zeros (or the covariance has no positive eigenvalue).
+    #[error("CSI has no signal (zero covariance)")]
+    NoSignal,
+    /// A configuration value is out of range.
+    #[error("music.{field}: {reason}")]
+    Config {
+        /// The offending field.
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// MUSIC settings. Defaults follow SpotFi where it is exact (see [`super::smoothing`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MusicConfig {
+    /// Antennas per smoothing window, `M_s` (SpotFi: 2 of 3).
+    pub antennas_per_window: usize,
+    /// Subcarriers per window on HT20 (its uniform runs hold 14 and 15).
+    pub subcarriers_per_window_ht20: usize,
+    /// Subcarriers per window on HT40 (SpotFi: 15, giving 30 × 32).
+    pub subcarriers_per_window_ht40: usize,
+    /// Forward–backward averaging (real-valued eigendecomposition); needs calibrated chains.
+    pub forward_backward: bool,
+    /// How many eigenvectors are paths.
+    pub paths: PathCount,
+    /// AoA grid step, degrees (the grid spans −90°…90°).
+    pub aoa_step_deg: f64,
+    /// First ToF of the grid, s (sanitized ToFs are relative and can be negative).
+    pub tof_min_s: f64,
+    /// Last ToF of the grid, s. `tof_max_s − tof_min_s` must stay below the unambiguous span
+    /// `1/Δf` (1.6 µs on HT20, 0.8 µs on HT40).
+    pub tof_max_s: f64,
+    /// ToF grid step, s.
+    pub tof_step_s: f64,
+    /// A peak is credible when its residual is at most this (0.1 = 10 dB pseudo-spectrum).
+    pub max_residual: f64,
+    /// ... and its pseudo-spectrum within this many dB of the packet's strongest peak.
+    pub max_below_strongest_db: f64,
+}
+
+impl Default for MusicConfig {
+    fn default() -> Self {
+        Self {
+            antennas_per_window: 2,
+            subcarriers_per_window_ht20: 8,
+            subcarriers_per_window_ht40: 15,
+            forward_backward: true,
+            paths: PathCount::default(),
+            aoa_step_deg: 1.0,
+            tof_min_s: -200e-9,
+            tof_max_s: 595e-9,
+            tof_step_s: 5e-9,
+            max_residual: 0.1,
+            max_below_strongest_db: 10.0,
+        }
+    }
+}
+
+/// A MUSIC spectrum on a grid: `residual[i_tof · aoa_rad.len() + i_aoa]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spectrum {
+    /// AoA grid, rad, increasing.
+    pub aoa_rad: Vec<f64>,
+    /// ToF grid, s, increasing.
+    pub tof_s: Vec<f64>,
+    /// Residual `ρ` per grid point (see the module docs), ToF-major.
+    pub residual: Vec<f64>,
+}
+
+impl Spectrum {
+    /// Normalized pseudo-spectrum in dB, `−10·log10 ρ`, in the same order.
+    pub fn db(&self) -> Vec<f64> {
+        self.residual
+            .iter()
+            .map(|r| -10.0 * r.max(1e-300).log10())
+            .collect()
+    }
+}
+
+/// MUSIC for one channel layout (bandwidth, array, centre frequency), with its grids precomputed.
+#[derive(Clone, Debug)]
+pub struct Music {
+    config: MusicConfig,
+    layout: SmoothingLayout,
+    /// Per AoA grid point, the window's antenna phasors `a_m` (Nθ × M_s).
+    aoa_rad: Vec<f64>,
+    aoa_table: Vec<Complex64>,
+    /// Per ToF grid point, the window's subcarrier phasors `b_w` (Nτ × W).
+    tof_s: Vec<f64>,
+    tof_table: Vec<Complex64>,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
+}
+
+/// A window of the AoA axis, rad (inclusive bounds, clamped to ±90°).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AoaWindow {
+    /// Lower bound, rad.
+    pub min_rad: f64,
+    /// Upper bound, rad.
+    pub max_rad: f64,
+}
+
+impl AoaWindow {
+    /// The whole half-plane, −90°…90°.
+    pub const FULL: AoaWindow = AoaWindow {
+        min_rad: -std::f64::consts::FRAC_PI_2,
+        max_rad: std::f64::consts::FRAC_PI_2,
+    };
+
+    /// `center ± half_width`.
+    pub fn around(center_rad: f64, half_width_rad: f64) -> Self {
+        Self {
+            min_rad: (center_rad - half_width_rad).max(-std::f64::consts::FRAC_PI_2),
+            max_rad: (center_rad + half_width_rad).min(std::f64::consts::FRAC_PI_2),
+        }
+    }
+}
+
+impl Music {
+    /// MUSIC for CSI of `geometry.num_antennas` antennas on subcarriers at `offsets_hz` from the
+    /// carrier `center_freq_hz`. `subcarriers_per_window` is the `W` to use (see
+    /// [`MusicConfig::subcarriers_per_window_ht20`]).
+    pub fn new(
+        config: &MusicConfig,
+        geometry: ArrayGeometry,
+        center_freq_hz: f64,
+        offsets_hz: &[f64],
+        subcarriers_per_window: usize,
+    ) -> Result<Self, MusicError> {
+        let cfg = |field, reason: &str| MusicError::Config {
+            field,
+            reason: reason.to_string(),
+        };
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(config.aoa_step_deg) || config.aoa_step_deg > 30.0 {
+            return Err(cfg("aoa_step_deg", "must be in (0, 30]"));
+        }
+        if !positive(config.tof_step_s) {
+            return Err(cfg("tof_step_s", "must be positive"));
+        }
+        if !(config.tof_min_s.is_finite() && config.tof_max_s > config.tof_min_s) {
+            return Err(cfg("tof_max_s", "must be finite and above tof_min_s"));
+        }
+        if !(config.max_residual > 0.0 && config.max_residual <= 1.0) {
+            return Err(cfg("max_residual", "must be in (0, 1]"));
+        }
+        if config.max_below_strongest_db.is_nan() || config.max_below_strongest_db < 0.0 {
+            return Err(cfg("max_below_strongest_db", "must be ≥ 0"));
+        }
+        if !positive(center_freq_hz) || !positive(geometry.spacing_m) {
+            return Err(cfg(
+                "geometry",
+                "centre frequency and spacing must be positive",
+            ));
+        }
+        let layout = SmoothingLayout::new(
+            offsets_hz,
+            geometry.num_antennas,
+            config.antennas_per_window,
+            subcarriers_per_window,
+        )?;
+        if config.tof_max_s - config.tof_min_s >= 1.0 / layout.step_hz() {
+            return Err(cfg(
+                "tof_max_s",
+                &format!(
+                    "the ToF span must stay below the unambiguous {:.0} ns",
+                    1e9 / layout.step_hz()
+                ),
+            ));
+        }
+        let n_aoa = (180.0 / config.aoa_step_deg).round() as usize + 1;
+        let aoa_rad: Vec<f64> = (0..n_aoa)
+            .map(|i| (-90.0 + 180.0 * i as f64 / (n_aoa - 1) as f64).to_radians())
+            .collect();
+        let n_tof =
+            ((config.tof_max_s - config.tof_min_s) / config.tof_step_s).floor() as usize + 1;
+        let tof_s: Vec<f64> = (0..n_tof)
+            .map(|i| config.tof_min_s + i as f64 * config.tof_step_s)
+            .collect();
+        let mut music = Self {
+            config: config.clone(),
+            layout,
+            aoa_rad,
+            aoa_table: Vec::new(),
+            tof_s,
+            tof_table: Vec::new(),
+            geometry,
+            center_freq_hz,
+        };
+        music.aoa_table = music
+            .aoa_rad
+            .iter()
+            .flat_map(|&t| music.aoa_phasors(t))
+            .collect();
+        music.tof_table = music
+            .tof_s
+            .iter()
+            .flat_map(|&t| music.tof_phasors(t))
+            .collect();
+        Ok(music)
+    }
+
+    /// The smoothing layout in use.
+    pub fn layout(&self) -> &SmoothingLayout {
+        &self.layout
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &MusicConfig {
+        &self.config
+    }
+
+    /// The AoA grid, rad.
+    pub fn aoa_grid(&self) -> &[f64] {
+        &self.aoa_rad
+    }
+
+    /// The ToF grid, s.
+    pub fn tof_grid(&self) -> &[f64] {
+        &self.tof_s
+    }
+
+    /// Smoothed matrix and signal subspace of one sanitized, calibrated packet (`csi` row-major,
+    /// antenna `m`'s subcarrier `k` at `m·K + k`).
+    pub fn subspace(&self, csi: &[Complex64]) -> Result<Subspace, MusicError> {
+        let mut x = DMatrix::zeros(self.layout.rows(), self.layout.cols());
+        self.layout.fill(csi, &mut x)?;
+        signal_subspace(&x, self.config.forward_backward, &self.config.paths)
+    }
+
+    /// `a_m(θ)` over the window's antennas (shared steering vector, carrier frequency).
+    pub fn aoa_phasors(&self, aoa_rad: f64) -> Vec<Complex64> {
+        let s = aoa_rad.sin();
+        (0..self.layout.antennas_per_window())
+            .map(|m| {
+                Complex64::from_polar(
+                    1.0,
+                    self.geometry.antenna_phase_rad(m, self.center_freq_hz, s),
+                )
+            })
+            .collect()
+    }
+
+    /// `b_w(τ)` over the window's subcarriers.
+    pub fn tof_phasors(&self, tof_s: f64) -> Vec<Complex64> {
+        let step = self.layout.step_hz();
+        (0..self.layout.subcarriers_per_window())
+            .map(|w| Complex64::from_polar(1.0, tof_phase_rad(w as f64 * step, tof_s)))
+            .collect()
+    }
+
+    /// `G(τ)` (M_s × M_s, row-major) from the subcarrier phasors of one ToF.
+    pub(crate) fn gram_from(
+        &self,
+        basis: &DMatrix<Complex64>,
+        b: &[Complex64],
+        g: &mut [Complex64],
+    ) {
+        let (ms, w_len) = (
+            self.layout.antennas_per_window(),
+            self.layout.subcarriers_per_window(),
+        );
+        g.fill(Complex64::new(0.0, 0.0));
+        let mut c = [Complex64::new(0.0, 0.0); 8];
+        for l in 0..basis.ncols() {
+            let col = basis.column(l);
+            for (m, cm) in c.iter_mut().enumerate().take(ms) {
+                *cm = (0..w_len).map(|w| col[m * w_len + w].conj() * b[w]).sum();
+            }
+            for i in 0..ms {
+                for j in 0..ms {
+                    g[i * ms + j] += c[i].conj() * c[j];
+                }
+            }
+        }
+    }
+
+    /// `aᴴ·G·a` for the window's antenna phasors `a`.
+    fn form(&self, g: &[Complex64], a: &[Complex64]) -> f64 {
+        let ms = a.len();
+        if ms == 2 {
+            return g[0].re + g[3].re + 2.0 * (g[1] * a[0].conj() * a[1]).re;
+        }
+        let mut q = 0.0;
+        for i in 0..ms {
+            for j in 0..ms {
+                q += (a[i].conj() * g[i * ms + j] * a[j]).re;
+            }
+        }
+        q
+    }
+
+    /// The residual at an arbitrary (θ, τ), off the grid.
+    pub fn residual_at(&self, subspace: &Subspace, aoa_rad: f64, tof_s: f64) -> f64 {
+        let ms = self.layout.antennas_per_window();
+        let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
+        self.gram_from(&subspace.basis, &self.tof_phasors(tof_s), &mut g);
+        self.residual_of(self.form(&g, &self.aoa_phasors(aoa_rad)))
+    }
+
+    pub(crate) fn residual_of(&self, q: f64) -> f64 {
+        (1.0 - q / self.layout.rows() as f64).clamp(1e-12, 1.0)
+    }
+
+    /// Grid indices of the AoA grid inside `window`.
+    fn aoa_range(&self, window: AoaWindow) -> std::ops::Range<usize> {
+        let lo = self
+            .aoa_rad
+            .partition_point(|&t| t < window.min_rad - 1e-12);
+        let hi = self
+            .aoa_rad
+            .partition_point(|&t| t <= window.max_rad + 1e-12);
+        lo..hi.max(lo)
+    }
+
+    /// The spectrum over the ToF grid and the AoA grid points inside `window`.
+    pub fn spectrum(&self, subspace: &Subspace, window: AoaWindow) -> Spectrum {
+        let ms = self.layout.antennas_per_window();
+        let w_len = self.layout.subcarriers_per_window();
+        let range = self.aoa_range(window);
+        let n_aoa = range.len();
+        let mut residual = Vec::with_capacity(n_aoa * self.tof_s.len());
+        let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
+        for it in 0..self.tof_s.len() {
+            self.gram_from(
+                &subspace.basis,
+                &self.tof_table[it * w_len..][..w_len],
+                &mut g,
+            );
+            for ia in range.clone() {
+                let q = self.form(&g, &self.aoa_table[ia * ms..][..ms]);
+                residual.push(self.residual_of(q));
+            }
+        }
+        Spectrum {
+            aoa_rad: self.aoa_rad[range].to_vec(),
+            tof_s: self.tof_s.clone(),
+            residual,
+        }
+    }
+}
+
+mod peaks;

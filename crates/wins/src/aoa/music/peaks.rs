@@ -1,0 +1,186 @@
+//! Peaks of the MUSIC spectrum: 2-D local maxima on the grid, refined off the grid by shrinking
+//! parabolic steps along each axis on the exact spectrum, then screened for credibility.
+
+use num_complex::Complex64;
+
+use super::{AoaWindow, Music, Spectrum};
+use crate::aoa::peak::Peak;
+use crate::aoa::subspace::Subspace;
+
+/// Refinement rounds; each halves the step, so 6 rounds reach 1/64 of a grid step.
+const REFINE_ROUNDS: usize = 6;
+
+impl Music {
+    /// The credible peaks of a packet inside `window`, refined, lowest ToF first. Empty when the
+    /// window holds no credible peak (see [`super::MusicConfig::max_residual`]).
+    pub fn peaks(&self, subspace: &Subspace, window: AoaWindow) -> Vec<Peak> {
+        let spectrum = self.spectrum(subspace, window);
+        self.peaks_of(subspace, &spectrum, window)
+    }
+
+    /// The credible peaks of an already computed `spectrum` (see [`Music::peaks`]).
+    pub fn peaks_of(
+        &self,
+        subspace: &Subspace,
+        spectrum: &Spectrum,
+        window: AoaWindow,
+    ) -> Vec<Peak> {
+        let mut peaks: Vec<Peak> = grid_minima(spectrum, window)
+            .into_iter()
+            .map(|(ia, it)| self.refine(subspace, spectrum.aoa_rad[ia], spectrum.tof_s[it], window))
+            .collect();
+        // Two grid minima may climb to the same peak.
+        let (da, dt) = (
+            0.25 * self.config.aoa_step_deg.to_radians(),
+            0.25 * self.config.tof_step_s,
+        );
+        let mut unique: Vec<Peak> = Vec::with_capacity(peaks.len());
+        peaks.sort_by(|a, b| a.residual.total_cmp(&b.residual));
+        for p in peaks {
+            if !unique
+                .iter()
+                .any(|u| (u.aoa_rad - p.aoa_rad).abs() < da && (u.tof_s - p.tof_s).abs() < dt)
+            {
+                unique.push(p);
+            }
+        }
+        let Some(strongest) = unique.first().map(|p| p.residual) else {
+            return unique;
+        };
+        let floor = strongest * 10f64.powf(self.config.max_below_strongest_db / 10.0);
+        unique.retain(|p| p.residual <= self.config.max_residual && p.residual <= floor);
+        unique.sort_by(|a, b| a.tof_s.total_cmp(&b.tof_s));
+        unique
+    }
+
+    /// Shrinking parabolic steps in θ then τ from a grid point, staying inside `window` and the
+    /// ToF grid.
+    fn refine(&self, subspace: &Subspace, aoa_rad: f64, tof_s: f64, window: AoaWindow) -> Peak {
+        let ms = self.layout.antennas_per_window();
+        let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
+        let (t_lo, t_hi) = (
+            self.tof_s.first().copied().unwrap_or(tof_s),
+            self.tof_s.last().copied().unwrap_or(tof_s),
+        );
+        let (mut theta, mut tau) = (aoa_rad, tof_s);
+        let mut h_theta = self.config.aoa_step_deg.to_radians();
+        let mut h_tau = self.config.tof_step_s;
+        for _ in 0..REFINE_ROUNDS {
+            self.gram_from(&subspace.basis, &self.tof_phasors(tau), &mut g);
+            let along_theta = |t: f64| {
+                let t = t.clamp(window.min_rad, window.max_rad);
+                self.residual_of(self.form(&g, &self.aoa_phasors(t)))
+            };
+            theta = (theta + parabolic_step(along_theta, theta, h_theta))
+                .clamp(window.min_rad, window.max_rad);
+            let along_tau = |t: f64| self.residual_at(subspace, theta, t.clamp(t_lo, t_hi));
+            tau = (tau + parabolic_step(along_tau, tau, h_tau)).clamp(t_lo, t_hi);
+            h_theta *= 0.5;
+            h_tau *= 0.5;
+        }
+        Peak {
+            aoa_rad: theta,
+            tof_s: tau,
+            residual: self.residual_at(subspace, theta, tau),
+        }
+    }
+}
+
+/// The step toward the minimum of the parabola through `f(x − h), f(x), f(x + h)`, limited to ±h
+/// (a full step toward the lower side when the three points are not convex).
+fn parabolic_step(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
+    let (fm, f0, fp) = (f(x - h), f(x), f(x + h));
+    let curvature = fm - 2.0 * f0 + fp;
+    if curvature > 0.0 {
+        (0.5 * h * (fm - fp) / curvature).clamp(-h, h)
+    } else if fm < f0.min(fp) {
+        -h
+    } else if fp < f0 {
+        h
+    } else {
+        0.0
+    }
+}
+
+/// Grid points (AoA index, ToF index) whose residual is a local minimum over their 8 neighbours.
+/// Points on the ToF edges never count (the true peak may lie beyond); points on the AoA edges count
+/// only where the edge is ±90° itself, not the edge of a search window.
+fn grid_minima(s: &Spectrum, window: AoaWindow) -> Vec<(usize, usize)> {
+    let (na, nt) = (s.aoa_rad.len(), s.tof_s.len());
+    if na == 0 || nt < 3 {
+        return Vec::new();
+    }
+    let half_pi = std::f64::consts::FRAC_PI_2 - 1e-9;
+    let first_ok = s.aoa_rad[0] <= -half_pi && window.min_rad <= -half_pi;
+    let last_ok = s.aoa_rad[na - 1] >= half_pi && window.max_rad >= half_pi;
+    let at = |ia: usize, it: usize| s.residual[it * na + ia];
+    let mut out = Vec::new();
+    for it in 1..nt - 1 {
+        for ia in 0..na {
+            if (ia == 0 && !first_ok) || (ia == na - 1 && !last_ok) {
+                continue;
+            }
+            let v = at(ia, it);
+            let mut is_min = true;
+            'n: for dt in [-1i64, 0, 1] {
+                for da in [-1i64, 0, 1] {
+                    if dt == 0 && da == 0 {
+                        continue;
+                    }
+                    let (ja, jt) = (ia as i64 + da, it as i64 + dt);
+                    if ja < 0 || ja >= na as i64 {
+                        continue;
+                    }
+                    let u = at(ja as usize, jt as usize);
+                    // Strict against earlier neighbours, non-strict against later: one point per
+                    // plateau.
+                    let earlier = dt < 0 || (dt == 0 && da < 0);
+                    if (earlier && u <= v) || (!earlier && u < v) {
+                        is_min = false;
+                        break 'n;
+                    }
+                }
+            }
+            if is_min {
+                out.push((ia, it));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parabolic_step_finds_the_vertex() {
+        let f = |x: f64| (x - 0.3).powi(2);
+        assert!((parabolic_step(f, 0.0, 1.0) - 0.3).abs() < 1e-12);
+        assert_eq!(parabolic_step(f, 0.0, 0.1), 0.1);
+        // At a maximum either side is downhill: a full step.
+        assert_eq!(parabolic_step(|x: f64| -x * x, 0.0, 0.1).abs(), 0.1);
+    }
+
+    #[test]
+    fn grid_minima_skip_window_edges_but_keep_endfire() {
+        let aoa_rad: Vec<f64> = [-90.0f64, -89.0, -88.0]
+            .iter()
+            .map(|d| d.to_radians())
+            .collect();
+        let tof_s = vec![0.0, 1.0, 2.0];
+        // Minimum at the −90° column, middle row.
+        let residual = vec![0.5, 0.6, 0.7, 0.1, 0.6, 0.7, 0.5, 0.6, 0.7];
+        let s = Spectrum {
+            aoa_rad,
+            tof_s,
+            residual,
+        };
+        assert_eq!(grid_minima(&s, AoaWindow::FULL), vec![(0, 1)]);
+        let window = AoaWindow {
+            min_rad: -89.5f64.to_radians(),
+            max_rad: 0.0,
+        };
+        assert!(grid_minima(&s, window).is_empty());
+    }
+}
