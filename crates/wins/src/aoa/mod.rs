@@ -9,9 +9,11 @@ pub mod calibrate;
 pub mod calibration;
 pub mod estimator;
 pub mod group;
+pub mod log;
 pub mod music;
 pub mod paoa;
 pub mod peak;
+pub mod reference;
 pub mod smoothing;
 pub mod spotfi;
 pub mod steering;
@@ -21,6 +23,10 @@ pub use calibrate::{CalibrateError, CalibrateReport, calibrate, calibrate_with};
 pub use calibration::ChainCalibration;
 pub use estimator::{AoaConfig, AoaError, AoaEstimator};
 pub use group::GroupResult;
+pub use log::{
+    AoaLogError, AoaLogSummary, AoaMode, PacketAoa, PacketStatus, TruthPairs, estimate_log,
+    read_aoa_config, truth_pairs,
+};
 pub use music::{AoaWindow, Music, MusicConfig, MusicError, Spectrum};
 pub use paoa::{AoaPrediction, PaoaResult};
 pub use peak::Peak;

@@ -42,6 +42,27 @@ impl Default for PathCount {
     }
 }
 
+impl PathCount {
+    /// `(paths, noise floor)` for eigenvalues sorted largest first, of which the first `rank` can
+    /// be non-zero (the snapshots limit the rank).
+    pub fn judge(&self, values: &[f64], rank: usize) -> (usize, f64) {
+        let rank = rank.clamp(1, values.len().max(1));
+        let Some(&largest) = values.first() else {
+            return (1, 0.0);
+        };
+        let max_paths = self.max_paths.clamp(1, rank.saturating_sub(1).max(1));
+        let tail = &values[max_paths.min(rank - 1)..rank];
+        let noise_floor = median(tail).max(largest * 1e-12);
+        let threshold = noise_floor * 10f64.powf(self.floor_margin_db / 10.0);
+        let paths = values[..max_paths.min(values.len())]
+            .iter()
+            .take_while(|&&v| v > threshold)
+            .count()
+            .max(1);
+        (paths, noise_floor)
+    }
+}
+
 /// The signal subspace of one packet.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Subspace {
@@ -96,15 +117,7 @@ pub fn signal_subspace(
     if values.iter().any(|v| !v.is_finite()) || values[0] <= 0.0 {
         return Err(MusicError::NoSignal);
     }
-    let max_paths = count.max_paths.clamp(1, rank.saturating_sub(1).max(1));
-    let tail = &values[max_paths.min(rank - 1)..rank];
-    let noise_floor = median(tail).max(values[0] * 1e-12);
-    let threshold = noise_floor * 10f64.powf(count.floor_margin_db / 10.0);
-    let paths = values[..max_paths]
-        .iter()
-        .take_while(|&&v| v > threshold)
-        .count()
-        .max(1);
+    let (paths, noise_floor) = count.judge(&values, rank);
     Ok(Subspace {
         basis: vectors.columns(0, paths).into_owned(),
         eigenvalues: values,

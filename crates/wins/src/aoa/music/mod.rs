@@ -26,6 +26,10 @@ use serde::{Deserialize, Serialize};
 use super::smoothing::SmoothingLayout;
 use super::steering::{ArrayGeometry, tof_phase_rad};
 use super::subspace::{PathCount, Subspace, signal_subspace};
+use crate::csi::NUM_SUBCARRIERS;
+
+/// Most antennas a smoothing window may hold.
+pub const MAX_WINDOW_ANTENNAS: usize = 8;
 
 /// Why MUSIC cannot run on a packet or with a configuration.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -133,6 +137,8 @@ pub struct Music {
     /// Per AoA grid point, the window's antenna phasors `a_m` (Nθ × M_s).
     aoa_rad: Vec<f64>,
     aoa_table: Vec<Complex64>,
+    /// Per AoA grid point, `conj(a_0)·a_1` (used when `M_s = 2`).
+    aoa_cross: Vec<Complex64>,
     /// Per ToF grid point, the window's subcarrier phasors `b_w` (Nτ × W).
     tof_s: Vec<f64>,
     tof_table: Vec<Complex64>,
@@ -202,6 +208,9 @@ impl Music {
                 "centre frequency and spacing must be positive",
             ));
         }
+        if config.antennas_per_window > MAX_WINDOW_ANTENNAS {
+            return Err(cfg("antennas_per_window", "at most 8"));
+        }
         let layout = SmoothingLayout::new(
             offsets_hz,
             geometry.num_antennas,
@@ -231,6 +240,7 @@ impl Music {
             layout,
             aoa_rad,
             aoa_table: Vec::new(),
+            aoa_cross: Vec::new(),
             tof_s,
             tof_table: Vec::new(),
             geometry,
@@ -240,6 +250,17 @@ impl Music {
             .aoa_rad
             .iter()
             .flat_map(|&t| music.aoa_phasors(t))
+            .collect();
+        music.aoa_cross = music
+            .aoa_table
+            .chunks(music.layout.antennas_per_window())
+            .map(|a| {
+                if a.len() == 2 {
+                    a[0].conj() * a[1]
+                } else {
+                    Complex64::new(0.0, 0.0)
+                }
+            })
             .collect();
         music.tof_table = music
             .tof_s
@@ -279,23 +300,51 @@ impl Music {
 
     /// `a_m(θ)` over the window's antennas (shared steering vector, carrier frequency).
     pub fn aoa_phasors(&self, aoa_rad: f64) -> Vec<Complex64> {
+        let mut a = vec![Complex64::new(0.0, 0.0); self.layout.antennas_per_window()];
+        self.aoa_phasors_into(aoa_rad, &mut a);
+        a
+    }
+
+    /// [`Music::aoa_phasors`] into the first `M_s` entries of `out`.
+    fn aoa_phasors_into(&self, aoa_rad: f64, out: &mut [Complex64]) {
         let s = aoa_rad.sin();
-        (0..self.layout.antennas_per_window())
-            .map(|m| {
-                Complex64::from_polar(
-                    1.0,
-                    self.geometry.antenna_phase_rad(m, self.center_freq_hz, s),
-                )
-            })
-            .collect()
+        for (m, o) in out.iter_mut().enumerate() {
+            *o = Complex64::from_polar(
+                1.0,
+                self.geometry.antenna_phase_rad(m, self.center_freq_hz, s),
+            );
+        }
     }
 
     /// `b_w(τ)` over the window's subcarriers.
     pub fn tof_phasors(&self, tof_s: f64) -> Vec<Complex64> {
+        let mut b = vec![Complex64::new(0.0, 0.0); self.layout.subcarriers_per_window()];
+        self.tof_phasors_into(tof_s, &mut b);
+        b
+    }
+
+    /// [`Music::tof_phasors`] into the first `W` entries of `out`.
+    fn tof_phasors_into(&self, tof_s: f64, out: &mut [Complex64]) {
         let step = self.layout.step_hz();
-        (0..self.layout.subcarriers_per_window())
-            .map(|w| Complex64::from_polar(1.0, tof_phase_rad(w as f64 * step, tof_s)))
-            .collect()
+        for (w, o) in out.iter_mut().enumerate() {
+            *o = Complex64::from_polar(1.0, tof_phase_rad(w as f64 * step, tof_s));
+        }
+    }
+
+    /// `G(τ)` at an off-grid ToF, into `g` (M_s², row-major), without allocating.
+    pub(crate) fn gram_at(&self, basis: &DMatrix<Complex64>, tof_s: f64, g: &mut [Complex64]) {
+        let mut b = [Complex64::new(0.0, 0.0); NUM_SUBCARRIERS];
+        let b = &mut b[..self.layout.subcarriers_per_window()];
+        self.tof_phasors_into(tof_s, b);
+        self.gram_from(basis, b, g);
+    }
+
+    /// The residual for an off-grid AoA given `G(τ)`, without allocating.
+    pub(crate) fn residual_with(&self, g: &[Complex64], aoa_rad: f64) -> f64 {
+        let mut a = [Complex64::new(0.0, 0.0); MAX_WINDOW_ANTENNAS];
+        let a = &mut a[..self.layout.antennas_per_window()];
+        self.aoa_phasors_into(aoa_rad, a);
+        self.residual_of(self.form(g, a))
     }
 
     /// `G(τ)` (M_s × M_s, row-major) from the subcarrier phasors of one ToF.
@@ -310,7 +359,7 @@ impl Music {
             self.layout.subcarriers_per_window(),
         );
         g.fill(Complex64::new(0.0, 0.0));
-        let mut c = [Complex64::new(0.0, 0.0); 8];
+        let mut c = [Complex64::new(0.0, 0.0); MAX_WINDOW_ANTENNAS];
         for l in 0..basis.ncols() {
             let col = basis.column(l);
             for (m, cm) in c.iter_mut().enumerate().take(ms) {
@@ -341,10 +390,11 @@ impl Music {
 
     /// The residual at an arbitrary (θ, τ), off the grid.
     pub fn residual_at(&self, subspace: &Subspace, aoa_rad: f64, tof_s: f64) -> f64 {
+        let mut g = [Complex64::new(0.0, 0.0); MAX_WINDOW_ANTENNAS * MAX_WINDOW_ANTENNAS];
         let ms = self.layout.antennas_per_window();
-        let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
-        self.gram_from(&subspace.basis, &self.tof_phasors(tof_s), &mut g);
-        self.residual_of(self.form(&g, &self.aoa_phasors(aoa_rad)))
+        let g = &mut g[..ms * ms];
+        self.gram_at(&subspace.basis, tof_s, g);
+        self.residual_with(g, aoa_rad)
     }
 
     pub(crate) fn residual_of(&self, q: f64) -> f64 {
@@ -376,9 +426,19 @@ impl Music {
                 &self.tof_table[it * w_len..][..w_len],
                 &mut g,
             );
-            for ia in range.clone() {
-                let q = self.form(&g, &self.aoa_table[ia * ms..][..ms]);
-                residual.push(self.residual_of(q));
+            if ms == 2 {
+                // aᴴGa = G00 + G11 + 2·Re(G01·conj(a0)·a1): one complex product per point.
+                let (diag, g01) = (g[0].re + g[3].re, g[1]);
+                let scale = 1.0 / self.layout.rows() as f64;
+                residual.extend(self.aoa_cross[range.clone()].iter().map(|x| {
+                    let q = diag + 2.0 * (g01.re * x.re - g01.im * x.im);
+                    (1.0 - q * scale).clamp(1e-12, 1.0)
+                }));
+            } else {
+                for ia in range.clone() {
+                    let q = self.form(&g, &self.aoa_table[ia * ms..][..ms]);
+                    residual.push(self.residual_of(q));
+                }
             }
         }
         Spectrum {

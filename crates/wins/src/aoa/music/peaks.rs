@@ -3,12 +3,14 @@
 
 use num_complex::Complex64;
 
-use super::{AoaWindow, Music, Spectrum};
+use super::{AoaWindow, MAX_WINDOW_ANTENNAS, Music, Spectrum};
 use crate::aoa::peak::Peak;
 use crate::aoa::subspace::Subspace;
 
 /// Refinement rounds; each halves the step, so 6 rounds reach 1/64 of a grid step.
 const REFINE_ROUNDS: usize = 6;
+/// Grid minima whose residual exceeds this multiple of the credibility bound are not refined.
+const GRID_SLACK: f64 = 3.0;
 
 impl Music {
     /// The credible peaks of a packet inside `window`, refined, lowest ToF first. Empty when the
@@ -25,8 +27,13 @@ impl Music {
         spectrum: &Spectrum,
         window: AoaWindow,
     ) -> Vec<Peak> {
+        // Refining costs more than the grid; a grid minimum this far above the credibility bound
+        // cannot refine below it (peaks span several grid steps).
+        let na = spectrum.aoa_rad.len();
+        let loose = (GRID_SLACK * self.config.max_residual).min(1.0);
         let mut peaks: Vec<Peak> = grid_minima(spectrum, window)
             .into_iter()
+            .filter(|&(ia, it)| spectrum.residual[it * na + ia] <= loose)
             .map(|(ia, it)| self.refine(subspace, spectrum.aoa_rad[ia], spectrum.tof_s[it], window))
             .collect();
         // Two grid minima may climb to the same peak.
@@ -57,7 +64,8 @@ impl Music {
     /// ToF grid.
     fn refine(&self, subspace: &Subspace, aoa_rad: f64, tof_s: f64, window: AoaWindow) -> Peak {
         let ms = self.layout.antennas_per_window();
-        let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
+        let mut g = [Complex64::new(0.0, 0.0); MAX_WINDOW_ANTENNAS * MAX_WINDOW_ANTENNAS];
+        let g = &mut g[..ms * ms];
         let (t_lo, t_hi) = (
             self.tof_s.first().copied().unwrap_or(tof_s),
             self.tof_s.last().copied().unwrap_or(tof_s),
@@ -66,11 +74,9 @@ impl Music {
         let mut h_theta = self.config.aoa_step_deg.to_radians();
         let mut h_tau = self.config.tof_step_s;
         for _ in 0..REFINE_ROUNDS {
-            self.gram_from(&subspace.basis, &self.tof_phasors(tau), &mut g);
-            let along_theta = |t: f64| {
-                let t = t.clamp(window.min_rad, window.max_rad);
-                self.residual_of(self.form(&g, &self.aoa_phasors(t)))
-            };
+            self.gram_at(&subspace.basis, tau, g);
+            let along_theta =
+                |t: f64| self.residual_with(g, t.clamp(window.min_rad, window.max_rad));
             theta = (theta + parabolic_step(along_theta, theta, h_theta))
                 .clamp(window.min_rad, window.max_rad);
             let along_tau = |t: f64| self.residual_at(subspace, theta, t.clamp(t_lo, t_hi));

@@ -1,0 +1,528 @@
+//! The AoA of every packet of a log, one row per record: the lowest-ToF credible MUSIC peak of each
+//! packet, or SpotFi's direct path over consecutive groups. Records that give no angle are kept as
+//! rows with a status and counted in the summary. Also pairs a dataset's records with the truth
+//! AoA, for calibrating on a capture with a reference system (or the simulator's truth).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::estimator::{AoaConfig, AoaEstimator};
+use super::music::AoaWindow;
+use super::peak::Peak;
+use super::spotfi::SpotfiError;
+use crate::csi::intel5300::CsiRecord;
+use crate::dataset::Dataset;
+use crate::dataset::truth::Truth;
+
+/// Smallest SpotFi group: the clusters of a single packet say nothing about the direct path.
+pub const MIN_GROUP_SIZE: usize = 2;
+
+/// Rows (or records) searched ahead for a matching `bfee_count` when the log and the truth disagree;
+/// far below the 65 536 packets after which the 16-bit count repeats.
+const RESYNC_WINDOW: usize = 4096;
+
+/// What a record gave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PacketStatus {
+    /// An angle.
+    Ok,
+    /// Processed, but no peak is credible (SpotFi: none in the chosen cluster, or no cluster).
+    NoCrediblePeak,
+    /// Not processed (wrong shape, no signal, ...); the row's `reason` says why.
+    Skipped,
+}
+
+/// One record's AoA (a row of `wins aoa`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PacketAoa {
+    /// Index of the record in the log (CSI records only, from 0).
+    pub index: usize,
+    /// Byte offset of the record in the log.
+    pub offset: u64,
+    /// The record's NIC timestamp (unwrapped), ns.
+    pub timestamp_ns: i64,
+    /// Bandwidth of the record, MHz.
+    pub bandwidth_mhz: u32,
+    /// What the record gave.
+    pub status: PacketStatus,
+    /// Why the record was skipped (empty otherwise).
+    pub reason: String,
+    /// Direct-path AoA, degrees (steering-vector convention).
+    pub aoa_deg: Option<f64>,
+    /// Its sanitized ToF, ns (relative to the packet's fitted delay).
+    pub tof_ns: Option<f64>,
+    /// Its normalized MUSIC pseudo-spectrum, dB.
+    pub spectrum_db: Option<f64>,
+    /// Credible peaks of the packet.
+    pub peaks: usize,
+    /// SpotFi group of the record (SpotFi mode only).
+    pub group: Option<usize>,
+    /// AoA of the group's direct-path cluster, degrees (SpotFi mode, when the group has one).
+    pub group_aoa_deg: Option<f64>,
+}
+
+/// How each packet's direct path is chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AoaMode {
+    /// Per packet: the lowest-ToF credible MUSIC peak.
+    Music,
+    /// SpotFi clustering over consecutive groups of `group_size` packets (≥ [`MIN_GROUP_SIZE`]);
+    /// a last partial group is used when it has at least [`MIN_GROUP_SIZE`] packets.
+    Spotfi {
+        /// Packets per group (the paper uses 10).
+        group_size: usize,
+    },
+}
+
+/// Counts over a log.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct AoaLogSummary {
+    /// Records seen.
+    pub packets: usize,
+    /// Records with an angle.
+    pub with_aoa: usize,
+    /// Records processed without a credible direct path.
+    pub no_credible_peak: usize,
+    /// Skipped records per reason.
+    pub skipped_by_reason: BTreeMap<String, usize>,
+    /// SpotFi groups run (0 in MUSIC mode).
+    pub groups: usize,
+    /// SpotFi groups without a direct path, per reason.
+    pub groups_without_direct_path: BTreeMap<String, usize>,
+}
+
+impl AoaLogSummary {
+    /// Skipped records over all reasons.
+    pub fn skipped(&self) -> usize {
+        self.skipped_by_reason.values().sum()
+    }
+}
+
+/// Why a log cannot be processed or paired with its truth.
+#[derive(Debug, thiserror::Error)]
+pub enum AoaLogError {
+    /// The SpotFi group size is below [`MIN_GROUP_SIZE`].
+    #[error("SpotFi group size {group_size} is below {MIN_GROUP_SIZE}")]
+    GroupSize {
+        /// The size asked for.
+        group_size: usize,
+    },
+    /// The dataset has no AP of that name.
+    #[error("no AP {ap:?} in the dataset (it has {known})")]
+    UnknownAp {
+        /// The name asked for.
+        ap: String,
+        /// The dataset's AP names, comma-separated.
+        known: String,
+    },
+    /// The truth has no packet rows for the AP.
+    #[error("the truth has no packet rows for AP {ap:?}")]
+    NoTruth {
+        /// The AP.
+        ap: String,
+    },
+    /// An AoA configuration file cannot be read or parsed.
+    #[error("{path}: {reason}")]
+    Config {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Reads an [`AoaConfig`] from a TOML file (the struct's fields at the top level; missing fields
+/// take their defaults, unknown ones are errors). Values are checked by [`AoaEstimator::new`].
+pub fn read_aoa_config(path: &Path) -> Result<AoaConfig, AoaLogError> {
+    let error = |reason: String| AoaLogError::Config {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+    toml::from_str(&text).map_err(|e| error(e.to_string()))
+}
+
+/// The AoA of every record, in input order, and the counts. See [`AoaMode`] for how the direct
+/// path is chosen; in SpotFi mode a record's angle is its own peak in the group's chosen cluster.
+pub fn estimate_log<'a>(
+    records: impl IntoIterator<Item = &'a CsiRecord>,
+    estimator: &AoaEstimator,
+    mode: AoaMode,
+) -> Result<(Vec<PacketAoa>, AoaLogSummary), AoaLogError> {
+    let mut summary = AoaLogSummary::default();
+    let rows = match mode {
+        AoaMode::Music => records
+            .into_iter()
+            .enumerate()
+            .map(|(index, record)| {
+                let mut row = empty_row(index, record);
+                match estimator.peaks(record, AoaWindow::FULL) {
+                    Ok(peaks) => set_peak(&mut row, peaks.len(), peaks.first()),
+                    Err(e) => skip(&mut row, e.to_string()),
+                }
+                row
+            })
+            .collect(),
+        AoaMode::Spotfi { group_size } => {
+            if group_size < MIN_GROUP_SIZE {
+                return Err(AoaLogError::GroupSize { group_size });
+            }
+            let records: Vec<&CsiRecord> = records.into_iter().collect();
+            let mut rows = Vec::with_capacity(records.len());
+            for (g, chunk) in records.chunks(group_size).enumerate() {
+                spotfi_group(estimator, g, g * group_size, chunk, &mut rows, &mut summary);
+            }
+            rows
+        }
+    };
+    for row in &rows {
+        summary.packets += 1;
+        match row.status {
+            PacketStatus::Ok => summary.with_aoa += 1,
+            PacketStatus::NoCrediblePeak => summary.no_credible_peak += 1,
+            PacketStatus::Skipped => {
+                *summary
+                    .skipped_by_reason
+                    .entry(row.reason.clone())
+                    .or_default() += 1
+            }
+        }
+    }
+    Ok((rows, summary))
+}
+
+/// Rows of one SpotFi group whose first record has index `first`.
+fn spotfi_group(
+    estimator: &AoaEstimator,
+    group: usize,
+    first: usize,
+    chunk: &[&CsiRecord],
+    rows: &mut Vec<PacketAoa>,
+    summary: &mut AoaLogSummary,
+) {
+    let start = rows.len();
+    rows.extend(chunk.iter().enumerate().map(|(k, record)| PacketAoa {
+        group: Some(group),
+        ..empty_row(first + k, record)
+    }));
+    let rows = &mut rows[start..];
+    if chunk.len() < MIN_GROUP_SIZE {
+        let reason = format!("last SpotFi group has a single packet (needs {MIN_GROUP_SIZE})");
+        rows.iter_mut().for_each(|row| skip(row, reason.clone()));
+        return;
+    }
+    summary.groups += 1;
+    let result = estimator.spotfi(chunk.iter().copied());
+    let direct = match &result.direct {
+        Ok(d) => Some(d),
+        Err(e) => {
+            *summary
+                .groups_without_direct_path
+                .entry(group_failure(e))
+                .or_default() += 1;
+            None
+        }
+    };
+    for (k, row) in rows.iter_mut().enumerate() {
+        if let Some((_, reason)) = result.skipped.iter().find(|(i, _)| *i == k) {
+            skip(row, reason.clone());
+            continue;
+        }
+        let credible = result.peaks.get(k).map_or(0, Vec::len);
+        let own = direct.and_then(|d| d.per_packet.get(k).copied().flatten());
+        set_peak(row, credible, own.as_ref());
+        row.group_aoa_deg = direct.map(|d| d.aoa_rad.to_degrees());
+    }
+}
+
+/// A summary key for a group without a direct path (per-group numbers left out, so groups that
+/// failed the same way are counted together).
+fn group_failure(e: &SpotfiError) -> String {
+    match e {
+        SpotfiError::NoPeaks { .. } => "no packet of the group has a credible peak".into(),
+        SpotfiError::NoEligibleCluster { .. } => {
+            "no cluster is seen by enough of the group's packets".into()
+        }
+        other => other.to_string(),
+    }
+}
+
+/// A row for `record` with no peak yet.
+fn empty_row(index: usize, record: &CsiRecord) -> PacketAoa {
+    PacketAoa {
+        index,
+        offset: record.offset,
+        timestamp_ns: record.timestamp.as_nanos(),
+        bandwidth_mhz: record.header.rate.bandwidth().mhz(),
+        status: PacketStatus::NoCrediblePeak,
+        reason: String::new(),
+        aoa_deg: None,
+        tof_ns: None,
+        spectrum_db: None,
+        peaks: 0,
+        group: None,
+        group_aoa_deg: None,
+    }
+}
+
+fn set_peak(row: &mut PacketAoa, credible: usize, peak: Option<&Peak>) {
+    row.peaks = credible;
+    if let Some(p) = peak {
+        row.status = PacketStatus::Ok;
+        row.aoa_deg = Some(p.aoa_deg());
+        row.tof_ns = Some(p.tof_s * 1e9);
+        row.spectrum_db = Some(p.spectrum_db());
+    }
+}
+
+fn skip(row: &mut PacketAoa, reason: String) {
+    row.status = PacketStatus::Skipped;
+    row.reason = reason;
+}
+
+/// A dataset AP's records paired with their true AoA.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TruthPairs<'a> {
+    /// `(record, true direct-path AoA in rad)`, in log order.
+    pub pairs: Vec<(&'a CsiRecord, f64)>,
+    /// Logged records with no truth row (no row with their `bfee_count`, or after `lost_sync`).
+    pub unmatched: usize,
+    /// Received truth rows with no logged record (e.g. a record lost to corruption).
+    pub truth_rows_skipped: usize,
+    /// Index of the record at which no resynchronization was found; it and every later record
+    /// are unmatched.
+    pub lost_sync: Option<usize>,
+}
+
+/// Pairs each logged record of AP `ap` with its truth AoA: the truth rows with `received` are
+/// walked in order alongside the log's records, requiring equal `bfee_count`. On a mismatch the
+/// next [`RESYNC_WINDOW`] rows are searched for the record's count (records missing from the
+/// log), then the next records for the row's count (records the truth does not know); if neither
+/// is found the walk stops and the rest is unmatched.
+pub fn truth_pairs<'a>(
+    dataset: &'a Dataset,
+    truth: &Truth,
+    ap: &str,
+) -> Result<TruthPairs<'a>, AoaLogError> {
+    let Some(log) = dataset.aps.iter().find(|a| a.name == ap) else {
+        let known: Vec<&str> = dataset.aps.iter().map(|a| a.name.as_str()).collect();
+        return Err(AoaLogError::UnknownAp {
+            ap: ap.to_string(),
+            known: known.join(", "),
+        });
+    };
+    let rows = truth
+        .aps
+        .iter()
+        .position(|a| a.name == ap)
+        .and_then(|i| truth.packets.get(i))
+        .ok_or_else(|| AoaLogError::NoTruth { ap: ap.to_string() })?;
+    let rows: Vec<_> = rows.iter().filter(|r| r.received).collect();
+    let records = &log.packets;
+    let mut out = TruthPairs {
+        pairs: Vec::with_capacity(records.len()),
+        unmatched: 0,
+        truth_rows_skipped: 0,
+        lost_sync: None,
+    };
+    let (mut i, mut j) = (0, 0);
+    while let (Some(packet), Some(row)) = (records.get(i), rows.get(j)) {
+        let count = packet.record.header.bfee_count;
+        if row.bfee_count == count {
+            out.pairs.push((&packet.record, row.aoa_rad));
+            (i, j) = (i + 1, j + 1);
+        } else if let Some(k) = rows[j..]
+            .iter()
+            .take(RESYNC_WINDOW)
+            .position(|r| r.bfee_count == count)
+        {
+            out.truth_rows_skipped += k;
+            j += k;
+        } else if let Some(k) = records[i..]
+            .iter()
+            .take(RESYNC_WINDOW)
+            .position(|p| p.record.header.bfee_count == row.bfee_count)
+        {
+            out.unmatched += k;
+            i += k;
+        } else {
+            out.lost_sync = Some(i);
+            break;
+        }
+    }
+    out.unmatched += records.len() - i;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aoa::{ArrayGeometry, ChainCalibration};
+    use crate::csi::intel5300::BfeeHeader;
+    use crate::sim::{Scenario, SimOutput, simulate, write_dataset};
+    use crate::time::Timestamp;
+    use num_complex::Complex;
+
+    fn flight() -> (Scenario, SimOutput) {
+        let mut s = Scenario::built_in("paper-circle").unwrap();
+        s.duration_s = 2.0;
+        let out = simulate(&s, &mut |_| {}).unwrap();
+        (s, out)
+    }
+
+    fn estimator(out: &SimOutput) -> AoaEstimator {
+        let mut calibration = ChainCalibration::identity(3);
+        calibration.phase_offsets_rad = out.chain_phase_offsets_rad.clone();
+        let geometry = ArrayGeometry::default();
+        AoaEstimator::new(&AoaConfig::default(), geometry, 5.32e9, Some(calibration)).unwrap()
+    }
+
+    /// A record the 3-antenna estimator cannot use: two receive chains.
+    fn two_chain_record() -> CsiRecord {
+        let header = BfeeHeader {
+            nrx: 2,
+            ntx: 1,
+            ..Default::default()
+        };
+        let csi = vec![Complex::new(5i8, -2); header.num_entries()];
+        CsiRecord::new(header, &csi, Timestamp(7)).unwrap()
+    }
+
+    fn median(mut v: Vec<f64>) -> f64 {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    }
+
+    #[test]
+    fn music_and_spotfi_rows_follow_the_truth_and_count_every_record() {
+        let (_, out) = flight();
+        let est = estimator(&out);
+        let received: Vec<_> = out.aps[0].received().collect();
+        let bad = two_chain_record();
+        let mut records: Vec<&CsiRecord> = received.iter().map(|(_, r)| *r).collect();
+        records.insert(3, &bad);
+        let mut truth: Vec<Option<f64>> = received
+            .iter()
+            .map(|(p, _)| Some(p.truth.aoa_rad))
+            .collect();
+        truth.insert(3, None);
+
+        let (rows, summary) = estimate_log(records.iter().copied(), &est, AoaMode::Music).unwrap();
+        assert_eq!(rows.len(), records.len());
+        assert_eq!(summary.packets, records.len());
+        assert_eq!(summary.skipped(), 1);
+        assert_eq!(rows[3].status, PacketStatus::Skipped);
+        assert!(
+            rows[3].reason.contains("2 receive chains"),
+            "{}",
+            rows[3].reason
+        );
+        assert_eq!(
+            summary.with_aoa + summary.no_credible_peak + 1,
+            records.len()
+        );
+        assert!(summary.with_aoa + 3 >= received.len(), "{summary:?}");
+        let errors: Vec<f64> = rows
+            .iter()
+            .zip(truth.iter().copied())
+            .filter_map(|(r, t)| Some((r.aoa_deg? - t?.to_degrees()).abs()))
+            .collect();
+        let music_median = median(errors);
+        println!("MUSIC: {summary:?}, median |error| {music_median:.2}°");
+        assert!(music_median < 3.0);
+        assert!(
+            rows.iter()
+                .all(|r| r.group.is_none() && r.bandwidth_mhz == 20)
+        );
+        assert_eq!(rows[5].index, 5);
+        assert_eq!(rows[5].offset, records[5].offset);
+
+        let mode = AoaMode::Spotfi { group_size: 10 };
+        let (rows, summary) = estimate_log(records.iter().copied(), &est, mode).unwrap();
+        assert_eq!(rows.len(), records.len());
+        let groups = records.len().div_ceil(10);
+        let last = records.len() % 10;
+        assert_eq!(summary.groups, if last == 1 { groups - 1 } else { groups });
+        assert_eq!(rows[3].status, PacketStatus::Skipped);
+        assert_eq!(rows[25].group, Some(2));
+        for row in rows.iter().filter(|r| r.status == PacketStatus::Ok) {
+            let (own, group) = (row.aoa_deg.unwrap(), row.group_aoa_deg.unwrap());
+            // The packet's peak lies in the chosen cluster (linked within 5° steps).
+            assert!((own - group).abs() < 20.0, "{own} {group}");
+        }
+        assert!(summary.with_aoa + 10 >= received.len(), "{summary:?}");
+        let errors: Vec<f64> = rows
+            .iter()
+            .zip(truth.iter().copied())
+            .filter_map(|(r, t)| Some((r.aoa_deg? - t?.to_degrees()).abs()))
+            .collect();
+        let spotfi_median = median(errors);
+        println!("SpotFi: {summary:?}, median |error| {spotfi_median:.2}°");
+        assert!(spotfi_median < 3.0);
+
+        let mode = AoaMode::Spotfi { group_size: 1 };
+        assert!(matches!(
+            estimate_log(records.iter().copied(), &est, mode),
+            Err(AoaLogError::GroupSize { group_size: 1 })
+        ));
+        // A lone last packet is skipped, not dropped.
+        let mode = AoaMode::Spotfi { group_size: 4 };
+        let (rows, summary) = estimate_log(records[..9].iter().copied(), &est, mode).unwrap();
+        assert_eq!((rows.len(), summary.groups), (9, 2));
+        assert!(rows[8].reason.contains("single packet"), "{:?}", rows[8]);
+    }
+
+    #[test]
+    fn truth_pairs_match_by_bfee_count_and_resync_after_gaps() {
+        let (scenario, out) = flight();
+        let dir = std::env::temp_dir().join(format!("wins-aoa-log-{}", std::process::id()));
+        write_dataset(&dir, &scenario, &out).unwrap();
+        let mut dataset = Dataset::load(&dir).unwrap();
+        let truth = Truth::load(&dir).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        let received: Vec<f64> = out.aps[0]
+            .received()
+            .map(|(p, _)| p.truth.aoa_rad)
+            .collect();
+
+        let p = truth_pairs(&dataset, &truth, "ap0").unwrap();
+        assert_eq!(
+            (p.unmatched, p.truth_rows_skipped, p.lost_sync),
+            (0, 0, None)
+        );
+        let paired: Vec<f64> = p.pairs.iter().map(|(_, a)| *a).collect();
+        assert_eq!(paired, received);
+        assert!(matches!(
+            truth_pairs(&dataset, &truth, "nope"),
+            Err(AoaLogError::UnknownAp { known, .. }) if known == "ap0"
+        ));
+
+        // A record lost from the log, and a record the truth does not know.
+        let packets = &mut dataset.aps[0].packets;
+        packets.remove(10);
+        let mut stray = packets[20].clone();
+        stray.record.header.bfee_count = 60_000;
+        packets.insert(20, stray);
+        let p = truth_pairs(&dataset, &truth, "ap0").unwrap();
+        assert_eq!(
+            (p.unmatched, p.truth_rows_skipped, p.lost_sync),
+            (1, 1, None)
+        );
+        assert_eq!(p.pairs.len(), received.len() - 1);
+        assert_eq!(p.pairs[10].1, received[11]);
+        assert!(p.pairs.iter().all(|(r, _)| r.header.bfee_count != 60_000));
+
+        // Counts that match nothing: the walk stops and reports where.
+        let packets = &mut dataset.aps[0].packets;
+        for (k, packet) in packets.iter_mut().enumerate().skip(30) {
+            packet.record.header.bfee_count = 50_000 + k as u16;
+        }
+        let n = packets.len();
+        let p = truth_pairs(&dataset, &truth, "ap0").unwrap();
+        assert_eq!(p.lost_sync, Some(30));
+        assert_eq!(p.unmatched, 1 + n - 30);
+    }
+}
