@@ -10,6 +10,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
 use wins::sim::{self, Scenario};
 
+mod aoa_cmd;
+
 /// WiFi-inertial pose estimation for micro aerial vehicles.
 #[derive(Parser)]
 #[command(name = "wins", version, about)]
@@ -27,6 +29,10 @@ enum Command {
     },
     /// Simulate a flight (trajectory, IMU, Wi-Fi CSI per AP) and write it as a dataset directory.
     Simulate(SimulateArgs),
+    /// Angle of arrival of every packet of a log or dataset AP (MUSIC or SpotFi), as CSV or JSONL.
+    Aoa(aoa_cmd::AoaArgs),
+    /// Receive-chain phase offsets from a capture at a known angle or a dataset's truth.
+    Calibrate(aoa_cmd::CalibrateArgs),
 }
 
 #[derive(clap::Args)]
@@ -109,6 +115,8 @@ fn run(cli: Cli) -> Result<()> {
             CsiCommand::Export { file, format, out } => csi_export(&file, format, out),
         },
         Command::Simulate(args) => simulate(args),
+        Command::Aoa(args) => aoa_cmd::aoa(args),
+        Command::Calibrate(args) => aoa_cmd::calibrate_cmd(args),
     }
 }
 

@@ -17,8 +17,9 @@
 //!
 //! Built so far: [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and writer),
 //! [`sim`] (flights, IMU and multipath Intel 5300 CSI, written as datasets), [`dataset`] (the
-//! on-disk layout shared by real and simulated recordings), [`aoa::steering`] (the one steering
-//! vector), [`imu`] and [`time`]. The estimation stages arrive with later work.
+//! on-disk layout shared by real and simulated recordings), [`aoa`] (chain calibration, MUSIC over
+//! AoA and ToF, SpotFi's direct path, the IMU-guided per-packet PAoA; [`aoa::steering`] is the one
+//! steering vector), [`imu`] and [`time`]. The fusion stages arrive with later work.
 //!
 //! ## Conventions (stated once, used everywhere)
 //!

@@ -1,0 +1,408 @@
+//! `wins aoa` and `wins calibrate`: argument parsing, library calls, output.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use wins::aoa::steering::{CHANNEL_64_HZ, half_wavelength_m};
+use wins::aoa::{
+    AoaConfig, AoaEstimator, AoaMode, AoaWindow, ArrayGeometry, ChainCalibration, calibrate,
+    calibrate_with, estimate_log, read_aoa_config, truth_pairs,
+};
+use wins::csi::intel5300::{CsiLog, CsiRecord, SkipReason, read_log};
+use wins::dataset::Dataset;
+use wins::dataset::truth::Truth;
+use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
+
+/// Plot size, pixels.
+const PLOT_WIDTH: u32 = 800;
+const PLOT_HEIGHT: u32 = 600;
+
+/// The input and the array: shared by `aoa` and `calibrate`.
+#[derive(clap::Args)]
+pub struct InputArgs {
+    /// Intel 5300 `.dat` log, or a dataset directory (then --ap names the AP; the channel and the
+    /// array come from its dataset.toml).
+    file: PathBuf,
+    /// AP of a dataset directory.
+    #[arg(long)]
+    ap: Option<String>,
+    /// Channel centre frequency of a `.dat` log, Hz [default: 5.32e9, channel 64].
+    #[arg(long, value_name = "HZ")]
+    center_freq_hz: Option<f64>,
+    /// Antenna spacing of a `.dat` log's 3-antenna array, m [default: half a wavelength].
+    #[arg(long, value_name = "M")]
+    spacing_m: Option<f64>,
+    /// AoA settings, TOML (fields of the library's `AoaConfig`; defaults otherwise).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+}
+
+/// `wins aoa`.
+#[derive(clap::Args)]
+pub struct AoaArgs {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Receive-chain calibration from `wins calibrate` (without it real logs give wrong angles).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// How each packet's direct path is chosen.
+    #[arg(long, value_enum, default_value_t = Mode::Music)]
+    mode: Mode,
+    /// Packets per SpotFi group (`--mode spotfi`).
+    #[arg(long, default_value_t = 10)]
+    group_size: usize,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = RowFormat::Csv)]
+    format: RowFormat,
+    /// Output file (standard output if absent).
+    #[arg(long, short)]
+    out: Option<PathBuf>,
+    /// Also draw one packet's MUSIC spectrum as a PNG heat map.
+    #[arg(long, value_name = "PNG")]
+    plot: Option<PathBuf>,
+    /// The packet to draw (record index in the log).
+    #[arg(long, value_name = "N", default_value_t = 0, requires = "plot")]
+    plot_packet: usize,
+}
+
+/// `wins calibrate`.
+#[derive(clap::Args)]
+pub struct CalibrateArgs {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Known AoA of a static capture, degrees in [-90, 90] (without it, a dataset's truth/ gives
+    /// each packet's angle).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true, value_parser = parse_aoa_deg)]
+    aoa_deg: Option<f64>,
+    /// Calibration file to write (TOML).
+    #[arg(long, short)]
+    out: PathBuf,
+}
+
+#[derive(Copy, Clone, ValueEnum)]
+enum Mode {
+    /// Per packet: the lowest-ToF credible MUSIC peak.
+    Music,
+    /// SpotFi clustering over consecutive groups of packets.
+    Spotfi,
+}
+
+#[derive(Copy, Clone, ValueEnum)]
+enum RowFormat {
+    Csv,
+    Jsonl,
+}
+
+fn parse_aoa_deg(text: &str) -> Result<f64, String> {
+    let v: f64 = text.parse().map_err(|e| format!("{e}"))?;
+    if !(-90.0..=90.0).contains(&v) {
+        return Err(format!("{v}° is outside [-90°, 90°]"));
+    }
+    Ok(v)
+}
+
+/// A log to process, with the array and channel it was recorded with.
+struct Input {
+    source: Source,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
+    config: AoaConfig,
+}
+
+enum Source {
+    Log(CsiLog),
+    Dataset { dataset: Box<Dataset>, ap: usize },
+}
+
+impl Input {
+    fn open(args: &InputArgs) -> Result<Self> {
+        let config = match &args.config {
+            Some(path) => read_aoa_config(path)?,
+            None => AoaConfig::default(),
+        };
+        if !args.file.is_dir() {
+            if args.ap.is_some() {
+                bail!(
+                    "--ap is for a dataset directory, {} is a file",
+                    args.file.display()
+                );
+            }
+            let log = read_log(&args.file)?;
+            let center_freq_hz = args.center_freq_hz.unwrap_or(CHANNEL_64_HZ);
+            let geometry = ArrayGeometry {
+                spacing_m: args
+                    .spacing_m
+                    .unwrap_or_else(|| half_wavelength_m(center_freq_hz)),
+                ..ArrayGeometry::default()
+            };
+            let source = Source::Log(log);
+            return Ok(Self {
+                source,
+                geometry,
+                center_freq_hz,
+                config,
+            });
+        }
+        if args.center_freq_hz.is_some() || args.spacing_m.is_some() {
+            bail!("--center-freq-hz and --spacing-m come from the dataset's dataset.toml");
+        }
+        let dataset = Dataset::load(&args.file)?;
+        let names: Vec<&str> = dataset.aps.iter().map(|a| a.name.as_str()).collect();
+        let Some(name) = &args.ap else {
+            bail!(
+                "{} is a dataset: give --ap ({})",
+                args.file.display(),
+                names.join(", ")
+            );
+        };
+        let Some(ap) = names.iter().position(|n| n == name) else {
+            bail!(
+                "no AP {name:?} in {} (it has {})",
+                args.file.display(),
+                names.join(", ")
+            );
+        };
+        Ok(Self {
+            geometry: dataset.manifest.array.geometry,
+            center_freq_hz: dataset.manifest.channel.center_freq_hz,
+            source: Source::Dataset {
+                dataset: Box::new(dataset),
+                ap,
+            },
+            config,
+        })
+    }
+
+    fn records(&self) -> Vec<&CsiRecord> {
+        match &self.source {
+            Source::Log(log) => log.records.iter().collect(),
+            Source::Dataset { dataset, ap } => {
+                dataset.aps[*ap].packets.iter().map(|p| &p.record).collect()
+            }
+        }
+    }
+
+    /// Prints the log's lost byte ranges (non-CSI records are only counted).
+    fn report_log_skips(&self, label: &Path) {
+        let skips = match &self.source {
+            Source::Log(log) => &log.skips,
+            Source::Dataset { dataset, ap } => &dataset.aps[*ap].skips,
+        };
+        let non_csi = skips
+            .iter()
+            .filter(|s| matches!(s.reason, SkipReason::NonCsi { .. }))
+            .count();
+        if non_csi > 0 {
+            eprintln!("{}: {non_csi} non-CSI records skipped", label.display());
+        }
+        for s in skips
+            .iter()
+            .filter(|s| !matches!(s.reason, SkipReason::NonCsi { .. }))
+        {
+            eprintln!(
+                "warning: offset {}: {} bytes lost: {}",
+                s.offset, s.len, s.reason
+            );
+        }
+    }
+}
+
+/// `wins aoa`.
+pub fn aoa(args: AoaArgs) -> Result<()> {
+    let input = Input::open(&args.input)?;
+    let calibration = match &args.calibration {
+        Some(path) => Some(ChainCalibration::load(path)?),
+        None => None,
+    };
+    let estimator = AoaEstimator::new(
+        &input.config,
+        input.geometry,
+        input.center_freq_hz,
+        calibration,
+    )
+    .with_context(|| match &args.calibration {
+        Some(path) => format!("calibration {} does not fit the array", path.display()),
+        None => "the AoA settings do not fit the array".into(),
+    })?;
+    let records = input.records();
+    let mode = match args.mode {
+        Mode::Music => AoaMode::Music,
+        Mode::Spotfi => AoaMode::Spotfi {
+            group_size: args.group_size,
+        },
+    };
+    let (rows, summary) = estimate_log(records.iter().copied(), &estimator, mode)?;
+
+    let sink: Box<dyn Write> = match &args.out {
+        Some(p) => {
+            Box::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)
+        }
+        None => Box::new(io::stdout().lock()),
+    };
+    let mut sink = BufWriter::new(sink);
+    match args.format {
+        RowFormat::Csv => {
+            let mut w = csv::Writer::from_writer(&mut sink);
+            for row in &rows {
+                w.serialize(row)?;
+            }
+            w.flush()?;
+        }
+        RowFormat::Jsonl => {
+            for row in &rows {
+                serde_json::to_writer(&mut sink, row)?;
+                writeln!(sink)?;
+            }
+        }
+    }
+    sink.flush()?;
+
+    let file = &args.input.file;
+    input.report_log_skips(file);
+    eprintln!(
+        "{}: {} packets, {} with AoA, {} no credible peak, {} skipped",
+        file.display(),
+        summary.packets,
+        summary.with_aoa,
+        summary.no_credible_peak,
+        summary.skipped()
+    );
+    for (reason, n) in &summary.skipped_by_reason {
+        eprintln!("  skipped {n}: {reason}");
+    }
+    if summary.groups > 0 {
+        let failed: usize = summary.groups_without_direct_path.values().sum();
+        eprintln!(
+            "SpotFi: {} groups, {failed} without a direct path",
+            summary.groups
+        );
+        for (reason, n) in &summary.groups_without_direct_path {
+            eprintln!("  {n}: {reason}");
+        }
+    }
+    if args.calibration.is_none() {
+        eprintln!(
+            "warning: uncalibrated chains: angles will be wrong on real hardware \
+             (see wins calibrate)"
+        );
+    }
+    if let Some(png) = &args.plot {
+        let record = records.get(args.plot_packet).with_context(|| {
+            format!(
+                "--plot-packet {}: the log has {} records",
+                args.plot_packet,
+                records.len()
+            )
+        })?;
+        plot_spectrum(&estimator, record, args.plot_packet, png)?;
+        eprintln!(
+            "packet {} spectrum drawn to {}",
+            args.plot_packet,
+            png.display()
+        );
+    }
+    Ok(())
+}
+
+/// Draws one record's full MUSIC spectrum with its credible peaks.
+fn plot_spectrum(est: &AoaEstimator, record: &CsiRecord, index: usize, png: &Path) -> Result<()> {
+    let (music, subspace) = est
+        .subspace(record)
+        .with_context(|| format!("packet {index} cannot be drawn"))?;
+    let spectrum = music.spectrum(&subspace, AoaWindow::FULL);
+    let peaks = music.peaks(&subspace, AoaWindow::FULL);
+    let x: Vec<f64> = spectrum.aoa_rad.iter().map(|a| a.to_degrees()).collect();
+    let y: Vec<f64> = spectrum.tof_s.iter().map(|t| t * 1e9).collect();
+    let markers: Vec<Marker> = peaks
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Marker {
+            x: p.aoa_deg(),
+            y: p.tof_s * 1e9,
+            label: if i == 0 { "direct" } else { "path" },
+            style: if i == 0 {
+                MarkerStyle::Cross
+            } else {
+                MarkerStyle::Circle
+            },
+        })
+        .collect();
+    let title = format!("MUSIC spectrum, packet {index}");
+    let map = HeatMap {
+        title: &title,
+        x_label: "AoA (deg)",
+        y_label: "ToF (ns)",
+        colorbar_label: "spectrum (dB)",
+        x: &x,
+        y: &y,
+        values: &spectrum.db(),
+        markers: &markers,
+    };
+    heat_map_png(png, &map, PLOT_WIDTH, PLOT_HEIGHT)
+        .with_context(|| format!("cannot draw {}", png.display()))
+}
+
+/// `wins calibrate`.
+pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
+    let input = Input::open(&args.input)?;
+    let file = &args.input.file;
+    let (geometry, freq, config) = (input.geometry, input.center_freq_hz, &input.config);
+    let (mut calibration, report, source) = match (&input.source, args.aoa_deg) {
+        (_, Some(deg)) => {
+            let records = input.records();
+            let (c, r) = calibrate(records, deg.to_radians(), geometry, freq, config)?;
+            (c, r, format!("static capture {} at {deg}°", file.display()))
+        }
+        (Source::Dataset { dataset, ap }, None) => {
+            let truth = Truth::load(file)
+                .with_context(|| format!("{} has no usable truth/", file.display()))?;
+            let name = &dataset.aps[*ap].name;
+            let paired = truth_pairs(dataset, &truth, name)?;
+            if paired.unmatched > 0 || paired.truth_rows_skipped > 0 {
+                eprintln!(
+                    "warning: {} records without a truth row, {} truth rows without a record",
+                    paired.unmatched, paired.truth_rows_skipped
+                );
+            }
+            if let Some(i) = paired.lost_sync {
+                eprintln!("warning: log and truth out of step from record {i} on");
+            }
+            let (c, r) = calibrate_with(paired.pairs, geometry, freq, config)?;
+            (c, r, format!("truth of {} ({name})", file.display()))
+        }
+        (Source::Log(_), None) => bail!(
+            "{} is a log: give the known angle with --aoa-deg, or a dataset directory with truth",
+            file.display()
+        ),
+    };
+    calibration.source = source;
+    calibration.save(&args.out)?;
+
+    input.report_log_skips(file);
+    println!("calibration from {}", calibration.source);
+    println!("chain  offset (deg)  spread (deg)");
+    for (m, offset) in calibration.phase_offsets_rad.iter().enumerate() {
+        let spread = calibration
+            .spread_rad
+            .get(m)
+            .map_or(f64::NAN, |s| s.to_degrees());
+        println!("{m:>5}  {:>12.2}  {spread:>12.2}", offset.to_degrees());
+    }
+    println!(
+        "packets used {}, skipped {}",
+        report.used,
+        report.skipped.len()
+    );
+    let mut reasons = std::collections::BTreeMap::<&str, usize>::new();
+    for (_, reason) in &report.skipped {
+        *reasons.entry(reason).or_default() += 1;
+    }
+    for (reason, n) in reasons {
+        println!("  skipped {n}: {reason}");
+    }
+    println!("written to {}", args.out.display());
+    Ok(())
+}
