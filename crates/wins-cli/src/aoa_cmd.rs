@@ -225,7 +225,7 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     )
     .with_context(|| match &args.calibration {
         Some(path) => format!("calibration {} does not fit the array", path.display()),
-        None => "the AoA settings do not fit the array".into(),
+        None => "cannot set up the AoA estimator".into(),
     })?;
     let records = input.records();
     let mode = match args.mode {
@@ -388,7 +388,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         let spread = calibration
             .spread_rad
             .get(m)
-            .map_or(f64::NAN, |s| s.to_degrees());
+            .map_or(f64::NAN, |s| s.abs().to_degrees());
         println!("{m:>5}  {:>12.2}  {spread:>12.2}", offset.to_degrees());
     }
     println!(

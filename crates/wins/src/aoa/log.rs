@@ -21,7 +21,7 @@ pub const MIN_GROUP_SIZE: usize = 2;
 
 /// Rows (or records) searched ahead for a matching `bfee_count` when the log and the truth disagree;
 /// far below the 65 536 packets after which the 16-bit count repeats.
-const RESYNC_WINDOW: usize = 4096;
+pub const RESYNC_WINDOW: usize = 4096;
 
 /// What a record gave.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
