@@ -65,11 +65,13 @@ fn case(bw: Bandwidth) -> Case {
 static HT20: LazyLock<Case> = LazyLock::new(|| case(Bandwidth::Ht20));
 static HT40: LazyLock<Case> = LazyLock::new(|| case(Bandwidth::Ht40));
 
-fn cases() -> [(&'static str, &'static LazyLock<Case>, Bandwidth); 2] {
-    [
-        ("ht20", &HT20, Bandwidth::Ht20),
-        ("ht40", &HT40, Bandwidth::Ht40),
-    ]
+/// The case and its bandwidth for a bench argument.
+fn pick(bw: &str) -> (&'static Case, Bandwidth) {
+    if bw == "ht40" {
+        (&HT40, Bandwidth::Ht40)
+    } else {
+        (&HT20, Bandwidth::Ht20)
+    }
 }
 
 fn prediction(truth_rad: f64) -> AoaPrediction {
@@ -82,7 +84,7 @@ fn prediction(truth_rad: f64) -> AoaPrediction {
 
 #[divan::bench(args = ["ht20", "ht40"])]
 fn paoa(b: Bencher, bw: &str) {
-    let c = &cases().into_iter().find(|c| c.0 == bw).expect("case").1;
+    let (c, _) = pick(bw);
     let mut i = 0;
     b.bench_local(|| {
         let (record, truth) = &c.records[i % c.records.len()];
@@ -93,7 +95,7 @@ fn paoa(b: Bencher, bw: &str) {
 
 #[divan::bench(args = ["ht20", "ht40"], sample_count = 20)]
 fn reference_window(b: Bencher, bw: &str) {
-    let (_, c, band) = cases().into_iter().find(|c| c.0 == bw).expect("case");
+    let (c, band) = pick(bw);
     let music = c.estimator.music(band);
     let mut i = 0;
     b.bench_local(|| {
@@ -109,7 +111,7 @@ fn reference_window(b: Bencher, bw: &str) {
 
 #[divan::bench(args = ["ht20", "ht40"])]
 fn spectrum(b: Bencher, bw: &str) {
-    let (_, c, band) = cases().into_iter().find(|c| c.0 == bw).expect("case");
+    let (c, band) = pick(bw);
     let music = c.estimator.music(band);
     let mut i = 0;
     b.bench_local(|| {
@@ -122,7 +124,7 @@ fn spectrum(b: Bencher, bw: &str) {
 
 #[divan::bench(args = ["ht20", "ht40"], sample_count = 10)]
 fn reference_full(b: Bencher, bw: &str) {
-    let (_, c, band) = cases().into_iter().find(|c| c.0 == bw).expect("case");
+    let (c, band) = pick(bw);
     let music = c.estimator.music(band);
     let mut i = 0;
     b.bench_local(|| {
@@ -135,7 +137,7 @@ fn reference_full(b: Bencher, bw: &str) {
 /// Stage breakdown: calibration + sanitization of one record.
 #[divan::bench(args = ["ht20", "ht40"])]
 fn stage_prepare(b: Bencher, bw: &str) {
-    let c = &cases().into_iter().find(|c| c.0 == bw).expect("case").1;
+    let (c, _) = pick(bw);
     let mut i = 0;
     b.bench_local(|| {
         i += 1;
@@ -147,7 +149,7 @@ fn stage_prepare(b: Bencher, bw: &str) {
 /// Stage breakdown: smoothing and the signal subspace (forward–backward real EVD).
 #[divan::bench(args = ["ht20", "ht40"])]
 fn stage_subspace(b: Bencher, bw: &str) {
-    let (_, c, band) = cases().into_iter().find(|c| c.0 == bw).expect("case");
+    let (c, band) = pick(bw);
     let music = c.estimator.music(band);
     let mut i = 0;
     b.bench_local(|| {
