@@ -198,15 +198,11 @@ impl Input {
         if non_csi > 0 {
             eprintln!("{}: {non_csi} non-CSI records skipped", label.display());
         }
-        for s in skips
-            .iter()
-            .filter(|s| !matches!(s.reason, SkipReason::NonCsi { .. }))
-        {
-            eprintln!(
-                "warning: offset {}: {} bytes lost: {}",
-                s.offset, s.len, s.reason
-            );
-        }
+        crate::warn_lost(
+            skips
+                .iter()
+                .filter(|s| !matches!(s.reason, SkipReason::NonCsi { .. })),
+        );
     }
 }
 
@@ -313,7 +309,7 @@ fn plot_spectrum(est: &AoaEstimator, record: &CsiRecord, index: usize, png: &Pat
         .subspace(record)
         .with_context(|| format!("packet {index} cannot be drawn"))?;
     let spectrum = music.spectrum(&subspace, AoaWindow::FULL);
-    let peaks = music.peaks(&subspace, AoaWindow::FULL);
+    let peaks = music.peaks_of(&subspace, &spectrum, AoaWindow::FULL);
     let x: Vec<f64> = spectrum.aoa_rad.iter().map(|a| a.to_degrees()).collect();
     let y: Vec<f64> = spectrum.tof_s.iter().map(|t| t * 1e9).collect();
     let markers: Vec<Marker> = peaks

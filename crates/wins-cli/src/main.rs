@@ -160,13 +160,18 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
         stats.non_csi_records,
         stats.unscalable
     );
-    for s in &stats.lost {
+    warn_lost(&stats.lost);
+    Ok(())
+}
+
+/// One warning per byte range of a log that was lost (corrupt or cut), with its offset.
+fn warn_lost<'a>(lost: impl IntoIterator<Item = &'a intel5300::Skip>) {
+    for s in lost {
         eprintln!(
             "warning: offset {}: {} bytes lost: {}",
             s.offset, s.len, s.reason
         );
     }
-    Ok(())
 }
 
 fn simulate(args: SimulateArgs) -> Result<()> {
