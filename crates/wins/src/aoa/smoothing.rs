@@ -200,7 +200,7 @@ mod tests {
                 );
             }
         }
-        // 15 subcarriers fit in no HT20 run (the longest has 15 but it is −1…27: it does fit once).
+        // 15 subcarriers fit only the run −1…27 (15 long), once: 2 antenna shifts, 2 columns.
         let l15 = SmoothingLayout::new(&offsets, 3, 2, 15).unwrap();
         assert_eq!(l15.cols(), 2);
         assert!(SmoothingLayout::new(&offsets, 3, 2, 16).is_err());
