@@ -1,6 +1,10 @@
-//! Inertial measurements. So far: the sample type shared by the simulator, the dataset reader and
-//! (later) preintegration.
+//! Inertial measurements: the sample type, noise densities and biases, and preintegration between
+//! PAoA frames (paper `eqn:alpha`, `eqn:beta`, `eqn:rotation`).
 
+pub mod noise;
+pub mod preintegration;
 pub mod sample;
 
+pub use noise::{ImuBiases, ImuNoise};
+pub use preintegration::{Preintegrated, PreintegrationError, Preintegrator};
 pub use sample::ImuSample;

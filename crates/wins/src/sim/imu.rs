@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::motion::{BodyState, specific_force_in_b};
+pub use crate::imu::{ImuBiases, ImuNoise};
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
@@ -20,24 +21,6 @@ const SECONDS_PER_HOUR: f64 = 3600.0;
 /// In-run bias stability is turned into a bias random walk that wanders by about that much over
 /// this interval (a common, rough conversion; datasheets give no random-walk figure).
 const BIAS_STABILITY_INTERVAL_S: f64 = 100.0;
-
-/// Continuous-time noise parameters of a 3-axis gyro and accelerometer.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ImuNoise {
-    /// Gyro white noise density (angle random walk), rad/s/√Hz.
-    pub gyro_noise_density_rad_s_sqrt_hz: f64,
-    /// Gyro bias random walk, rad/s²/√Hz (rad/s per √s).
-    pub gyro_bias_random_walk_rad_s2_sqrt_hz: f64,
-    /// Standard deviation of the gyro bias at power-on, per axis, rad/s.
-    pub gyro_turn_on_bias_rad_s: f64,
-    /// Accelerometer white noise density (velocity random walk), m/s²/√Hz.
-    pub accel_noise_density_m_s2_sqrt_hz: f64,
-    /// Accelerometer bias random walk, m/s³/√Hz (m/s² per √s).
-    pub accel_bias_random_walk_m_s3_sqrt_hz: f64,
-    /// Standard deviation of the accelerometer bias at power-on, per axis, m/s².
-    pub accel_turn_on_bias_m_s2: f64,
-}
 
 /// Which noise model the IMU has.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -148,15 +131,6 @@ impl ImuConfig {
     pub fn period_ns(&self) -> i64 {
         (1e9 / self.rate_hz).round() as i64
     }
-}
-
-/// The true biases at one sample (what an estimator would like to know).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImuBiases {
-    /// Gyro bias, rad/s, body frame.
-    pub gyro_rad_s: Vector3<f64>,
-    /// Accelerometer bias, m/s², body frame.
-    pub accel_m_s2: Vector3<f64>,
 }
 
 /// A noisy IMU driven by the true body motion, sampled every `period_ns`.
