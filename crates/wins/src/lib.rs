@@ -50,6 +50,8 @@
 pub mod aoa;
 pub mod csi;
 pub mod dataset;
+pub mod fusion;
 pub mod imu;
 pub mod sim;
+pub mod so3;
 pub mod time;

@@ -2,9 +2,11 @@
 
 mod aoa_accuracy;
 mod data;
+mod fusion_ekf;
 mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
+mod observability;
 mod sanitize;
 mod sim_dataset;
 mod sim_scenarios;
