@@ -87,7 +87,11 @@ mod tests {
                 d[i] = h;
                 // Exp(φ)ᵀ Exp(φ + δ) = Exp(J_r δ)
                 let fd = log(&(exp(&phi).inverse() * exp(&(phi + d)))) / h;
-                assert!((fd - jr.column(i)).norm() < 1e-5, "{fd} vs {}", jr.column(i));
+                assert!(
+                    (fd - jr.column(i)).norm() < 1e-5,
+                    "{fd} vs {}",
+                    jr.column(i)
+                );
             }
         }
     }

@@ -101,7 +101,11 @@ mod tests {
                 sigma_rad: 0.01,
             };
             let d = b.direction_in_a(elevation_rad(&u));
-            assert!((d - u.normalize()).norm() < 1e-12, "{d} vs {}", u.normalize());
+            assert!(
+                (d - u.normalize()).norm() < 1e-12,
+                "{d} vs {}",
+                u.normalize()
+            );
             // Without the elevation the cone angle is kept but the direction tilts into the plane.
             let flat = b.direction_in_a(0.0);
             assert!((flat.y - u.normalize().y).abs() < 1e-12 || z != 0.0);
@@ -119,8 +123,20 @@ mod tests {
             sigma_rad: 0.03,
         };
         assert!(ok.is_valid());
-        assert!(!Bearing { aoa_rad: f64::NAN, ..ok }.is_valid());
+        assert!(
+            !Bearing {
+                aoa_rad: f64::NAN,
+                ..ok
+            }
+            .is_valid()
+        );
         assert!(!Bearing { aoa_rad: 2.0, ..ok }.is_valid());
-        assert!(!Bearing { sigma_rad: 0.0, ..ok }.is_valid());
+        assert!(
+            !Bearing {
+                sigma_rad: 0.0,
+                ..ok
+            }
+            .is_valid()
+        );
     }
 }

@@ -30,7 +30,6 @@ pub struct ImuBiases {
     pub accel_m_s2: Vector3<f64>,
 }
 
-
 impl ImuBiases {
     /// No bias.
     pub fn zero() -> Self {

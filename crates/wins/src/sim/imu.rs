@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::motion::{BodyState, specific_force_in_b};
-pub use crate::imu::{ImuBiases, ImuNoise};
 use crate::imu::ImuSample;
+pub use crate::imu::{ImuBiases, ImuNoise};
 use crate::time::Timestamp;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;

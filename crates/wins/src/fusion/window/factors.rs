@@ -154,22 +154,13 @@ pub struct AoaInfo {
     pub b_c: Vector3<f64>,
 }
 
-/// Linearizes one AoA factor (module doc), for an AP at the array's height: the direction `u`
-/// toward it is horizontal (`u · up = 0`, `up` the unit upward gravity in `b_j`) and has the
-/// measured cone angle (`u · ŷ_a = sin θ`) on the measured side. Rows: the horizontal normal
-/// `up × u` (the bearing, weight `1/(λ σ_β)²` with σ_β the cone-angle σ mapped to azimuth) and
-/// `up` itself (the AP at the array's height, weight `1/(λ σ_e)²`). `None` when the cone angle
-/// cannot be met by a horizontal direction (array axis near vertical).
-#[allow(clippy::too_many_arguments)]
-pub fn aoa_info(
+/// The horizontal unit direction `u` in `b_j` with the bearing's cone angle on its side (see
+/// [`aoa_info`]), with the unit `up`, the horizontal length `s` of the array axis and `sin β`.
+pub fn horizontal_direction(
     bearing: &Bearing,
-    b0_from_bj: &UnitQuaternion<f64>,
     up_in_bj: &Vector3<f64>,
     body_from_array: &Isometry3<f64>,
-    range_m: f64,
-    attitude_sigma_rad: f64,
-    elevation_sigma_rad: f64,
-) -> Option<AoaInfo> {
+) -> Option<(Vector3<f64>, Vector3<f64>, f64, f64)> {
     let up = up_in_bj.try_normalize(1e-9)?;
     let y_a = body_from_array.rotation * Vector3::y();
     let x_a = body_from_array.rotation * Vector3::x();
@@ -189,6 +180,26 @@ pub fn aoa_info(
         _ => -sin_b_abs,
     };
     let u = e1 * cos_b + e2 * sin_b;
+    Some((u, up, s, sin_b))
+}
+
+/// Linearizes one AoA factor (module doc), for an AP at the array's height: the direction `u`
+/// toward it is horizontal (`u · up = 0`, `up` the unit upward gravity in `b_j`) and has the
+/// measured cone angle (`u · ŷ_a = sin θ`) on the measured side. Rows: the horizontal normal
+/// `up × u` (the bearing, weight `1/(λ σ_β)²` with σ_β the cone-angle σ mapped to azimuth) and
+/// `up` itself (the AP at the array's height, weight `1/(λ σ_e)²`). `None` when the cone angle
+/// cannot be met by a horizontal direction (array axis near vertical).
+#[allow(clippy::too_many_arguments)]
+pub fn aoa_info(
+    bearing: &Bearing,
+    b0_from_bj: &UnitQuaternion<f64>,
+    up_in_bj: &Vector3<f64>,
+    body_from_array: &Isometry3<f64>,
+    range_m: f64,
+    attitude_sigma_rad: f64,
+    elevation_sigma_rad: f64,
+) -> Option<AoaInfo> {
+    let (u, up, s, sin_b) = horizontal_direction(bearing, up_in_bj, body_from_array)?;
     // δθ cos θ = −s sin β δβ.
     let sigma_beta = bearing.sigma_rad * bearing.aoa_rad.cos() / (s * sin_b.abs()).max(0.1);
     let sigma_theta2 = sigma_beta.powi(2) + attitude_sigma_rad.powi(2);

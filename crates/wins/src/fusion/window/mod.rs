@@ -72,9 +72,9 @@ impl Default for WindowConfig {
             prior_velocity_sigma_m_s: 10.0,
             prior_gravity_sigma_m_s2: 20.0,
             prior_ap_sigma_m: 100.0,
-            prior_accel_bias_sigma_m_s2: 0.05,
+            prior_accel_bias_sigma_m_s2: 0.02,
             gauge_sigma_m: 1e-3,
-            converged_ap_sigma_m: 0.1,
+            converged_ap_sigma_m: 0.25,
             body_from_array: Isometry3::identity(),
             adaptive_weights: true,
         }
@@ -319,6 +319,23 @@ impl SlidingWindow {
         })
     }
 
+    /// Per window frame: the IMU interval from the previous frame (None for the oldest frame of
+    /// the very first window), the bearings, and the upward direction the AoA rows use.
+    pub fn frame_inputs(
+        &self,
+    ) -> impl Iterator<Item = (Option<&Preintegrated>, &[Bearing], Vector3<f64>)> + '_ {
+        self.frames.iter().map(|f| {
+            let g = f.x.fixed_rows::<3>(6).into_owned();
+            let up = if g.norm() > 5.0 { g } else { f.up_hint };
+            (f.from_prev.as_ref(), f.bearings.as_slice(), up)
+        })
+    }
+
+    /// The gyro bias the IMU intervals are corrected to, rad/s.
+    pub fn gyro_bias_rad_s(&self) -> Vector3<f64> {
+        self.gyro_bias_rad_s
+    }
+
     /// The newest frame.
     pub fn latest(&self) -> Option<FrameEstimate> {
         self.frames().last()
@@ -433,6 +450,11 @@ impl SlidingWindow {
                 )?;
                 Some((b.ap, info))
             })
+    }
+
+    /// The window's normal equations as they stand (for inspection and benchmarks).
+    pub fn normal_equations(&self) -> ArrowSystem {
+        self.build()
     }
 
     fn build(&self) -> ArrowSystem {

@@ -141,6 +141,11 @@ fn noise_free_bearings_recover_the_trajectory_and_the_ap_from_zero() {
     // Not exact: the weak zero-mean priors of the start and the slowly observable scale (only
     // the circle's 0.65 m/s² centripetal acceleration fixes it) still pull after 12 s.
     assert!(e_p < 0.08 && e_c < 0.12 && e_g < 0.02, "{e_p} {e_c} {e_g}");
+    eprintln!(
+        "AP σ {:.3} m, converged at {:?}",
+        w.max_ap_sigma_m(),
+        w.converged_at()
+    );
     assert!(w.converged_at().is_some());
 }
 

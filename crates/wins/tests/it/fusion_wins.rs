@@ -1,0 +1,216 @@
+//! WINS on the simulator's `paper-circle` with true AoA plus 2° Gaussian noise at 50 Hz and the
+//! MicroStrain IMU (issue 5's check): position and AP error after convergence, convergence time,
+//! attitude error; and robustness (motion toward the AP, outages, a still start).
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use wins::fusion::bearing::{Bearing, Side};
+use wins::fusion::estimator::{PoseEstimate, Wins, WinsConfig};
+use wins::sim::motion::{BodyState, sample};
+use wins::sim::run::{SimOutput, simulate};
+use wins::sim::scenario::Scenario;
+use wins::so3::log;
+use wins::time::Timestamp;
+
+/// A flight and its packets' truth bearings with noise; `keep(t_s)` drops packets (outages).
+struct Run {
+    poses: Vec<PoseEstimate>,
+    wins: Wins,
+    truth_at: Box<dyn Fn(f64) -> BodyState>,
+    b0: BodyState,
+    aps_w: Vec<Vector3<f64>>,
+}
+
+fn run(
+    scenario: &Scenario,
+    sigma_deg: f64,
+    seed: u64,
+    attitude_averaging: bool,
+    keep: impl Fn(f64) -> bool,
+) -> Run {
+    let out: SimOutput = simulate(scenario, &mut |_| {}).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, sigma_deg.to_radians()).unwrap();
+    // Every AP's packet slots, merged by time.
+    let mut packets: Vec<(Timestamp, Bearing)> = Vec::new();
+    for (l, ap) in out.aps.iter().enumerate() {
+        for p in &ap.packets {
+            if !keep(p.t.as_secs_f64()) {
+                continue;
+            }
+            let aoa = (p.truth.aoa_rad + noise.sample(&mut rng))
+                .clamp(-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2);
+            packets.push((
+                p.t,
+                Bearing {
+                    ap: l,
+                    aoa_rad: aoa,
+                    side: if p.truth.in_front {
+                        Side::Front
+                    } else {
+                        Side::Back
+                    },
+                    sigma_rad: sigma_deg.to_radians(),
+                },
+            ));
+        }
+    }
+    packets.sort_by_key(|(t, _)| *t);
+    let mut config = WinsConfig::new(scenario.imu.model.noise());
+    config.window.body_from_array = scenario.body_from_array();
+    config.attitude_averaging = attitude_averaging;
+    let mut wins = Wins::new(config);
+    let mut poses = Vec::new();
+    let mut next = 0;
+    for s in &out.imu {
+        while next < packets.len() && packets[next].0 <= s.t {
+            wins.push_bearings(packets[next].0, vec![packets[next].1])
+                .unwrap();
+            next += 1;
+        }
+        let step = wins.push_imu(s).unwrap();
+        for p in &step.frames {
+            assert!(p.p_b_in_w.iter().all(|x| x.is_finite()), "NaN at {:?}", p.t);
+        }
+        poses.extend(step.frames);
+    }
+    let traj = scenario.build_trajectory();
+    let yaw = scenario.yaw.clone();
+    let g = scenario.gravity_m_s2;
+    let truth_at = Box::new(move |t_s: f64| sample(&traj, &yaw, g, t_s));
+    let b0 = truth_at(poses[0].t.as_secs_f64());
+    Run {
+        poses,
+        wins,
+        truth_at,
+        b0,
+        aps_w: scenario
+            .aps
+            .iter()
+            .map(|a| Vector3::from(a.position_m))
+            .collect(),
+    }
+}
+
+struct Errors {
+    position_mean_m: f64,
+    position_max_m: f64,
+    attitude_mean_deg: f64,
+    ap_m: Vec<f64>,
+    converged_s: Option<f64>,
+}
+
+impl Run {
+    fn to_b0(&self, p_w: &Vector3<f64>) -> Vector3<f64> {
+        self.b0.world_from_body.inverse() * (p_w - self.b0.p_b_in_w)
+    }
+
+    /// Errors in `b0` over the frames after `from_s` (seconds since the first frame).
+    fn errors(&self, from_s: f64) -> Errors {
+        let t0 = self.poses[0].t.as_secs_f64();
+        let (mut sum_p, mut max_p, mut sum_r, mut n) = (0.0, 0.0f64, 0.0, 0);
+        for p in self
+            .poses
+            .iter()
+            .filter(|p| p.t.as_secs_f64() - t0 >= from_s)
+        {
+            let s = (self.truth_at)(p.t.as_secs_f64());
+            let e = (p.p_b_in_b0 - self.to_b0(&s.p_b_in_w)).norm();
+            let r_true: UnitQuaternion<f64> = self.b0.world_from_body.inverse() * s.world_from_body;
+            sum_p += e;
+            max_p = max_p.max(e);
+            sum_r += log(&(r_true.inverse() * p.b0_from_body))
+                .norm()
+                .to_degrees();
+            n += 1;
+        }
+        let w = self.wins.window();
+        Errors {
+            position_mean_m: sum_p / n as f64,
+            position_max_m: max_p,
+            attitude_mean_deg: sum_r / n as f64,
+            ap_m: (0..self.aps_w.len())
+                .map(|l| (w.ap_in_b0(l).unwrap() - self.to_b0(&self.aps_w[l])).norm())
+                .collect(),
+            converged_s: w.converged_at().map(|t| t.as_secs_f64() - t0),
+        }
+    }
+}
+
+fn scenario(name: &str, seconds: f64) -> Scenario {
+    let mut s = Scenario::built_in(name).unwrap();
+    s.duration_s = seconds;
+    s
+}
+
+#[test]
+fn paper_circle_with_two_degree_bearings() {
+    let sc = scenario("paper-circle", 40.0);
+    let r = run(&sc, 2.0, 11, false, |_| true);
+    let e = r.errors(10.0);
+    eprintln!(
+        "paper-circle 40 s, 2° AoA, MicroStrain: converged at {:?} s; after 10 s position mean {:.3} m (max {:.3}), AP {:.3} m, attitude {:.3}°; stats {:?}",
+        e.converged_s,
+        e.position_mean_m,
+        e.position_max_m,
+        e.ap_m[0],
+        e.attitude_mean_deg,
+        r.wins.stats()
+    );
+    // Issue 5's targets are 10 s, 0.15 m, 0.15 m and 0.5°; NOT MET yet (see the README's fusion
+    // section). These bounds guard what the estimator does today, a regression fails them.
+    assert!(
+        e.converged_s.is_some_and(|t| t <= 20.0),
+        "{:?}",
+        e.converged_s
+    );
+    assert!(e.position_mean_m <= 2.5, "{}", e.position_mean_m);
+    assert!(e.ap_m[0] <= 3.0, "{}", e.ap_m[0]);
+}
+
+#[test]
+fn ideal_imu_and_precise_bearings_converge_to_centimetres() {
+    let mut sc = scenario("paper-circle", 30.0);
+    sc.imu.model = wins::sim::imu::ImuModel::Ideal;
+    let r = run(&sc, 0.1, 12, false, |_| true);
+    let e = r.errors(15.0);
+    eprintln!(
+        "paper-circle 30 s, ideal IMU, 0.1° AoA: converged at {:?} s; after 15 s position {:.3} m (max {:.3}), AP {:.3} m",
+        e.converged_s, e.position_mean_m, e.position_max_m, e.ap_m[0]
+    );
+    assert!(e.converged_s.is_some_and(|t| t <= 15.0));
+    assert!(
+        e.position_mean_m <= 0.1 && e.ap_m[0] <= 0.15,
+        "{} {}",
+        e.position_mean_m,
+        e.ap_m[0]
+    );
+}
+
+#[test]
+fn outages_and_a_still_start_stay_finite_and_recover() {
+    // Five seconds without any bearing in the middle of the flight.
+    let sc = scenario("paper-circle", 30.0);
+    let mut sc_ideal = sc.clone();
+    sc_ideal.imu.model = wins::sim::imu::ImuModel::Ideal;
+    let r = run(&sc_ideal, 0.1, 13, false, |t| !(12.0..17.0).contains(&t));
+    let e = r.errors(25.0);
+    eprintln!(
+        "5 s outage (12–17 s): after 25 s position {:.3} m, AP {:.3} m",
+        e.position_mean_m, e.ap_m[0]
+    );
+    assert!(e.position_mean_m <= 0.2, "{}", e.position_mean_m);
+    // A still start: the built-in hover never moves, so nothing is observable; the estimate must
+    // stay finite (asserted per frame in `run`) and must not claim convergence.
+    let mut hover = Scenario::built_in("hover").unwrap();
+    hover.duration_s = 5.0;
+    let r = run(&hover, 2.0, 14, true, |_| true);
+    assert!(r.wins.window().converged_at().is_none());
+    assert!(
+        r.poses
+            .iter()
+            .all(|p| p.p_b_in_w.iter().all(|x| x.is_finite()))
+    );
+}
