@@ -1,13 +1,9 @@
-//! Small SO(3) toolkit shared by preintegration, attitude and the estimators.
+//! Small SO(3) toolkit shared by preintegration, attitude and the estimators (`[v]×` is
+//! nalgebra's `Vector3::cross_matrix`).
 //!
 //! Perturbations are on the right (body side) everywhere they are used: `R = R̂ · Exp(δθ)`.
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
-
-/// `[v]×`, the skew-symmetric matrix with `[v]× u = v × u`.
-pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
 
 /// `Exp(φ)` as a unit quaternion (rotation by `|φ|` about `φ/|φ|`).
 pub fn exp(phi: &Vector3<f64>) -> UnitQuaternion<f64> {
@@ -22,7 +18,7 @@ pub fn log(q: &UnitQuaternion<f64>) -> Vector3<f64> {
 /// Right Jacobian of SO(3): `Exp(φ + δ) ≈ Exp(φ) Exp(J_r(φ) δ)` (Forster et al. 2015, eq. 8).
 pub fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta2 = phi.norm_squared();
-    let k = skew(phi);
+    let k = phi.cross_matrix();
     if theta2 < 1e-10 {
         return Matrix3::identity() - 0.5 * k + (k * k) / 6.0;
     }
@@ -34,7 +30,7 @@ pub fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 /// Inverse of [`right_jacobian`]: `Log(Exp(φ) Exp(δ)) ≈ φ + J_r⁻¹(φ) δ`.
 pub fn right_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta2 = phi.norm_squared();
-    let k = skew(phi);
+    let k = phi.cross_matrix();
     if theta2 < 1e-10 {
         return Matrix3::identity() + 0.5 * k + (k * k) / 12.0;
     }

@@ -43,7 +43,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::{ImuBiases, ImuNoise, ImuSample};
-use crate::so3::{exp, right_jacobian, skew};
+use crate::so3::{exp, right_jacobian};
 use crate::time::Timestamp;
 
 /// 9×9 covariance of `[δα, δβ, δθ]`.
@@ -262,7 +262,7 @@ impl Preintegrator {
         let e_half = exp(&(phi * 0.5)).to_rotation_matrix().into_inner();
         let r_i = pre.bk_from_bk1.to_rotation_matrix().into_inner();
         let r_mid = r_i * e_half;
-        let a_mat = r_mid * skew(&f);
+        let a_mat = r_mid * f.cross_matrix();
 
         let mut fm = Covariance9::identity();
         fm.fixed_view_mut::<3, 3>(0, 3)

@@ -27,7 +27,6 @@ use nalgebra::{Isometry3, Matrix3, SMatrix, UnitQuaternion, Vector3};
 use super::arrow::{Block, FRAME_DIM, Vec9};
 use crate::fusion::bearing::{Bearing, Side};
 use crate::imu::{ImuBiases, Preintegrated};
-use crate::so3::skew;
 
 /// 9×3 block.
 pub type Block93 = SMatrix<f64, FRAME_DIM, 3>;
@@ -116,9 +115,9 @@ pub fn imu_info(inp: &ImuFactorInput) -> Option<ImuInfo> {
     m.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-i3));
     m.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-i3));
     m.fixed_view_mut::<3, 3>(3, 6)
-        .copy_from(&(-d_r * skew(&inp.v_next)));
+        .copy_from(&(-d_r * inp.v_next.cross_matrix()));
     m.fixed_view_mut::<3, 3>(6, 6)
-        .copy_from(&(-d_r * skew(&inp.g_next)));
+        .copy_from(&(-d_r * inp.g_next.cross_matrix()));
     let mut cov = m * pre.covariance * m.transpose();
     let att = (inp.attitude_sigma_rad * inp.step_m).powi(2);
     for i in 0..3 {
