@@ -8,3 +8,6 @@ pub mod sample;
 pub use noise::{ImuBiases, ImuNoise};
 pub use preintegration::{Preintegrated, PreintegrationError, Preintegrator};
 pub use sample::ImuSample;
+
+/// Standard gravity, m/s² (the magnitude of the upward specific force at rest).
+pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;

@@ -27,8 +27,7 @@ use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use super::trajectory::{Trajectory, Translation};
 use super::yaw::YawConfig;
 
-/// Standard gravity, m/s².
-pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
+pub use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// Below this norm a normalised direction is undefined and a fallback is used (see
 /// [`body_state`]).

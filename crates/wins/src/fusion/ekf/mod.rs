@@ -27,7 +27,7 @@ pub use state::{CORE_DIM, EkfState};
 
 use crate::fusion::bearing::Bearing;
 use crate::imu::ImuSample;
-use crate::sim::motion::STANDARD_GRAVITY_M_S2;
+use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// Relative asymmetry tolerated in an initial covariance, `|P_ij − P_ji| ≤ tol·√(P_ii·P_jj)`.
 const SYMMETRY_TOLERANCE: f64 = 1e-9;

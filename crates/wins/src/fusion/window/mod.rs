@@ -19,13 +19,14 @@ pub mod factors;
 mod marginalize;
 
 use std::collections::VecDeque;
+use std::ops::AddAssign;
 
 use nalgebra::{DMatrix, DVector, Isometry3, UnitQuaternion, Vector3};
 
 use self::arrow::{ArrowSystem, FRAME_DIM, Vec9};
 use self::factors::{AoaInfo, ImuFactorInput, ImuInfo, aoa_info, imu_info};
 use crate::fusion::bearing::Bearing;
-use crate::imu::Preintegrated;
+use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 
 /// Settings of the window.
@@ -136,6 +137,19 @@ struct Frame {
     up_hint: Vector3<f64>,
 }
 
+impl Frame {
+    /// The upward direction in `b_k` the AoA rows use: the solved gravity once it is plausible
+    /// (and the linearization follows the solution), else the specific-force hint.
+    fn up(&self, adaptive: bool) -> Vector3<f64> {
+        let g = self.x.fixed_rows::<3>(6).into_owned();
+        if adaptive && g.norm() > 5.0 {
+            g
+        } else {
+            self.up_hint
+        }
+    }
+}
+
 /// The sliding window (module doc).
 #[derive(Clone, Debug)]
 pub struct SlidingWindow {
@@ -217,7 +231,7 @@ impl SlidingWindow {
         // Predict the new frame's state from the previous one (a starting point for the noise
         // mapping only; the solve does not depend on it).
         let x = match (self.frames.back(), &from_prev) {
-            (Some(prev), Some(pre)) => predict(prev, &b0_from_bk, pre),
+            (Some(prev), Some(pre)) => predict(prev, pre),
             _ => Vec9::zeros(),
         };
         let up_hint = from_prev
@@ -324,11 +338,10 @@ impl SlidingWindow {
     pub fn frame_inputs(
         &self,
     ) -> impl Iterator<Item = (Option<&Preintegrated>, &[Bearing], Vector3<f64>)> + '_ {
-        self.frames.iter().map(|f| {
-            let g = f.x.fixed_rows::<3>(6).into_owned();
-            let up = if g.norm() > 5.0 { g } else { f.up_hint };
-            (f.from_prev.as_ref(), f.bearings.as_slice(), up)
-        })
+        let adaptive = self.config.adaptive_weights;
+        self.frames
+            .iter()
+            .map(move |f| (f.from_prev.as_ref(), f.bearings.as_slice(), f.up(adaptive)))
     }
 
     /// The gyro bias the IMU intervals are corrected to, rad/s.
@@ -429,12 +442,7 @@ impl SlidingWindow {
     fn aoa_factors(&self, k: usize) -> impl Iterator<Item = (usize, AoaInfo)> + '_ {
         let f = &self.frames[k];
         let c = &self.config;
-        let g = f.x.fixed_rows::<3>(6).into_owned();
-        let up = if g.norm() > 5.0 && c.adaptive_weights {
-            g
-        } else {
-            f.up_hint
-        };
+        let up = f.up(c.adaptive_weights);
         f.bearings
             .iter()
             .filter(|b| b.is_valid())
@@ -512,22 +520,20 @@ impl SlidingWindow {
     }
 }
 
-use std::ops::AddAssign;
-
 /// Upward gravity in `b_k+1` guessed from the interval's mean specific force (before any
 /// solution exists; only the noise mapping uses it).
 fn nominal_gravity(pre: &Preintegrated) -> Vector3<f64> {
     let dt = pre.dt_s().max(1e-6);
     let f = pre.bk_from_bk1.inverse() * (pre.beta / dt);
     if f.norm() > 1.0 {
-        f.normalize() * crate::sim::motion::STANDARD_GRAVITY_M_S2
+        f.normalize() * STANDARD_GRAVITY_M_S2
     } else {
-        Vector3::new(0.0, 0.0, crate::sim::motion::STANDARD_GRAVITY_M_S2)
+        Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2)
     }
 }
 
 /// The new frame's state propagated from the previous one with `eqn:linear_update`.
-fn predict(prev: &Frame, _b0_from_bk1: &UnitQuaternion<f64>, pre: &Preintegrated) -> Vec9 {
+fn predict(prev: &Frame, pre: &Preintegrated) -> Vec9 {
     let dt = pre.dt_s();
     let p = prev.x.fixed_rows::<3>(0).into_owned();
     let v = prev.x.fixed_rows::<3>(3).into_owned();
