@@ -165,24 +165,10 @@ impl Wins {
 
     /// Integrates one IMU sample, solving every queued frame it passes.
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, WinsError> {
-        if let Some(last) = self.pre.last_sample()
-            && s.t < last.t
-        {
+        // Checked before any queued frame is cut with it.
+        if let Err(e) = self.pre.check(s) {
             self.stats.imu_refused += 1;
-            return Err(PreintegrationError::OutOfOrder {
-                t_ns: s.t.0,
-                last_ns: last.t.0,
-            }
-            .into());
-        }
-        if !s
-            .gyro_rad_s
-            .iter()
-            .chain(s.accel_m_s2.iter())
-            .all(|x| x.is_finite())
-        {
-            self.stats.imu_refused += 1;
-            return Err(PreintegrationError::NonFinite { t_ns: s.t.0 }.into());
+            return Err(e.into());
         }
         let mut step = Step::default();
         while let Some((t, _)) = self.pending.front() {
@@ -219,11 +205,7 @@ impl Wins {
                 .window
                 .add_frame(t, UnitQuaternion::identity(), None, bearings),
             Some(prev) => {
-                let bias = ImuBiases {
-                    gyro_rad_s: self.window.gyro_bias_rad_s(),
-                    accel_m_s2: Vector3::zeros(),
-                };
-                let (_, _, d_r) = interval.corrected(&bias);
+                let (_, _, d_r) = interval.corrected(&self.gyro_only_bias());
                 self.window
                     .add_frame(t, prev.b0_from_bk * d_r, Some(interval), bearings)
             }
@@ -241,6 +223,15 @@ impl Wins {
         }
         self.stats.frames += 1;
         self.window.latest().map(|f| self.to_world(&f))
+    }
+
+    /// The gyro bias estimate with a zero accelerometer bias (the window corrects ΔR with it; the
+    /// accelerometer bias is a window unknown).
+    fn gyro_only_bias(&self) -> ImuBiases {
+        ImuBiases {
+            gyro_rad_s: self.window.gyro_bias_rad_s(),
+            accel_m_s2: Vector3::zeros(),
+        }
     }
 
     /// Rotation averaging over the window (module doc of [`super::attitude`]).
@@ -263,10 +254,7 @@ impl Wins {
             return;
         };
         let body_from_array = self.config.window.body_from_array;
-        let bias = ImuBiases {
-            gyro_rad_s: self.window.gyro_bias_rad_s(),
-            accel_m_s2: Vector3::zeros(),
-        };
+        let bias = self.gyro_only_bias();
         let mut att = Vec::with_capacity(n);
         for k in 0..n {
             let to_next = inputs

@@ -195,21 +195,27 @@ impl Preintegrator {
         &self.running
     }
 
+    /// Whether [`Self::push`] would take `s`: finite values, not older than the last sample.
+    pub fn check(&self, s: &ImuSample) -> Result<(), PreintegrationError> {
+        check_finite(s)?;
+        match self.last {
+            Some(last) if s.t < last.t => Err(PreintegrationError::OutOfOrder {
+                t_ns: s.t.0,
+                last_ns: last.t.0,
+            }),
+            _ => Ok(()),
+        }
+    }
+
     /// Integrates up to sample `s`.
     pub fn push(&mut self, s: &ImuSample) -> Result<(), PreintegrationError> {
-        check_finite(s)?;
+        self.check(s)?;
         let Some(last) = self.last else {
             self.last = Some(*s);
             self.running = Preintegrated::empty(s.t, self.bias);
             self.cross = BiasJacobian::zeros();
             return Ok(());
         };
-        if s.t < last.t {
-            return Err(PreintegrationError::OutOfOrder {
-                t_ns: s.t.0,
-                last_ns: last.t.0,
-            });
-        }
         if s.t > last.t {
             self.period_s = Some(s.t.secs_since(last.t));
             self.step(&last, s);
