@@ -21,6 +21,10 @@
 //! of every `R_k` decouple into three systems with the same block-tridiagonal matrix (3×3 blocks),
 //! solved together; then each block is projected to SO(3). The gyro bias follows by least
 //! squares from the averaged relative rotations: `Log(ΔR_k(0)ᵀ R_kᵀ R_k+1) ≈ J_θg b_g`.
+//!
+//! Not in the estimator's loop: fed back with bearing rows built from the window's (then
+//! biased) positions it made the attitude worse; the drift is removed instead by the window's
+//! joint gyro-bias estimate ([`super::estimator`]).
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 

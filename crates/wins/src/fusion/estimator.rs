@@ -3,19 +3,18 @@
 //! frames, propagated at IMU rate. A replay of a dataset and a live stream are two drivers of it.
 //!
 //! Per frame: the IMU interval since the previous frame is cut ([`crate::imu::Preintegrator`]),
-//! the frame's attitude is chained from the previous one with the bias-corrected ΔR, the
-//! [`super::window::SlidingWindow`] is solved, and — once the window has converged — the
-//! [`super::attitude`] stage re-averages the window's rotations with gravity and bearing rows and
-//! updates the gyro bias. Poses come out in the world frame `w`: origin and heading of `b0`,
-//! z along the solved upward gravity.
+//! the frame's attitude is chained from the previous one with ΔR corrected to the window's gyro
+//! bias, and the [`super::window::SlidingWindow`] is solved; once it has converged the window
+//! estimates the gyro bias jointly, which is what removes the gyro drift from the attitude (the
+//! paper's relaxed rotation averaging, [`super::attitude`], fed back in the loop made it worse:
+//! see the README). Poses come out in the world frame `w`: origin and heading of `b0`, z along
+//! the solved upward gravity.
 
 use std::collections::VecDeque;
 
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 
-use super::attitude::{AttitudeFrame, GyroBiasEstimator, average};
 use super::bearing::Bearing;
-use super::window::factors::horizontal_direction;
 use super::window::{FrameEstimate, SlidingWindow, WindowConfig, WindowError};
 use crate::imu::{ImuBiases, ImuNoise, ImuSample, PreintegrationError, Preintegrator};
 use crate::time::Timestamp;
@@ -27,24 +26,18 @@ pub struct WinsConfig {
     pub window: WindowConfig,
     /// IMU noise densities.
     pub imu_noise: ImuNoise,
-    /// Re-average the attitude with gravity and bearings and estimate the gyro bias (Sec. IV-A).
-    /// Off: the attitude is the gyro chain alone.
-    pub attitude_averaging: bool,
-    /// Prior 1σ of the gyro bias per axis, rad/s.
-    pub gyro_bias_prior_sigma_rad_s: f64,
 }
 
 impl WinsConfig {
     /// Defaults with the given IMU noise.
     pub fn new(imu_noise: ImuNoise) -> Self {
-        Self {
-            window: WindowConfig::default(),
-            imu_noise,
-            // Off by default: on paper-circle with 2° bearings the feedback currently makes the
-            // attitude worse (8° vs 1.8° after 40 s), see the README's fusion status.
-            attitude_averaging: false,
-            gyro_bias_prior_sigma_rad_s: 0.01,
-        }
+        // The biases' priors from the IMU's turn-on spread (floored: an ideal IMU has none).
+        let window = WindowConfig {
+            prior_gyro_bias_sigma_rad_s: imu_noise.gyro_turn_on_bias_rad_s.max(1e-4),
+            prior_accel_bias_sigma_m_s2: imu_noise.accel_turn_on_bias_m_s2.max(1e-3),
+            ..WindowConfig::default()
+        };
+        Self { window, imu_noise }
     }
 }
 
@@ -119,8 +112,6 @@ pub struct Wins {
     pre: Preintegrator,
     window: SlidingWindow,
     pending: VecDeque<(Timestamp, Vec<Bearing>)>,
-    gyro_bias: GyroBiasEstimator,
-    up_sum_in_b0: Vector3<f64>,
     stats: WinsStats,
 }
 
@@ -131,11 +122,14 @@ impl Wins {
             pre: Preintegrator::new(config.imu_noise.clone(), ImuBiases::zero()),
             window: SlidingWindow::new(config.window.clone()),
             pending: VecDeque::new(),
-            gyro_bias: GyroBiasEstimator::new(config.gyro_bias_prior_sigma_rad_s),
-            up_sum_in_b0: Vector3::zeros(),
             stats: WinsStats::default(),
             config,
         }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &WinsConfig {
+        &self.config
     }
 
     /// Counters.
@@ -218,9 +212,6 @@ impl Wins {
         if self.window.solve().is_err() {
             self.stats.solve_failures += 1;
         }
-        if self.config.attitude_averaging && self.window.converged_at().is_some() {
-            self.refine_attitude();
-        }
         self.stats.frames += 1;
         self.window.latest().map(|f| self.to_world(&f))
     }
@@ -234,82 +225,12 @@ impl Wins {
         }
     }
 
-    /// Rotation averaging over the window (module doc of [`super::attitude`]).
-    fn refine_attitude(&mut self) {
-        let frames: Vec<FrameEstimate> = self.window.frames().collect();
-        let inputs: Vec<_> = self
-            .window
-            .frame_inputs()
-            .map(|(pre, b, up)| (pre.cloned(), b.to_vec(), up))
-            .collect();
-        let n = frames.len();
-        if n < 2 {
-            return;
-        }
-        // γ: the unit upward gravity in b0, averaged over every converged frame so far.
-        if let Some(f) = frames.last() {
-            self.up_sum_in_b0 += f.b0_from_bk * f.g_in_bk.normalize();
-        }
-        let Some(gamma) = self.up_sum_in_b0.try_normalize(1e-9) else {
-            return;
-        };
-        let body_from_array = self.config.window.body_from_array;
-        let bias = self.gyro_only_bias();
-        let mut att = Vec::with_capacity(n);
-        for k in 0..n {
-            let to_next = inputs
-                .get(k + 1)
-                .and_then(|(pre, _, _)| pre.as_ref())
-                .map(|pre| {
-                    let (_, _, d_r) = pre.corrected(&bias);
-                    let p = pre.covariance.fixed_view::<3, 3>(6, 6).trace() / 3.0;
-                    // Gyro noise plus a bias uncertainty of 0.002 rad/s over the interval.
-                    (d_r, (p + (0.002 * pre.dt_s()).powi(2)).sqrt())
-                });
-            let f = &frames[k];
-            let (_, bearings, up) = &inputs[k];
-            let mut directions = vec![(up.normalize(), gamma, 0.01)];
-            for b in bearings.iter().filter(|b| b.is_valid()) {
-                let (Some(c), Some((u, ..))) = (
-                    self.window.ap_in_b0(b.ap),
-                    horizontal_direction(b, up, &body_from_array),
-                ) else {
-                    continue;
-                };
-                let array_in_b0 = f.p_in_b0 + f.b0_from_bk * body_from_array.translation.vector;
-                if let Some(dir) = (c - array_in_b0).try_normalize(1e-6) {
-                    directions.push((u, dir, b.sigma_rad.max(0.01)));
-                }
-            }
-            att.push(AttitudeFrame {
-                b0_from_bk: f.b0_from_bk,
-                to_next,
-                directions,
-            });
-        }
-        let Some(rots) = average(&att, 1e-3) else {
-            return;
-        };
-        for (k, r) in rots.iter().enumerate() {
-            self.window.set_rotation(k, *r);
-        }
-        // The newest interval feeds the gyro-bias estimate.
-        if let Some((Some(pre), _, _)) = inputs.last() {
-            let j: Matrix3<f64> = pre.jacobian_bias.fixed_view::<3, 3>(6, 3).into_owned();
-            let sigma = (pre.covariance.fixed_view::<3, 3>(6, 6).trace() / 3.0).sqrt() + 1e-4;
-            self.gyro_bias
-                .add(&pre.bk_from_bk1, &j, &rots[n - 2], &rots[n - 1], sigma);
-            self.window.set_gyro_bias(self.gyro_bias.estimate());
-        }
-    }
-
     /// `R_w_b0`: z along the solved upward gravity, heading of `b0`.
     pub fn world_from_b0(&self) -> UnitQuaternion<f64> {
-        let up = self.up_sum_in_b0.try_normalize(1e-9).or_else(|| {
-            self.window
-                .latest()
-                .and_then(|f| (f.b0_from_bk * f.g_in_bk).try_normalize(1e-9))
-        });
+        let up = self
+            .window
+            .latest()
+            .and_then(|f| (f.b0_from_bk * f.g_in_bk).try_normalize(1e-9));
         up.and_then(|u| UnitQuaternion::rotation_between(&u, &Vector3::z()))
             .unwrap_or_else(UnitQuaternion::identity)
     }

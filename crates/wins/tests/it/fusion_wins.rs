@@ -27,7 +27,7 @@ fn run(
     scenario: &Scenario,
     sigma_deg: f64,
     seed: u64,
-    attitude_averaging: bool,
+    estimate_gyro_bias: bool,
     keep: impl Fn(f64) -> bool,
 ) -> Run {
     let out: SimOutput = simulate(scenario, &mut |_| {}).unwrap();
@@ -60,7 +60,7 @@ fn run(
     packets.sort_by_key(|(t, _)| *t);
     let mut config = WinsConfig::new(scenario.imu.model.noise());
     config.window.body_from_array = scenario.body_from_array();
-    config.attitude_averaging = attitude_averaging;
+    config.window.estimate_gyro_bias = estimate_gyro_bias;
     let mut wins = Wins::new(config);
     let mut poses = Vec::new();
     let mut next = 0;
@@ -98,6 +98,8 @@ struct Errors {
     position_mean_m: f64,
     position_max_m: f64,
     attitude_mean_deg: f64,
+    /// Mean |yaw error| (rotation about the upward axis of b0's gravity), degrees.
+    yaw_mean_deg: f64,
     ap_m: Vec<f64>,
     converged_s: Option<f64>,
 }
@@ -110,7 +112,8 @@ impl Run {
     /// Errors in `b0` over the frames after `from_s` (seconds since the first frame).
     fn errors(&self, from_s: f64) -> Errors {
         let t0 = self.poses[0].t.as_secs_f64();
-        let (mut sum_p, mut max_p, mut sum_r, mut n) = (0.0, 0.0f64, 0.0, 0);
+        let (mut sum_p, mut max_p, mut sum_r, mut sum_y, mut n) = (0.0, 0.0f64, 0.0, 0.0, 0);
+        let up_in_b0 = self.b0.world_from_body.inverse() * Vector3::z();
         for p in self
             .poses
             .iter()
@@ -121,9 +124,9 @@ impl Run {
             let r_true: UnitQuaternion<f64> = self.b0.world_from_body.inverse() * s.world_from_body;
             sum_p += e;
             max_p = max_p.max(e);
-            sum_r += log(&(r_true.inverse() * p.b0_from_body))
-                .norm()
-                .to_degrees();
+            let err_in_b0 = log(&(p.b0_from_body * r_true.inverse()));
+            sum_r += err_in_b0.norm().to_degrees();
+            sum_y += err_in_b0.dot(&up_in_b0).abs().to_degrees();
             n += 1;
         }
         let w = self.wins.window();
@@ -131,6 +134,7 @@ impl Run {
             position_mean_m: sum_p / n as f64,
             position_max_m: max_p,
             attitude_mean_deg: sum_r / n as f64,
+            yaw_mean_deg: sum_y / n as f64,
             ap_m: (0..self.aps_w.len())
                 .map(|l| (w.ap_in_b0(l).unwrap() - self.to_b0(&self.aps_w[l])).norm())
                 .collect(),
@@ -148,45 +152,88 @@ fn scenario(name: &str, seconds: f64) -> Scenario {
 #[test]
 fn paper_circle_with_two_degree_bearings() {
     let sc = scenario("paper-circle", 40.0);
-    let r = run(&sc, 2.0, 11, false, |_| true);
-    let e = r.errors(10.0);
+    let r = run(&sc, 2.0, 11, true, |_| true);
+    let converged_s = r.errors(0.0).converged_s;
+    let e = r.errors(converged_s.unwrap_or(0.0));
     eprintln!(
-        "paper-circle 40 s, 2° AoA, MicroStrain: converged at {:?} s; after 10 s position mean {:.3} m (max {:.3}), AP {:.3} m, attitude {:.3}°; stats {:?}",
+        "paper-circle 40 s, 2° AoA, MicroStrain: converged at {:?} s; after convergence position mean {:.3} m (max {:.3}), AP {:.3} m, attitude {:.3}° (yaw {:.3}°); stats {:?}",
         e.converged_s,
         e.position_mean_m,
         e.position_max_m,
         e.ap_m[0],
         e.attitude_mean_deg,
+        e.yaw_mean_deg,
         r.wins.stats()
     );
-    // The figures the README's diagnosis quotes: the AP range from b0 against the truth, and the
-    // attitude with rotation averaging fed back (off by default).
-    let range = |c: nalgebra::Vector3<f64>| c.norm();
-    let est = range(r.wins.window().ap_in_b0(0).unwrap());
-    let truth = range(r.to_b0(&r.aps_w[0]));
-    let averaged = run(&sc, 2.0, 11, true, |_| true).errors(10.0);
+    // The AP range from b0 against the truth (the algebraic AoA rows shrank it by 25 % before
+    // the angle rows and the joint gyro bias).
+    let est = r.wins.window().ap_in_b0(0).unwrap().norm();
+    let truth = r.to_b0(&r.aps_w[0]).norm();
     eprintln!(
-        "AP range from b0: {est:.2} m estimated, {truth:.2} m true ({:+.1} %); with attitude averaging: attitude {:.3}°, position {:.3} m",
-        100.0 * (est / truth - 1.0),
-        averaged.attitude_mean_deg,
-        averaged.position_mean_m
+        "AP range from b0: {est:.2} m estimated, {truth:.2} m true ({:+.1} %)",
+        100.0 * (est / truth - 1.0)
     );
     // Issue 5's targets are 10 s, 0.15 m, 0.15 m and 0.5°; NOT MET yet (see the README's fusion
     // section). These bounds guard what the estimator does today, a regression fails them.
     assert!(
-        e.converged_s.is_some_and(|t| t <= 20.0),
+        e.converged_s.is_some_and(|t| t <= 13.0),
         "{:?}",
         e.converged_s
     );
-    assert!(e.position_mean_m <= 2.5, "{}", e.position_mean_m);
-    assert!(e.ap_m[0] <= 3.0, "{}", e.ap_m[0]);
+    assert!(e.position_mean_m <= 0.45, "{}", e.position_mean_m);
+    assert!(e.ap_m[0] <= 0.25, "{}", e.ap_m[0]);
+    assert!(e.attitude_mean_deg <= 1.0, "{}", e.attitude_mean_deg);
+    assert!((est / truth - 1.0).abs() < 0.05);
+}
+
+#[test]
+fn the_joint_gyro_bias_and_yaw_drift() {
+    // The attitude with and without the window's gyro-bias estimate: on the MicroStrain (turn-on
+    // 0.08 °/s per axis) it removes most of the drift; on a consumer MEMS gyro (0.5 °/s) it does
+    // not yet (printed, see the README): the bias is only estimated after convergence, by when
+    // the startup solution has absorbed degrees of drift.
+    let from = |r: &Run| r.errors(r.errors(0.0).converged_s.unwrap_or(10.0));
+    let sc = scenario("paper-circle", 40.0);
+    let (a, b) = (
+        from(&run(&sc, 2.0, 11, true, |_| true)),
+        from(&run(&sc, 2.0, 11, false, |_| true)),
+    );
+    eprintln!(
+        "MicroStrain, 40 s, after convergence, gyro bias estimated / not: yaw {:.2}° / {:.2}°, attitude {:.2}° / {:.2}°, position {:.3} m / {:.3} m, AP {:.3} m / {:.3} m",
+        a.yaw_mean_deg,
+        b.yaw_mean_deg,
+        a.attitude_mean_deg,
+        b.attitude_mean_deg,
+        a.position_mean_m,
+        b.position_mean_m,
+        a.ap_m[0],
+        b.ap_m[0]
+    );
+    assert!(a.attitude_mean_deg < 0.6 * b.attitude_mean_deg);
+    assert!(a.ap_m[0] < 0.2 * b.ap_m[0]);
+    let mut mems = sc.clone();
+    mems.imu.model = wins::sim::imu::ImuModel::ConsumerMems;
+    let (c, d) = (
+        from(&run(&mems, 2.0, 15, true, |_| true)),
+        from(&run(&mems, 2.0, 15, false, |_| true)),
+    );
+    eprintln!(
+        "consumer MEMS, 40 s, after convergence, gyro bias estimated / not: yaw {:.2}° / {:.2}°, attitude {:.2}° / {:.2}°, position {:.3} m / {:.3} m",
+        c.yaw_mean_deg,
+        d.yaw_mean_deg,
+        c.attitude_mean_deg,
+        d.attitude_mean_deg,
+        c.position_mean_m,
+        d.position_mean_m
+    );
+    assert!(c.attitude_mean_deg.is_finite() && d.attitude_mean_deg.is_finite());
 }
 
 #[test]
 fn ideal_imu_and_precise_bearings_converge_to_centimetres() {
     let mut sc = scenario("paper-circle", 30.0);
     sc.imu.model = wins::sim::imu::ImuModel::Ideal;
-    let r = run(&sc, 0.1, 12, false, |_| true);
+    let r = run(&sc, 0.1, 12, true, |_| true);
     let e = r.errors(15.0);
     eprintln!(
         "paper-circle 30 s, ideal IMU, 0.1° AoA: converged at {:?} s; after 15 s position {:.3} m (max {:.3}), AP {:.3} m",
@@ -207,7 +254,7 @@ fn outages_and_a_still_start_stay_finite_and_recover() {
     let sc = scenario("paper-circle", 30.0);
     let mut sc_ideal = sc.clone();
     sc_ideal.imu.model = wins::sim::imu::ImuModel::Ideal;
-    let r = run(&sc_ideal, 0.1, 13, false, |t| !(12.0..17.0).contains(&t));
+    let r = run(&sc_ideal, 0.1, 13, true, |t| !(12.0..17.0).contains(&t));
     let e = r.errors(25.0);
     eprintln!(
         "5 s outage (12–17 s): after 25 s position {:.3} m, AP {:.3} m",

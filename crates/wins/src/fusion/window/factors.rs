@@ -9,7 +9,10 @@
 //! ΔR g_k+1 − g_k                                    = 0
 //! ```
 //!
-//! with `R_k = R_{b_k}^{b_0}` from the attitude stage. Its covariance is the preintegration
+//! with `R_k = R_{b_k}^{b_0}` chained from the gyro. The gyro bias `b_g` is a border unknown too:
+//! with `R_k = R̂_k Exp(Ψ_k δb_g)` and `ΔR = ΔR̂ Exp(J_θg δb_g)` the bilinear terms are linearized
+//! at the previous solution (`R_kᵀ Δp ≈ R̂_kᵀ Δp + [R̂_kᵀ Δp̂]× Ψ_k δb_g`, `ΔR v ≈ ΔR̂ v −
+//! ΔR̂ [v̂]× J_θg δb_g`, likewise for g), plus α's and β's own `J_αg`, `J_βg`. Its covariance is the preintegration
 //! covariance mapped through `∂r/∂[δα, δβ, δθ] = [−I 0 0; 0 −I −ΔR[v̂]×; 0 0 −ΔR[ĝ]×]` at the
 //! previous solution, plus the attitude uncertainty seen by the position term (σ_R·|Δp̂|) and a
 //! small floor (the gravity row has no noise along ĝ, a rotation keeps norms).
@@ -22,14 +25,25 @@
 //! array's *height* instead (horizontal `u`, using the gravity estimate), which is the same
 //! 5-DoF assumption without the tilt error; see [`aoa_info`].
 
-use nalgebra::{Isometry3, Matrix3, SMatrix, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
+
+use std::ops::AddAssign;
 
 use super::arrow::{Block, FRAME_DIM, Vec9};
 use crate::fusion::bearing::{Bearing, Side};
 use crate::imu::{ImuBiases, Preintegrated};
 
-/// 9×3 block.
-pub type Block93 = SMatrix<f64, FRAME_DIM, 3>;
+/// Number of bias unknowns at the head of the border: accelerometer, then gyro.
+pub const BIAS_DIM: usize = 6;
+
+/// 9×6 block (frame rows, bias columns).
+pub type Block96 = SMatrix<f64, FRAME_DIM, BIAS_DIM>;
+
+/// 6×6 block.
+pub type Matrix6 = SMatrix<f64, BIAS_DIM, BIAS_DIM>;
+
+/// 6-vector.
+pub type Vector6 = SVector<f64, BIAS_DIM>;
 
 /// Information contributed by one IMU factor.
 #[derive(Clone, Debug)]
@@ -40,18 +54,18 @@ pub struct ImuInfo {
     pub h_ll: Block,
     /// `H_k+1,k`.
     pub h_lk: Block,
-    /// `H_b,k` transposed (9×3: frame rows, bias columns).
-    pub h_kb: Block93,
+    /// `H_b,k` transposed (9×6: frame rows, bias columns).
+    pub h_kb: Block96,
     /// `H_b,k+1` transposed.
-    pub h_lb: Block93,
+    pub h_lb: Block96,
     /// `H_bb`.
-    pub h_bb: Matrix3<f64>,
+    pub h_bb: Matrix6,
     /// Information vector of frame k.
     pub b_k: Vec9,
     /// Information vector of frame k+1.
     pub b_l: Vec9,
-    /// Information vector of the bias.
-    pub b_b: Vector3<f64>,
+    /// Information vector of the biases.
+    pub b_b: Vector6,
 }
 
 /// What the IMU factor needs besides the preintegration.
@@ -62,18 +76,65 @@ pub struct ImuFactorInput<'a> {
     pub b0_from_bk: &'a UnitQuaternion<f64>,
     /// The current gyro bias estimate (α, β, ΔR are corrected to it to first order).
     pub gyro_bias_rad_s: Vector3<f64>,
-    /// Previous estimates of `v_k+1`, `g_k+1` (for the noise mapping) and `|p_k+1 − p_k|`.
+    /// `Ψ_k = ∂R_k/∂b_g` (right perturbation) and the gyro bias `b̂_k` at which `R_k` was
+    /// chained: `R_k(b_g) ≈ R̂_k Exp(Ψ_k (b_g − b̂_k))`. `None` keeps the gyro bias out.
+    pub psi_k: Option<(Matrix3<f64>, Vector3<f64>)>,
+    /// Previous estimates of `v_k+1`, `g_k+1` and `p_k+1 − p_k` (in `b0`): the noise mapping and
+    /// the gyro-bias linearization.
     pub v_next: Vector3<f64>,
     /// See `v_next`.
     pub g_next: Vector3<f64>,
     /// See `v_next`.
-    pub step_m: f64,
+    pub step_in_b0: Vector3<f64>,
     /// Attitude 1σ, rad.
     pub attitude_sigma_rad: f64,
 }
 
-/// Linearizes one IMU factor (module doc).
+/// One IMU factor's rows `A_k x_k + A_l x_l + A_b b = z` with residual covariance `cov`.
+#[derive(Clone, Debug)]
+pub struct ImuRows {
+    /// `A_k`.
+    pub a_k: Block,
+    /// `A_l` (frame k+1).
+    pub a_l: Block,
+    /// `A_b` (bias columns: accelerometer, gyro).
+    pub a_b: Block96,
+    /// Right side.
+    pub z: Vec9,
+    /// Residual covariance.
+    pub cov: Block,
+}
+
+/// Linearizes one IMU factor (module doc) into information form.
 pub fn imu_info(inp: &ImuFactorInput) -> Option<ImuInfo> {
+    let ImuRows {
+        a_k,
+        a_l,
+        a_b,
+        z,
+        cov,
+    } = imu_rows(inp);
+    let w = cov.try_inverse()?;
+    let w = (w + w.transpose()) * 0.5;
+    let wa_k = w * a_k;
+    let wa_l = w * a_l;
+    let wa_b = w * a_b;
+    let wz = w * z;
+    Some(ImuInfo {
+        h_kk: a_k.transpose() * wa_k,
+        h_ll: a_l.transpose() * wa_l,
+        h_lk: a_l.transpose() * wa_k,
+        h_kb: a_k.transpose() * wa_b,
+        h_lb: a_l.transpose() * wa_b,
+        h_bb: a_b.transpose() * wa_b,
+        b_k: a_k.transpose() * wz,
+        b_l: a_l.transpose() * wz,
+        b_b: a_b.transpose() * wz,
+    })
+}
+
+/// The rows of one IMU factor (module doc).
+pub fn imu_rows(inp: &ImuFactorInput) -> ImuRows {
     let pre = inp.pre;
     let dt = pre.dt_s();
     let r_k_t = inp.b0_from_bk.to_rotation_matrix().into_inner().transpose();
@@ -98,17 +159,37 @@ pub fn imu_info(inp: &ImuFactorInput) -> Option<ImuInfo> {
     a_l.fixed_view_mut::<3, 3>(0, 0).copy_from(&r_k_t);
     a_l.fixed_view_mut::<3, 3>(3, 3).copy_from(&d_r);
     a_l.fixed_view_mut::<3, 3>(6, 6).copy_from(&d_r);
-    let mut a_b = Block93::zeros();
-    let j_alpha_a = pre.jacobian_bias.fixed_view::<3, 3>(0, 0);
-    let j_beta_a = pre.jacobian_bias.fixed_view::<3, 3>(3, 0);
-    a_b.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-j_alpha_a));
-    a_b.fixed_view_mut::<3, 3>(3, 0).copy_from(&(-j_beta_a));
+    // Bias columns; every bias term is linear in the deviation from its linearization point
+    // `b̂`, so the right side carries `A_b b̂`.
+    let jb = &pre.jacobian_bias;
+    let mut a_b = Block96::zeros();
+    a_b.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(-jb.fixed_view::<3, 3>(0, 0)));
+    a_b.fixed_view_mut::<3, 3>(3, 0)
+        .copy_from(&(-jb.fixed_view::<3, 3>(3, 0)));
+    // The rotation's own linearization point differs from the preintegration's.
+    let mut z_rot = Vec9::zeros();
+    if let Some((psi_k, lin_k)) = inp.psi_k {
+        let j_theta_g = jb.fixed_view::<3, 3>(6, 3);
+        let c_rot = (r_k_t * inp.step_in_b0).cross_matrix() * psi_k;
+        a_b.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(-jb.fixed_view::<3, 3>(0, 3) + c_rot));
+        z_rot
+            .fixed_rows_mut::<3>(0)
+            .copy_from(&(c_rot * (lin_k - inp.gyro_bias_rad_s)));
+        a_b.fixed_view_mut::<3, 3>(3, 3).copy_from(
+            &(-jb.fixed_view::<3, 3>(3, 3) - d_r * inp.v_next.cross_matrix() * j_theta_g),
+        );
+        a_b.fixed_view_mut::<3, 3>(6, 3)
+            .copy_from(&(-d_r * inp.g_next.cross_matrix() * j_theta_g));
+    }
+    let mut b_hat = Vector6::zeros();
+    b_hat.fixed_rows_mut::<3>(0).copy_from(&pre.bias.accel_m_s2);
+    b_hat.fixed_rows_mut::<3>(3).copy_from(&inp.gyro_bias_rad_s);
 
-    let mut z = Vec9::zeros();
-    z.fixed_rows_mut::<3>(0)
-        .copy_from(&(alpha - j_alpha_a * pre.bias.accel_m_s2));
-    z.fixed_rows_mut::<3>(3)
-        .copy_from(&(beta - j_beta_a * pre.bias.accel_m_s2));
+    let mut z = a_b * b_hat + z_rot;
+    z.fixed_rows_mut::<3>(0).add_assign(&alpha);
+    z.fixed_rows_mut::<3>(3).add_assign(&beta);
 
     // Residual covariance.
     let mut m = Block::zeros();
@@ -119,38 +200,34 @@ pub fn imu_info(inp: &ImuFactorInput) -> Option<ImuInfo> {
     m.fixed_view_mut::<3, 3>(6, 6)
         .copy_from(&(-d_r * inp.g_next.cross_matrix()));
     let mut cov = m * pre.covariance * m.transpose();
-    let att = (inp.attitude_sigma_rad * inp.step_m).powi(2);
+    let att = (inp.attitude_sigma_rad * inp.step_in_b0.norm()).powi(2);
     for i in 0..3 {
         cov[(i, i)] += att + 1e-12;
         cov[(3 + i, 3 + i)] += 1e-10;
         cov[(6 + i, 6 + i)] += 1e-8;
     }
-    let w = cov.try_inverse()?;
-    let w = (w + w.transpose()) * 0.5;
-    let wa_k = w * a_k;
-    let wa_l = w * a_l;
-    let wa_b = w * a_b;
-    let wz = w * z;
-    Some(ImuInfo {
-        h_kk: a_k.transpose() * wa_k,
-        h_ll: a_l.transpose() * wa_l,
-        h_lk: a_l.transpose() * wa_k,
-        h_kb: a_k.transpose() * wa_b,
-        h_lb: a_l.transpose() * wa_b,
-        h_bb: a_b.transpose() * wa_b,
-        b_k: a_k.transpose() * wz,
-        b_l: a_l.transpose() * wz,
-        b_b: a_b.transpose() * wz,
-    })
+    ImuRows {
+        a_k,
+        a_l,
+        a_b,
+        z,
+        cov,
+    }
 }
 
-/// Information contributed by one AoA factor: `N (c − p)` rows.
+/// Information contributed by one AoA factor: rows `jᵀ (c − p) + gᵀ b_g = y`.
 #[derive(Clone, Copy, Debug)]
 pub struct AoaInfo {
-    /// `N = Σ w_i n_i n_iᵀ` (acts on `p` and `c` with opposite signs).
+    /// `N = Σ w j jᵀ` (acts on `p` and `c` with opposite signs).
     pub n: Matrix3<f64>,
-    /// `Σ w_i n_i (n_iᵀ R_j t_ba)`: information vector of `c` (minus it for `p`).
+    /// `Σ w j y`: information vector of `c` (minus it for `p`).
     pub b_c: Vector3<f64>,
+    /// `Σ w j gᵀ`: the `(c, b_g)` block (minus it for `(p, b_g)`).
+    pub n_cg: Matrix3<f64>,
+    /// `Σ w g gᵀ`: the `(b_g, b_g)` block.
+    pub n_gg: Matrix3<f64>,
+    /// `Σ w g y`: information vector of `b_g`.
+    pub b_g: Vector3<f64>,
 }
 
 /// The horizontal unit direction `u` in `b_j` with the bearing's cone angle on its side (see
@@ -185,34 +262,128 @@ pub fn horizontal_direction(
 /// Linearizes one AoA factor (module doc), for an AP at the array's height: the direction `u`
 /// toward it is horizontal (`u · up = 0`, `up` the unit upward gravity in `b_j`) and has the
 /// measured cone angle (`u · ŷ_a = sin θ`) on the measured side. Rows: the horizontal normal
-/// `up × u` (the bearing, weight `1/(λ σ_β)²` with σ_β the cone-angle σ mapped to azimuth) and
-/// `up` itself (the AP at the array's height, weight `1/(λ σ_e)²`). `None` when the cone angle
-/// cannot be met by a horizontal direction (array axis near vertical).
-#[allow(clippy::too_many_arguments)]
+/// `n = up × u` (the bearing, σ_β the cone-angle σ mapped to azimuth) and `up` itself (the AP at
+/// the array's height, σ_e).
+///
+/// Without a linearization point each row is the paper's algebraic one, `nᵀ x / λ` with
+/// `x = c − p − R t_ba` and a given range λ. That residual shrinks with the geometry, so least
+/// squares favours a too-small scale by O(σ²) (the pseudo-linear bias of bearing-only
+/// localization). With a point `x̂` the row is the angle `nᵀ x / |x|` linearized there:
+/// `J = (n − (nᵀû) û)ᵀ / |x̂|`, `J x̂ = 0`, right side `−nᵀû`; it does not change along `x̂`, so only
+/// the IMU sets the scale. With `gyro = Some((Ψ_j, b̂_g))` the rows also take the gyro bias,
+/// through `R_j = R̂_j Exp(Ψ_j δb_g)` (direction and array offset), linearized at the point.
+/// `None` when the cone angle cannot be met by a horizontal direction
+/// (array axis near vertical).
 pub fn aoa_info(
     bearing: &Bearing,
     b0_from_bj: &UnitQuaternion<f64>,
     up_in_bj: &Vector3<f64>,
     body_from_array: &Isometry3<f64>,
-    range_m: f64,
-    attitude_sigma_rad: f64,
-    elevation_sigma_rad: f64,
+    point: AoaPoint,
+    gyro: Option<(&Matrix3<f64>, &Vector3<f64>)>,
+    sigmas: &AoaSigmas,
 ) -> Option<AoaInfo> {
+    let rows = aoa_rows(
+        bearing,
+        b0_from_bj,
+        up_in_bj,
+        body_from_array,
+        point,
+        gyro,
+        sigmas,
+    )?;
+    let mut info = AoaInfo {
+        n: Matrix3::zeros(),
+        b_c: Vector3::zeros(),
+        n_cg: Matrix3::zeros(),
+        n_gg: Matrix3::zeros(),
+        b_g: Vector3::zeros(),
+    };
+    for AoaRow { j, g, y, var } in rows {
+        info.n += j * j.transpose() / var;
+        info.b_c += j * y / var;
+        info.n_cg += j * g.transpose() / var;
+        info.n_gg += g * g.transpose() / var;
+        info.b_g += g * y / var;
+    }
+    Some(info)
+}
+
+/// One row of an AoA factor: `jᵀ (c − p) + gᵀ b_g = y` with variance `var`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AoaRow {
+    /// Coefficients of `c` (and minus those of `p`).
+    pub j: Vector3<f64>,
+    /// Coefficients of the gyro bias (zero unless it is estimated).
+    pub g: Vector3<f64>,
+    /// Right side.
+    pub y: f64,
+    /// Variance.
+    pub var: f64,
+}
+
+/// The two rows of [`aoa_info`].
+pub fn aoa_rows(
+    bearing: &Bearing,
+    b0_from_bj: &UnitQuaternion<f64>,
+    up_in_bj: &Vector3<f64>,
+    body_from_array: &Isometry3<f64>,
+    point: AoaPoint,
+    gyro: Option<(&Matrix3<f64>, &Vector3<f64>)>,
+    sigmas: &AoaSigmas,
+) -> Option<[AoaRow; 2]> {
     let (u, up, s, sin_b) = horizontal_direction(bearing, up_in_bj, body_from_array)?;
     // δθ cos θ = −s sin β δβ.
     let sigma_beta = bearing.sigma_rad * bearing.aoa_rad.cos() / (s * sin_b.abs()).max(0.1);
-    let sigma_theta2 = sigma_beta.powi(2) + attitude_sigma_rad.powi(2);
-    let offset = b0_from_bj * body_from_array.translation.vector;
-    let mut n = Matrix3::zeros();
-    let mut b_c = Vector3::zeros();
-    for (dir_b, var) in [
-        (up.cross(&u), sigma_theta2),
-        (up, elevation_sigma_rad.powi(2)),
-    ] {
+    let sigma_theta2 = sigma_beta.powi(2) + sigmas.attitude_rad.powi(2);
+    let t_ba = body_from_array.translation.vector;
+    let offset = b0_from_bj * t_ba;
+    let r_j = b0_from_bj.to_rotation_matrix().into_inner();
+    let row = |dir_b: Vector3<f64>, var: f64| {
         let dir = b0_from_bj * dir_b;
-        let w = 1.0 / (range_m * range_m * var);
-        n += w * dir * dir.transpose();
-        b_c += w * dir * dir.dot(&offset);
-    }
-    Some(AoaInfo { n, b_c })
+        let (j, r0, unit) = match point {
+            AoaPoint::Range(range_m) => (dir / range_m, 0.0, None),
+            AoaPoint::At(x) => {
+                let range_m = x.norm();
+                let unit = x / range_m;
+                let along = dir.dot(&unit);
+                ((dir - unit * along) / range_m, along, Some(unit))
+            }
+        };
+        let mut y = j.dot(&offset) - r0;
+        let mut g = Vector3::zeros();
+        if let (Some((psi, b_hat)), Some(unit)) = (gyro, unit) {
+            // ∂r/∂b_g = jᵀ R̂ [t]× Ψ − ûᵀ R̂ [d_b]× Ψ.
+            g = (j.transpose() * r_j * t_ba.cross_matrix() * psi
+                - unit.transpose() * r_j * dir_b.cross_matrix() * psi)
+                .transpose();
+            y += g.dot(b_hat);
+        }
+        AoaRow { j, g, y, var }
+    };
+    Some([
+        row(up.cross(&u), sigma_theta2),
+        row(up, sigmas.elevation_rad.powi(2)),
+    ])
 }
+
+/// Where an AoA row is linearized (see [`aoa_info`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AoaPoint {
+    /// The algebraic row with this range λ, m.
+    Range(f64),
+    /// The angle row at this estimate of `c − p − R t_ba` in `b0`, m (its norm must be positive).
+    At(Vector3<f64>),
+}
+
+/// The 1σ of an AoA factor's rows besides the bearing's own.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AoaSigmas {
+    /// Attitude 1σ, rad.
+    pub attitude_rad: f64,
+    /// 1σ of the AP-at-array-height assumption, rad.
+    pub elevation_rad: f64,
+}
+
+#[cfg(test)]
+mod tests;

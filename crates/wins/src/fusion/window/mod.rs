@@ -1,32 +1,38 @@
 //! The linear sliding-window estimator (paper Sec. V, `eqn:cost`).
 //!
 //! Unknowns, all in the first PAoA frame `b0`: per frame `x_k = [p_k (in b0), v_k (in b_k),
-//! g_k (in b_k)]`, then a border of the accelerometer bias `b_a` and every AP's position `c_l`.
-//! Rotations `R_{b_k}^{b_0}` come from the attitude stage, so every factor is linear
-//! ([`factors`]); the normal equations are an arrow matrix solved by a block Cholesky
-//! ([`arrow`]). When the window is full the oldest frame is marginalized by the Schur complement
-//! of only the factors that touch it (its prior, its IMU factor, its AoA factors) into a prior on
-//! the next frame and the border: with fixed rotations and weights this is exact, so the window
-//! reproduces the batch solution over all frames (tested).
+//! g_k (in b_k)]`, then a border of the accelerometer and gyro biases `b_a`, `b_g` and every AP's
+//! position `c_l`. Rotations `R_{b_k}^{b_0}` are chained from the gyro by the caller; with them
+//! fixed every factor is linear ([`factors`]); the normal equations are an arrow matrix solved by
+//! a block Cholesky ([`arrow`]), assembled in `assemble`. When the window is full the oldest
+//! frame is marginalized by the Schur complement of only the factors that touch it (its prior,
+//! its IMU factor, its AoA factors) into a prior on the next frame and the border: with fixed
+//! rotations and weights this is exact, so the window reproduces the batch solution (tested).
 //!
 //! Initialization-free: the first frame gets `p_0 = 0` (the translation gauge) and only weak
-//! zero-mean priors on everything else (velocity, gravity, bias, APs); the AP ranges λ that weight
-//! the AoA rows start at a constant and follow the solution once it has converged. Converged means
-//! every AP's marginal position σ (largest axis) is below a threshold.
+//! zero-mean priors on everything else (velocity, gravity, biases, APs). Until converged the AoA
+//! rows are the paper's algebraic ones with a constant range λ, and no frame is marginalized (up to
+//! [`WindowConfig::max_startup_frames`]). Converged means every AP's marginal position σ (largest
+//! axis) is below a threshold; then every row is re-linearized at the solution as an angle (scale-
+//! free, see [`factors::aoa_info`]) and iterated, the gyro bias joins as an unknown (rotations
+//! `R̂_k Exp(Ψ_k δb_g)`, first order), and the window shrinks to
+//! [`WindowConfig::max_frames`] with [`WindowConfig::iterations`] Gauss–Newton steps per frame.
 
 pub mod arrow;
+mod assemble;
 pub mod factors;
 mod marginalize;
 
 use std::collections::VecDeque;
-use std::ops::AddAssign;
 
-use nalgebra::{DMatrix, DVector, Isometry3, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, UnitQuaternion, Vector3};
 
 use self::arrow::{ArrowSystem, FRAME_DIM, Vec9};
-use self::factors::{AoaInfo, ImuFactorInput, ImuInfo, aoa_info, imu_info};
+use self::assemble::ap_offset;
+use self::factors::BIAS_DIM;
 use crate::fusion::bearing::Bearing;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
+use crate::so3::exp;
 use crate::time::Timestamp;
 
 /// Settings of the window.
@@ -34,6 +40,9 @@ use crate::time::Timestamp;
 pub struct WindowConfig {
     /// Frames kept before the oldest is marginalized (paper: 30).
     pub max_frames: usize,
+    /// Frames kept before the estimate has converged (none is marginalized until then, so the
+    /// early rows are re-linearized at the converged solution), at most.
+    pub max_startup_frames: usize,
     /// The range λ assumed for every AoA row until the estimate has converged, m.
     pub initial_range_m: f64,
     /// Ranges from the solution are clamped to this interval, m.
@@ -50,6 +59,11 @@ pub struct WindowConfig {
     pub prior_ap_sigma_m: f64,
     /// Prior 1σ of the accelerometer bias per axis, m/s².
     pub prior_accel_bias_sigma_m_s2: f64,
+    /// Prior 1σ of the gyro bias per axis, rad/s.
+    pub prior_gyro_bias_sigma_rad_s: f64,
+    /// Estimate the gyro bias jointly once converged (removes the attitude's gyro drift); off:
+    /// the rotations are the gyro chain as given.
+    pub estimate_gyro_bias: bool,
     /// 1σ of the translation gauge `p_0 = 0`, m.
     pub gauge_sigma_m: f64,
     /// Converged when every AP's largest marginal position σ is below this, m.
@@ -60,12 +74,21 @@ pub struct WindowConfig {
     /// direction of the AoA rows, the IMU noise mapping at the previous estimate). Off: constant ranges and a nominal mapping, so the weights never
     /// depend on the data and the window equals the batch solution exactly.
     pub adaptive_weights: bool,
+    /// After convergence, linearize the AoA rows as angles at the solution (scale-free) instead
+    /// of the algebraic rows (see [`factors::aoa_info`]).
+    pub angle_rows: bool,
+
+    /// Gauss–Newton iterations per solve once converged (≥ 1).
+    pub iterations: usize,
+    /// Gauss–Newton iterations over the whole startup window when it converges.
+    pub iterations_at_convergence: usize,
 }
 
 impl Default for WindowConfig {
     fn default() -> Self {
         Self {
             max_frames: 30,
+            max_startup_frames: 1500,
             initial_range_m: 5.0,
             range_limits_m: (0.5, 100.0),
             elevation_sigma_rad: 5f64.to_radians(),
@@ -74,10 +97,16 @@ impl Default for WindowConfig {
             prior_gravity_sigma_m_s2: 20.0,
             prior_ap_sigma_m: 100.0,
             prior_accel_bias_sigma_m_s2: 0.02,
+            prior_gyro_bias_sigma_rad_s: 0.02,
+            estimate_gyro_bias: true,
             gauge_sigma_m: 1e-3,
             converged_ap_sigma_m: 0.25,
             body_from_array: Isometry3::identity(),
             adaptive_weights: true,
+            angle_rows: true,
+
+            iterations: 2,
+            iterations_at_convergence: 10,
         }
     }
 }
@@ -133,11 +162,23 @@ struct Frame {
     from_prev: Option<Preintegrated>,
     bearings: Vec<Bearing>,
     x: Vec9,
+    /// `Ψ_k = ∂R_k/∂b_g` and the gyro bias `b̂_k` the rotation was chained with:
+    /// `R_k(b_g) ≈ R̂_k Exp(Ψ_k (b_g − b̂_k))`. `R̂_k` stays as given (its linearization point is
+    /// fixed, as first-estimate Jacobians keep the marginal prior consistent); the estimate is
+    /// [`Frame::rotation`].
+    psi: Matrix3<f64>,
+    gyro_lin: Vector3<f64>,
+
     /// Upward direction in `b_k` before the solution has a gravity (mean specific force).
     up_hint: Vector3<f64>,
 }
 
 impl Frame {
+    /// `R_{b_k}^{b_0}` at the gyro bias `b_g`.
+    fn rotation(&self, b_g: &Vector3<f64>) -> UnitQuaternion<f64> {
+        self.b0_from_bk * exp(&(self.psi * (b_g - self.gyro_lin)))
+    }
+
     /// The upward direction in `b_k` the AoA rows use: the solved gravity once it is plausible
     /// (and the linearization follows the solution), else the specific-force hint.
     fn up(&self, adaptive: bool) -> Vector3<f64> {
@@ -176,8 +217,8 @@ impl SlidingWindow {
             num_aps: 0,
             prior_h: DMatrix::zeros(0, 0),
             prior_b: DVector::zeros(0),
-            border: DVector::zeros(3),
-            border_covariance: DMatrix::zeros(3, 3),
+            border: DVector::zeros(BIAS_DIM),
+            border_covariance: DMatrix::zeros(BIAS_DIM, BIAS_DIM),
             gyro_bias_rad_s: Vector3::zeros(),
             solved_once: false,
             converged_at: None,
@@ -214,14 +255,16 @@ impl SlidingWindow {
         }
         let first = self.frames.is_empty() && self.marginalized == 0;
         if first {
-            self.prior_h = DMatrix::zeros(FRAME_DIM + 3, FRAME_DIM + 3);
-            self.prior_b = DVector::zeros(FRAME_DIM + 3);
+            let dim = FRAME_DIM + BIAS_DIM;
+            self.prior_h = DMatrix::zeros(dim, dim);
+            self.prior_b = DVector::zeros(dim);
             let c = &self.config;
             for i in 0..3 {
                 self.prior_h[(i, i)] = c.gauge_sigma_m.powi(-2);
                 self.prior_h[(3 + i, 3 + i)] = c.prior_velocity_sigma_m_s.powi(-2);
                 self.prior_h[(6 + i, 6 + i)] = c.prior_gravity_sigma_m_s2.powi(-2);
                 self.prior_h[(9 + i, 9 + i)] = c.prior_accel_bias_sigma_m_s2.powi(-2);
+                self.prior_h[(12 + i, 12 + i)] = c.prior_gyro_bias_sigma_rad_s.powi(-2);
             }
         }
         let needed = bearings.iter().map(|b| b.ap + 1).max().unwrap_or(0);
@@ -234,6 +277,14 @@ impl SlidingWindow {
             (Some(prev), Some(pre)) => predict(prev, pre),
             _ => Vec9::zeros(),
         };
+        // Ψ_k+1 = ΔR̂ᵀ Ψ_k + J_θg.
+        let psi = match (self.frames.back(), &from_prev) {
+            (Some(prev), Some(pre)) => {
+                let d_r = pre.bk_from_bk1.to_rotation_matrix().into_inner();
+                d_r.transpose() * prev.psi + pre.jacobian_bias.fixed_view::<3, 3>(6, 3)
+            }
+            _ => Matrix3::zeros(),
+        };
         let up_hint = from_prev
             .as_ref()
             .map(nominal_gravity)
@@ -244,6 +295,8 @@ impl SlidingWindow {
             from_prev,
             bearings,
             x,
+            psi,
+            gyro_lin: self.gyro_bias_rad_s,
             up_hint,
         });
         Ok(())
@@ -261,39 +314,50 @@ impl SlidingWindow {
         self.border = self
             .border
             .clone()
-            .resize_vertically(3 + 3 * self.num_aps, 0.0);
-    }
-
-    /// Sets the attitude of window frame `i` (0 = oldest in the window).
-    pub fn set_rotation(&mut self, i: usize, b0_from_bk: UnitQuaternion<f64>) {
-        if let Some(f) = self.frames.get_mut(i) {
-            f.b0_from_bk = b0_from_bk;
-        }
-    }
-
-    /// Sets the gyro bias the IMU intervals are corrected to.
-    pub fn set_gyro_bias(&mut self, gyro_bias_rad_s: Vector3<f64>) {
-        self.gyro_bias_rad_s = gyro_bias_rad_s;
+            .resize_vertically(ap_offset(self.num_aps), 0.0);
     }
 
     /// Solves the window, then marginalizes frames beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), WindowError> {
-        let sys = self.build();
-        let sol = sys.solve().ok_or(WindowError::NotPositiveDefinite)?;
-        for (f, x) in self.frames.iter_mut().zip(sol.frames) {
-            f.x = x;
-        }
-        self.border = sol.border;
-        self.border_covariance = sol.border_covariance;
-        self.solved_once = true;
-        if self.converged_at.is_none()
+        let was_converged = self.converged_at.is_some();
+        let iterations = if was_converged {
+            self.config.iterations.max(1)
+        } else {
+            1
+        };
+        self.iterate(iterations)?;
+        if !was_converged
             && self.num_aps > 0
             && self.max_ap_sigma_m() < self.config.converged_ap_sigma_m
         {
             self.converged_at = self.frames.back().map(|f| f.t);
+            // Re-linearize every frame kept since the start at the converged solution.
+            self.iterate(self.config.iterations_at_convergence.max(1))?;
         }
-        while self.frames.len() > self.config.max_frames.max(2) {
+        let keep = if self.converged_at.is_some() {
+            self.config.max_frames
+        } else {
+            self.config.max_startup_frames.max(self.config.max_frames)
+        };
+        while self.frames.len() > keep.max(2) {
             self.marginalize_oldest();
+        }
+        Ok(())
+    }
+
+    fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {
+        for _ in 0..iterations {
+            let sys = self.build();
+            let sol = sys.solve().ok_or(WindowError::NotPositiveDefinite)?;
+            for (f, x) in self.frames.iter_mut().zip(sol.frames) {
+                f.x = x;
+            }
+            self.border = sol.border;
+            self.border_covariance = sol.border_covariance;
+            self.solved_once = true;
+            if self.gyro_active() {
+                self.gyro_bias_rad_s = self.border.fixed_rows::<3>(3).into_owned();
+            }
         }
         Ok(())
     }
@@ -303,7 +367,7 @@ impl SlidingWindow {
     pub fn max_ap_sigma_m(&self) -> f64 {
         (0..self.num_aps)
             .map(|l| {
-                let o = 3 + 3 * l;
+                let o = ap_offset(l);
                 let block = self.border_covariance.fixed_view::<3, 3>(o, o).into_owned();
                 block.symmetric_eigenvalues().max().max(0.0).sqrt()
             })
@@ -329,7 +393,7 @@ impl SlidingWindow {
             p_in_b0: f.x.fixed_rows::<3>(0).into_owned(),
             v_in_bk: f.x.fixed_rows::<3>(3).into_owned(),
             g_in_bk: f.x.fixed_rows::<3>(6).into_owned(),
-            b0_from_bk: f.b0_from_bk,
+            b0_from_bk: f.rotation(&self.gyro_bias_rad_s),
         })
     }
 
@@ -376,12 +440,12 @@ impl SlidingWindow {
 
     /// AP `l`'s position in `b0`, m.
     pub fn ap_in_b0(&self, l: usize) -> Option<Vector3<f64>> {
-        (l < self.num_aps).then(|| self.border.fixed_rows::<3>(3 + 3 * l).into_owned())
+        (l < self.num_aps).then(|| self.border.fixed_rows::<3>(ap_offset(l)).into_owned())
     }
 
     /// AP `l`'s marginal position covariance, m².
     pub fn ap_covariance(&self, l: usize) -> Option<nalgebra::Matrix3<f64>> {
-        let o = 3 + 3 * l;
+        let o = ap_offset(l);
         (l < self.num_aps).then(|| self.border_covariance.fixed_view::<3, 3>(o, o).into_owned())
     }
 
@@ -390,74 +454,11 @@ impl SlidingWindow {
         self.border.fixed_rows::<3>(0).into_owned()
     }
 
-    /// The range λ weighting frame `f`'s rows to AP `l` (module doc).
-    fn range_m(&self, f: &Frame, l: usize) -> f64 {
-        let c = &self.config;
-        if self.converged_at.is_none() || !c.adaptive_weights {
-            return c.initial_range_m;
-        }
-        let ap = self.border.fixed_rows::<3>(3 + 3 * l);
-        let p = f.x.fixed_rows::<3>(0);
-        let r = (ap - p).norm();
-        if r.is_finite() {
-            r.clamp(c.range_limits_m.0, c.range_limits_m.1)
-        } else {
-            c.initial_range_m
-        }
-    }
-
-    fn imu_factor(&self, k: usize) -> Option<ImuInfo> {
-        let (a, b) = (&self.frames[k], &self.frames[k + 1]);
-        let pre = b.from_prev.as_ref()?;
-        let adaptive = self.solved_once && self.config.adaptive_weights;
-        let (v_next, g_next) = if adaptive {
-            (
-                b.x.fixed_rows::<3>(3).into_owned(),
-                b.x.fixed_rows::<3>(6).into_owned(),
-            )
-        } else {
-            (Vector3::zeros(), nominal_gravity(pre))
-        };
-        let g_next = if g_next.norm() < 1.0 {
-            nominal_gravity(pre)
-        } else {
-            g_next
-        };
-        let step_m = if adaptive {
-            (b.x.fixed_rows::<3>(0) - a.x.fixed_rows::<3>(0)).norm()
-        } else {
-            0.0
-        };
-        imu_info(&ImuFactorInput {
-            pre,
-            b0_from_bk: &a.b0_from_bk,
-            gyro_bias_rad_s: self.gyro_bias_rad_s,
-            v_next,
-            g_next,
-            step_m,
-            attitude_sigma_rad: self.config.attitude_sigma_rad,
-        })
-    }
-
-    fn aoa_factors(&self, k: usize) -> impl Iterator<Item = (usize, AoaInfo)> + '_ {
-        let f = &self.frames[k];
-        let c = &self.config;
-        let up = f.up(c.adaptive_weights);
-        f.bearings
-            .iter()
-            .filter(|b| b.is_valid())
-            .filter_map(move |b| {
-                let info = aoa_info(
-                    b,
-                    &f.b0_from_bk,
-                    &up,
-                    &c.body_from_array,
-                    self.range_m(f, b.ap),
-                    c.attitude_sigma_rad,
-                    c.elevation_sigma_rad,
-                )?;
-                Some((b.ap, info))
-            })
+    /// Marginal covariance of the biases `[b_a, b_g]`.
+    pub fn bias_covariance(&self) -> nalgebra::Matrix6<f64> {
+        self.border_covariance
+            .fixed_view::<BIAS_DIM, BIAS_DIM>(0, 0)
+            .into_owned()
     }
 
     /// The window's normal equations as they stand (for inspection and benchmarks).
@@ -466,57 +467,7 @@ impl SlidingWindow {
     }
 
     fn build(&self) -> ArrowSystem {
-        let n = self.frames.len();
-        let m = 3 + 3 * self.num_aps;
-        let mut sys = ArrowSystem::zeros(n, m);
-        if n == 0 {
-            return sys;
-        }
-        // Prior on the first frame and the border.
-        let pb = self.prior_h.nrows() - FRAME_DIM;
-        sys.diag[0] += self.prior_h.fixed_view::<FRAME_DIM, FRAME_DIM>(0, 0);
-        sys.border[0]
-            .view_mut((0, 0), (pb, FRAME_DIM))
-            .add_assign(&self.prior_h.view((FRAME_DIM, 0), (pb, FRAME_DIM)));
-        sys.corner
-            .view_mut((0, 0), (pb, pb))
-            .add_assign(&self.prior_h.view((FRAME_DIM, FRAME_DIM), (pb, pb)));
-        sys.rhs_frames[0] += self.prior_b.fixed_rows::<FRAME_DIM>(0);
-        sys.rhs_border
-            .rows_mut(0, pb)
-            .add_assign(&self.prior_b.rows(FRAME_DIM, pb));
-        for k in 0..n {
-            if k + 1 < n
-                && let Some(info) = self.imu_factor(k)
-            {
-                sys.diag[k] += info.h_kk;
-                sys.diag[k + 1] += info.h_ll;
-                sys.lower[k] += info.h_lk;
-                sys.border[k]
-                    .view_mut((0, 0), (3, FRAME_DIM))
-                    .add_assign(&info.h_kb.transpose());
-                sys.border[k + 1]
-                    .view_mut((0, 0), (3, FRAME_DIM))
-                    .add_assign(&info.h_lb.transpose());
-                sys.corner.view_mut((0, 0), (3, 3)).add_assign(&info.h_bb);
-                sys.rhs_frames[k] += info.b_k;
-                sys.rhs_frames[k + 1] += info.b_l;
-                sys.rhs_border.rows_mut(0, 3).add_assign(&info.b_b);
-            }
-            for (l, info) in self.aoa_factors(k) {
-                let o = 3 + 3 * l;
-                sys.diag[k].fixed_view_mut::<3, 3>(0, 0).add_assign(&info.n);
-                sys.corner.fixed_view_mut::<3, 3>(o, o).add_assign(&info.n);
-                sys.border[k]
-                    .fixed_view_mut::<3, 3>(o, 0)
-                    .add_assign(&(-info.n));
-                sys.rhs_frames[k]
-                    .fixed_rows_mut::<3>(0)
-                    .add_assign(&(-info.b_c));
-                sys.rhs_border.fixed_rows_mut::<3>(o).add_assign(&info.b_c);
-            }
-        }
-        sys
+        self.assemble(self.frames.len(), false)
     }
 }
 
