@@ -7,7 +7,8 @@ use nalgebra::Vector3;
 
 use super::arrow::{ArrowSystem, FRAME_DIM};
 use super::factors::{
-    AoaInfo, AoaPoint, AoaSigmas, BIAS_DIM, ImuFactorInput, ImuInfo, aoa_info, imu_info,
+    AoaFactorInput, AoaInfo, AoaPoint, AoaSigmas, BIAS_DIM, ImuFactorInput, ImuInfo, aoa_info,
+    imu_info,
 };
 use super::{Frame, SlidingWindow, nominal_gravity};
 
@@ -86,18 +87,18 @@ impl SlidingWindow {
             .iter()
             .filter(|b| b.is_valid())
             .filter_map(move |b| {
-                let info = aoa_info(
-                    b,
-                    &f.b0_from_bk,
-                    &up,
-                    &c.body_from_array,
-                    self.aoa_point(f, b.ap),
+                let info = aoa_info(&AoaFactorInput {
+                    bearing: b,
+                    b0_from_bj: &f.b0_from_bk,
+                    up_in_bj: &up,
+                    body_from_array: &c.body_from_array,
+                    point: self.aoa_point(f, b.ap),
                     gyro,
-                    &AoaSigmas {
+                    sigmas: AoaSigmas {
                         attitude_rad: c.attitude_sigma_rad,
                         elevation_rad: c.elevation_sigma_rad,
                     },
-                )?;
+                })?;
                 Some((b.ap, info))
             })
     }

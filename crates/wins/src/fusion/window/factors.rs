@@ -274,24 +274,8 @@ pub fn horizontal_direction(
 /// through `R_j = R̂_j Exp(Ψ_j δb_g)` (direction and array offset), linearized at the point.
 /// `None` when the cone angle cannot be met by a horizontal direction
 /// (array axis near vertical).
-pub fn aoa_info(
-    bearing: &Bearing,
-    b0_from_bj: &UnitQuaternion<f64>,
-    up_in_bj: &Vector3<f64>,
-    body_from_array: &Isometry3<f64>,
-    point: AoaPoint,
-    gyro: Option<(&Matrix3<f64>, &Vector3<f64>)>,
-    sigmas: &AoaSigmas,
-) -> Option<AoaInfo> {
-    let rows = aoa_rows(
-        bearing,
-        b0_from_bj,
-        up_in_bj,
-        body_from_array,
-        point,
-        gyro,
-        sigmas,
-    )?;
+pub fn aoa_info(inp: &AoaFactorInput) -> Option<AoaInfo> {
+    let rows = aoa_rows(inp)?;
     let mut info = AoaInfo {
         n: Matrix3::zeros(),
         b_c: Vector3::zeros(),
@@ -322,16 +306,36 @@ pub struct AoaRow {
     pub var: f64,
 }
 
+/// What an AoA factor needs (see [`aoa_info`]).
+#[derive(Clone, Copy, Debug)]
+pub struct AoaFactorInput<'a> {
+    /// The bearing.
+    pub bearing: &'a Bearing,
+    /// `R_{b_j}^{b_0}` (at the gyro bias `b̂_j`).
+    pub b0_from_bj: &'a UnitQuaternion<f64>,
+    /// Upward gravity in `b_j` (any length).
+    pub up_in_bj: &'a Vector3<f64>,
+    /// Pose of the array on the body.
+    pub body_from_array: &'a Isometry3<f64>,
+    /// Where the rows are linearized.
+    pub point: AoaPoint,
+    /// `(Ψ_j, b̂_j)` when the gyro bias is an unknown.
+    pub gyro: Option<(&'a Matrix3<f64>, &'a Vector3<f64>)>,
+    /// The 1σ besides the bearing's own.
+    pub sigmas: AoaSigmas,
+}
+
 /// The two rows of [`aoa_info`].
-pub fn aoa_rows(
-    bearing: &Bearing,
-    b0_from_bj: &UnitQuaternion<f64>,
-    up_in_bj: &Vector3<f64>,
-    body_from_array: &Isometry3<f64>,
-    point: AoaPoint,
-    gyro: Option<(&Matrix3<f64>, &Vector3<f64>)>,
-    sigmas: &AoaSigmas,
-) -> Option<[AoaRow; 2]> {
+pub fn aoa_rows(inp: &AoaFactorInput) -> Option<[AoaRow; 2]> {
+    let AoaFactorInput {
+        bearing,
+        b0_from_bj,
+        up_in_bj,
+        body_from_array,
+        point,
+        gyro,
+        sigmas,
+    } = *inp;
     let (u, up, s, sin_b) = horizontal_direction(bearing, up_in_bj, body_from_array)?;
     // δθ cos θ = −s sin β δβ.
     let sigma_beta = bearing.sigma_rad * bearing.aoa_rad.cos() / (s * sin_b.abs()).max(0.1);

@@ -41,16 +41,16 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
         attitude_rad: 0.005,
         elevation_rad: 0.08,
     };
-    let rows = aoa_rows(
-        &bearing,
-        &r_hat,
-        &up,
-        &body_from_array,
-        AoaPoint::At(x_hat),
-        Some((&psi, &b_hat)),
-        &sigmas,
-    )
-    .unwrap();
+    let input = AoaFactorInput {
+        bearing: &bearing,
+        b0_from_bj: &r_hat,
+        up_in_bj: &up,
+        body_from_array: &body_from_array,
+        point: AoaPoint::At(x_hat),
+        gyro: Some((&psi, &b_hat)),
+        sigmas,
+    };
+    let rows = aoa_rows(&input).unwrap();
     // The angle residual of row i at (c, p, b_g).
     let angle = |i: usize, c: Vector3<f64>, p: Vector3<f64>, b: Vector3<f64>| {
         let r = r_hat * exp(&(psi * (b - b_hat)));
@@ -81,15 +81,10 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
         }
     }
     // Without a point the rows are the algebraic ones and ignore the gyro bias.
-    let algebraic = aoa_rows(
-        &bearing,
-        &r_hat,
-        &up,
-        &body_from_array,
-        AoaPoint::Range(5.0),
-        Some((&psi, &b_hat)),
-        &sigmas,
-    )
+    let algebraic = aoa_rows(&AoaFactorInput {
+        point: AoaPoint::Range(5.0),
+        ..input
+    })
     .unwrap();
     assert_eq!(algebraic[0].g, Vector3::zeros());
     assert!((algebraic[0].j - r_hat * dirs_b[0] / 5.0).norm() < 1e-15);
