@@ -325,15 +325,17 @@ impl SlidingWindow {
         } else {
             1
         };
-        self.iterate(iterations)?;
-        if !was_converged
+        let mut result = self.iterate(iterations);
+        if result.is_ok()
+            && !was_converged
             && self.num_aps > 0
             && self.max_ap_sigma_m() < self.config.converged_ap_sigma_m
         {
             self.converged_at = self.frames.back().map(|f| f.t);
             // Re-linearize every frame kept since the start at the converged solution.
-            self.iterate(self.config.iterations_at_convergence.max(1))?;
+            result = self.iterate(self.config.iterations_at_convergence.max(1));
         }
+        // The window stays bounded even when a solve failed (the previous estimate is kept).
         let keep = if self.converged_at.is_some() {
             self.config.max_frames
         } else {
@@ -342,7 +344,7 @@ impl SlidingWindow {
         while self.frames.len() > keep.max(2) {
             self.marginalize_oldest();
         }
-        Ok(())
+        result
     }
 
     fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {
