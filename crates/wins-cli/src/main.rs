@@ -11,6 +11,8 @@ use wins::csi::intel5300::{self, ExportFormat, LogSummary};
 use wins::sim::{self, Scenario};
 
 mod aoa_cmd;
+mod eval_cmd;
+mod run_cmd;
 
 /// WiFi-inertial pose estimation for micro aerial vehicles.
 #[derive(Parser)]
@@ -33,6 +35,13 @@ enum Command {
     Aoa(aoa_cmd::AoaArgs),
     /// Receive-chain phase offsets from a capture at a known angle or a dataset's truth.
     Calibrate(aoa_cmd::CalibrateArgs),
+    /// Score an estimated trajectory (TUM) against the truth: ATE, RPE, attitude and AP errors.
+    Eval(eval_cmd::EvalArgs),
+    /// Run WINS on a dataset directory: trajectory, AP positions, AoA log, statistics, and with
+    /// a `truth/` folder metrics, a report and figures.
+    Run(run_cmd::RunArgs),
+    /// Simulate the paper's flight, run WINS on it, print the report and draw the figures.
+    Demo(run_cmd::DemoArgs),
 }
 
 #[derive(clap::Args)]
@@ -117,6 +126,9 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate(args) => simulate(args),
         Command::Aoa(args) => aoa_cmd::aoa(args),
         Command::Calibrate(args) => aoa_cmd::calibrate_cmd(args),
+        Command::Eval(args) => eval_cmd::eval(args),
+        Command::Run(args) => run_cmd::run(args),
+        Command::Demo(args) => run_cmd::demo(args),
     }
 }
 

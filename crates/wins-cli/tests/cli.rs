@@ -172,3 +172,72 @@ fn simulate_rejects_unknown_scenarios_and_bad_files_with_a_message() {
     assert!(err.contains("duration_s"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `wins demo` simulates, runs and scores; `wins run` on its dataset writes the same files; a
+/// missing dataset is a clear error.
+#[test]
+fn demo_and_run_write_the_run_directory() {
+    let dir = std::env::temp_dir().join(format!("wins-cli-demo-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = wins(&["demo", "--duration", "20", "--out", dir.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("converged at") && text.contains("ATE"),
+        "{text}"
+    );
+    let run = dir.join("run");
+    for f in [
+        "trajectory.tum",
+        "trajectory_all.tum",
+        "aps.csv",
+        "aoa.csv",
+        "stats.json",
+        "metrics.json",
+        "report.txt",
+        "trajectory.png",
+        "position_error.png",
+        "aoa.png",
+    ] {
+        assert!(run.join(f).is_file(), "{f} missing");
+    }
+    let metrics: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(run.join("metrics.json")).unwrap()).unwrap();
+    assert!(metrics["packets_used"].as_u64().unwrap() > 500, "{metrics}");
+    assert!(
+        metrics["ap_position_error_m"]["ap0"]
+            .as_f64()
+            .unwrap()
+            .is_finite()
+    );
+
+    let again = dir.join("again");
+    let dataset = dir.join("dataset");
+    let out = wins(&[
+        "run",
+        dataset.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read_to_string(again.join("trajectory.tum")).unwrap(),
+        std::fs::read_to_string(run.join("trajectory.tum")).unwrap(),
+        "the same dataset gives the same trajectory"
+    );
+    assert!(!again.join("aoa.png").exists());
+
+    let out = wins(&["run", "/nonexistent-wins", "--out", again.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nonexistent-wins"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

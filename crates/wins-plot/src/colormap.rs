@@ -1,4 +1,5 @@
-//! Viridis-like colour map: piecewise-linear interpolation between anchor colours.
+//! Colours: a viridis-like map (piecewise-linear between anchor colours) for values, and a
+//! qualitative palette for telling series apart.
 
 use plotters::style::RGBColor;
 
@@ -14,6 +15,25 @@ const VIRIDIS_ANCHORS: [[f64; 3]; 9] = [
     [170.0, 220.0, 50.0],
     [253.0, 231.0, 37.0],
 ];
+
+/// matplotlib's `tab10` qualitative palette (sRGB), in the order series are coloured.
+const TAB10: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// Colour of series number `index`: `tab10`, repeating after ten series.
+pub(crate) fn qualitative(index: usize) -> RGBColor {
+    TAB10[index % TAB10.len()]
+}
 
 /// Colour of `t` in `[0, 1]` (values outside are clamped, NaN maps to the low end).
 pub(crate) fn viridis(t: f64) -> RGBColor {
@@ -68,6 +88,18 @@ mod tests {
             assert!(l > prev, "luma not increasing at {i}: {l} <= {prev}");
             prev = l;
         }
+    }
+
+    #[test]
+    fn palette_colours_differ_and_repeat() {
+        for i in 0..TAB10.len() {
+            for j in 0..i {
+                assert_ne!(qualitative(i), qualitative(j), "{i} and {j}");
+            }
+            assert_ne!(qualitative(i), RGBColor(255, 255, 255));
+        }
+        assert_eq!(qualitative(0), RGBColor(31, 119, 180));
+        assert_eq!(qualitative(13), qualitative(3));
     }
 
     #[test]

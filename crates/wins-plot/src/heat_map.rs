@@ -7,30 +7,19 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::colormap::{normalize, viridis};
+use crate::style::{
+    DESC_FONT_PX, FONT, LEGEND_GLYPH_AREA_PX, MARGIN_PX, TICK_FONT_PX, TITLE_FONT_PX,
+    X_LABEL_AREA_PX, Y_LABEL_AREA_PX, draw_err, glyph, legend_centre, write_png,
+};
 use crate::ticks::TickFormat;
 use crate::validate::{Grid, check, check_size};
 use crate::{HeatMap, MarkerStyle, PlotError};
 
-const FONT: &str = "sans-serif";
-const TITLE_FONT_PX: u32 = 24;
-const DESC_FONT_PX: u32 = 16;
-const TICK_FONT_PX: u32 = 13;
-const MARGIN_PX: u32 = 12;
-const X_LABEL_AREA_PX: u32 = 45;
-const Y_LABEL_AREA_PX: u32 = 70;
 /// Width of the colour bar column: bar, tick labels and the rotated label.
 const COLORBAR_AREA_PX: u32 = 125;
 const COLORBAR_LABEL_AREA_PX: u32 = 85;
 /// Number of constant-colour steps in the colour bar.
 const COLORBAR_STEPS: usize = 128;
-/// Half-size of a marker glyph in pixels, on the map and in the legend.
-const MARKER_PX: i32 = 7;
-/// Width of the legend's glyph column; plotters hands the legend closure its left edge.
-const LEGEND_GLYPH_AREA_PX: i32 = 30;
-
-fn draw_err<E: std::error::Error + Send + Sync>(e: E) -> PlotError {
-    PlotError::Draw(e.to_string())
-}
 
 /// Renders `map` as a `width` x `height` PNG at `path`.
 ///
@@ -44,11 +33,7 @@ fn draw_err<E: std::error::Error + Send + Sync>(e: E) -> PlotError {
 /// write the file.
 pub fn heat_map_png(path: &Path, map: &HeatMap, width: u32, height: u32) -> Result<(), PlotError> {
     let rgb = render_rgb(map, width, height)?;
-    let mut backend = BitMapBackend::new(path, (width, height));
-    backend
-        .blit_bitmap((0, 0), (width, height), &rgb)
-        .map_err(draw_err)?;
-    backend.present().map_err(draw_err)
+    write_png(path, &rgb, width, height)
 }
 
 /// Renders `map` into a row-major RGB buffer of `width * height * 3` bytes.
@@ -82,26 +67,6 @@ fn draw<DB: DrawingBackend>(
         body.split_horizontally(body_width.saturating_sub(COLORBAR_AREA_PX));
     draw_map(&plot_area, map, grid)?;
     draw_colorbar(&bar_area, map.colorbar_label, grid.lo, grid.hi)
-}
-
-/// A marker glyph of half-size [`MARKER_PX`] centred on `$at` (data or pixel coordinates):
-/// a red cross or a white ring, both with a black halo so they show on any colour.
-macro_rules! glyph {
-    (Cross, $at:expr) => {
-        EmptyElement::at($at)
-            + Cross::new((0, 0), MARKER_PX, BLACK.stroke_width(4))
-            + Cross::new((0, 0), MARKER_PX, RED.stroke_width(2))
-    };
-    (Circle, $at:expr) => {
-        EmptyElement::at($at)
-            + Circle::new((0, 0), MARKER_PX, BLACK.stroke_width(4))
-            + Circle::new((0, 0), MARKER_PX, WHITE.stroke_width(2))
-    };
-}
-
-/// Centre of a legend glyph, given the point plotters passes to the legend closure.
-fn legend_centre((x, y): (i32, i32)) -> (i32, i32) {
-    (x + LEGEND_GLYPH_AREA_PX / 2, y)
 }
 
 fn draw_map<DB: DrawingBackend>(

@@ -19,7 +19,8 @@
 //! [`sim`] (flights, IMU and multipath Intel 5300 CSI, written as datasets), [`dataset`] (the
 //! on-disk layout shared by real and simulated recordings), [`aoa`] (chain calibration, MUSIC over
 //! AoA and ToF, SpotFi's direct path, the IMU-guided per-packet PAoA; [`aoa::steering`] is the one
-//! steering vector), [`imu`] and [`time`]. The fusion stages arrive with later work.
+//! steering vector), [`eval`] (trajectory and AP errors, evo-compatible), [`imu`] and [`time`].
+//! The fusion stages arrive with later work.
 //!
 //! ## Conventions (stated once, used everywhere)
 //!
@@ -50,8 +51,10 @@
 pub mod aoa;
 pub mod csi;
 pub mod dataset;
+pub mod eval;
 pub mod fusion;
 pub mod imu;
+pub mod pipeline;
 pub mod sim;
 pub mod so3;
 pub mod time;

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::imu_csv::{self, ImuCsvError};
 use super::manifest::{FORMAT, Manifest, VERSION};
+use crate::aoa::calibration::{CalibrationError, ChainCalibration};
 use crate::csi::intel5300::{CsiRecord, ReadError, Skip, read_log};
 use crate::imu::ImuSample;
 use crate::time::{NANOS_PER_MICRO, Timestamp};
@@ -51,6 +52,9 @@ pub enum DatasetError {
     /// A CSI log could not be read (corrupt content is skipped and counted, not an error).
     #[error(transparent)]
     Log(#[from] ReadError),
+    /// The calibration file the manifest names cannot be used.
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
 }
 
 /// One CSI record with its time on the IMU clock.
@@ -86,6 +90,8 @@ pub struct Dataset {
     pub imu: Vec<ImuSample>,
     /// Per AP, in manifest order.
     pub aps: Vec<ApLog>,
+    /// The NIC's chain calibration, when the manifest names one.
+    pub calibration: Option<ChainCalibration>,
 }
 
 impl Dataset {
@@ -126,11 +132,16 @@ impl Dataset {
                 bandwidth_mismatches,
             });
         }
+        let calibration = match &manifest.array.calibration {
+            Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
+            None => None,
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             manifest,
             imu,
             aps,
+            calibration,
         })
     }
 }

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::aoa::steering::ArrayGeometry;
 use crate::csi::Bandwidth;
+use crate::imu::ImuNoise;
 
 /// The format name written in every manifest.
 pub const FORMAT: &str = "wins-dataset";
@@ -40,6 +41,10 @@ pub struct ImuEntry {
     pub file: String,
     /// Nominal sample rate, Hz.
     pub rate_hz: f64,
+    /// Noise densities and turn-on bias spreads (from the datasheet or an Allan-variance
+    /// analysis); the estimator's weights. Absent: the user must give them to `wins run`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<ImuNoise>,
 }
 
 /// The antenna array: geometry plus `body_from_array`.
@@ -52,6 +57,10 @@ pub struct ArrayEntry {
     pub translation_m: [f64; 3],
     /// Rotation `body_from_array` as a Hamilton quaternion `[x, y, z, w]`.
     pub rotation_xyzw: [f64; 4],
+    /// The NIC's receive-chain calibration ([`crate::aoa::ChainCalibration`] TOML), relative to
+    /// the dataset directory. Absent: uncalibrated chains (AoA wrong by tens of degrees).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<String>,
 }
 
 impl ArrayEntry {
@@ -72,6 +81,7 @@ impl ArrayEntry {
             geometry,
             translation_m: [t.x, t.y, t.z],
             rotation_xyzw: [q.i, q.j, q.k, q.w],
+            calibration: None,
         }
     }
 }

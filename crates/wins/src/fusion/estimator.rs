@@ -61,7 +61,7 @@ pub struct PoseEstimate {
 }
 
 /// What the estimator has seen and skipped.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct WinsStats {
     /// IMU samples integrated.
     pub imu_samples: u64,

@@ -13,6 +13,7 @@
 
 pub mod csi;
 pub mod imu;
+pub mod lab_calibration;
 pub mod motion;
 pub mod packets;
 pub mod radio;

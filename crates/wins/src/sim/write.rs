@@ -4,6 +4,7 @@ use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use super::lab_calibration::{CALIBRATION_FILE, lab_calibration};
 use super::run::SimOutput;
 use super::scenario::Scenario;
 use crate::csi::intel5300::LogWriter;
@@ -81,6 +82,16 @@ pub fn write_dataset(
         w.write_all(manifest_text.as_bytes())
     })?;
     put(IMU_FILE, &mut |w| imu_csv::write(w, &output.imu))?;
+    let calibration = lab_calibration(scenario)
+        .map_err(io::Error::other)
+        .and_then(|c| toml::to_string(&c).map_err(io::Error::other))
+        .map_err(|source| WriteError {
+            path: dir.join(CALIBRATION_FILE),
+            source,
+        })?;
+    put(CALIBRATION_FILE, &mut |w| {
+        w.write_all(calibration.as_bytes())
+    })?;
 
     let mut clipped = 0u64;
     let mut counts = Vec::new();
@@ -214,8 +225,12 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
         imu: ImuEntry {
             file: IMU_FILE.into(),
             rate_hz: scenario.imu.rate_hz,
+            noise: Some(scenario.imu.model.noise()),
         },
-        array: ArrayEntry::new(scenario.array.geometry, &scenario.body_from_array()),
+        array: ArrayEntry {
+            calibration: Some(CALIBRATION_FILE.into()),
+            ..ArrayEntry::new(scenario.array.geometry, &scenario.body_from_array())
+        },
         channel: ChannelEntry {
             center_freq_hz: scenario.radio.center_freq_hz,
             bandwidth: scenario.radio.bandwidth,

@@ -82,6 +82,11 @@ pub struct WindowConfig {
     pub iterations: usize,
     /// Gauss–Newton iterations over the whole startup window when it converges.
     pub iterations_at_convergence: usize,
+    /// Before convergence, solve only every this many frames (≥ 1): the startup window grows
+    /// without marginalization, so solving it at every frame costs O(n²) over the startup, and
+    /// its poses are not usable before convergence anyway. Convergence is noticed up to this
+    /// many frames late.
+    pub startup_solve_every: usize,
 }
 
 impl Default for WindowConfig {
@@ -107,6 +112,7 @@ impl Default for WindowConfig {
 
             iterations: 2,
             iterations_at_convergence: 10,
+            startup_solve_every: 10,
         }
     }
 }
@@ -320,6 +326,10 @@ impl SlidingWindow {
     /// Solves the window, then marginalizes frames beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), WindowError> {
         let was_converged = self.converged_at.is_some();
+        let every = self.config.startup_solve_every.max(1);
+        if !was_converged && self.solved_once && !self.frames.len().is_multiple_of(every) {
+            return Ok(());
+        }
         let iterations = if was_converged {
             self.config.iterations.max(1)
         } else {

@@ -1,0 +1,344 @@
+//! `wins run` and `wins demo`: replay a dataset through the pipeline, write the run directory,
+//! score it against the truth when there is one, and draw the figures.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use wins::aoa::ChainCalibration;
+use wins::dataset::Dataset;
+use wins::dataset::truth::{TRUTH_DIR, Truth};
+use wins::eval::{EvalOptions, Metrics, position_error_series};
+use wins::pipeline::PipelineConfig;
+use wins::pipeline::output::write_run;
+use wins::pipeline::replay::{RunOutput, replay, rig_of};
+use wins::sim::{self, Scenario};
+use wins_plot::{Marker, MarkerStyle, Series, SeriesStyle, VerticalLine, XyPlot, xy_plot_png};
+
+/// Arguments of `wins run`.
+#[derive(clap::Args)]
+pub struct RunArgs {
+    /// Dataset directory (`dataset.toml`, `imu.csv`, one `.dat` per AP; `truth/` optional).
+    dataset: PathBuf,
+    /// Output directory (created; files in it are replaced).
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Pipeline settings (TOML, the fields of `wins::pipeline::PipelineConfig`).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Chain calibration to use instead of the dataset's.
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// Do not draw the PNG figures.
+    #[arg(long)]
+    no_plots: bool,
+}
+
+/// Arguments of `wins demo`.
+#[derive(clap::Args)]
+pub struct DemoArgs {
+    /// Built-in scenario to fly (see `wins simulate --list`).
+    #[arg(long, default_value = "paper-circle")]
+    scenario: String,
+    /// Override the scenario's seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Override the flight duration, s.
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+    /// Where the dataset and the run go.
+    #[arg(long, short, default_value = "target/demo")]
+    out: PathBuf,
+}
+
+pub fn run(args: RunArgs) -> Result<()> {
+    let config = match &args.config {
+        Some(path) => PipelineConfig::from_toml_file(path)?,
+        None => PipelineConfig::default(),
+    };
+    let calibration = match &args.calibration {
+        Some(p) => Some(ChainCalibration::load(p)?),
+        None => None,
+    };
+    process(
+        &args.dataset,
+        &args.out,
+        config,
+        calibration,
+        !args.no_plots,
+    )
+}
+
+pub fn demo(args: DemoArgs) -> Result<()> {
+    let mut scenario = Scenario::built_in(&args.scenario)?;
+    if let Some(seed) = args.seed {
+        scenario.seed = seed;
+    }
+    if let Some(d) = args.duration {
+        scenario.duration_s = d;
+    }
+    let data_dir = args.out.join("dataset");
+    let output = sim::simulate(&scenario, &mut |_| {})?;
+    sim::write_dataset(&data_dir, &scenario, &output)?;
+    println!(
+        "simulated {} (seed {}, {:.0} s) into {}",
+        scenario.name,
+        scenario.seed,
+        scenario.duration_s,
+        data_dir.display()
+    );
+    process(
+        &data_dir,
+        &args.out.join("run"),
+        PipelineConfig::default(),
+        None,
+        true,
+    )
+}
+
+fn process(
+    dataset: &Path,
+    out: &Path,
+    config: PipelineConfig,
+    calibration: Option<ChainCalibration>,
+    plots: bool,
+) -> Result<()> {
+    let data = Dataset::load(dataset).with_context(|| format!("loading {}", dataset.display()))?;
+    if data.calibration.is_none() && calibration.is_none() {
+        eprintln!(
+            "warning: no chain calibration (dataset.toml names none, no --calibration): \
+             AoA will be wrong by tens of degrees"
+        );
+    }
+    let rig = rig_of(&data, None, calibration)?;
+    let run = replay(&data, rig, config)?;
+    let truth = if dataset.join(TRUTH_DIR).is_dir() {
+        Some(Truth::load(dataset)?)
+    } else {
+        None
+    };
+    let options = EvalOptions::default();
+    let metrics = match &truth {
+        Some(t) => match run.score(t, &options) {
+            Ok(m) => Some(m),
+            Err(e) => {
+                eprintln!("warning: cannot score the run: {e}");
+                None
+            }
+        },
+        None => None,
+    };
+    let written = write_run(out, &run, metrics.as_ref())
+        .with_context(|| format!("writing {}", out.display()))?;
+    let mut stdout = std::io::stdout().lock();
+    summary(&mut stdout, &run)?;
+    if let Some(m) = &metrics {
+        write!(stdout, "{}", m.report())?;
+    }
+    if plots && let (Some(t), Some(m)) = (&truth, &metrics) {
+        for p in draw(out, &run, t, m, &options)? {
+            writeln!(stdout, "wrote {}", p.display())?;
+        }
+    }
+    for p in written {
+        writeln!(stdout, "wrote {}", p.display())?;
+    }
+    Ok(())
+}
+
+fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
+    writeln!(
+        out,
+        "{:.1} s of flight in {:.3} s ({:.0}× real time; AoA {:.3} s, estimator {:.3} s)",
+        run.flight_s,
+        run.wall_s,
+        run.realtime_factor(),
+        run.timing.aoa_s,
+        run.timing.estimator_s
+    )?;
+    match run.converged_at {
+        Some(t) => writeln!(out, "converged at {:.2} s", t.as_secs_f64())?,
+        None => writeln!(out, "did not converge")?,
+    }
+    for s in &run.stats.per_ap {
+        writeln!(
+            out,
+            "{}: {} packets: {} fed, {} for SpotFi, dropped {} (no credible peak {}, gated {}, \
+             side unknown {}, skipped {}); {} track losses",
+            s.name,
+            s.packets,
+            s.fed,
+            s.acquisition,
+            s.dropped(),
+            s.no_credible_peak,
+            s.gated,
+            s.side_unknown,
+            s.skipped,
+            s.track_losses
+        )?;
+    }
+    Ok(())
+}
+
+/// (x, y) points of one series.
+type Points = Vec<(f64, f64)>;
+
+/// The three figures: trajectory from above, position error over time, AoA per packet.
+fn draw(
+    out: &Path,
+    run: &RunOutput,
+    truth: &Truth,
+    m: &Metrics,
+    options: &EvalOptions,
+) -> Result<Vec<PathBuf>> {
+    let align = &m.alignment;
+    let t0 = truth.poses.first().map_or(0.0, |p| p.t.as_secs_f64());
+    let est: Vec<(f64, f64)> = run
+        .converged_poses()
+        .iter()
+        .map(|p| {
+            let q = align.apply_point(&p.p_b_in_w);
+            (q.x, q.y)
+        })
+        .collect();
+    let tru: Vec<(f64, f64)> = truth
+        .poses
+        .iter()
+        .map(|p| (p.p_b_in_w.x, p.p_b_in_w.y))
+        .collect();
+    let mut markers: Vec<Marker> = truth
+        .aps
+        .iter()
+        .map(|a| Marker {
+            x: a.x_m,
+            y: a.y_m,
+            label: "AP (true)",
+            style: MarkerStyle::Circle,
+        })
+        .collect();
+    markers.extend(run.aps.iter().map(|a| {
+        let q = align.apply_point(&a.p_in_w);
+        Marker {
+            x: q.x,
+            y: q.y,
+            label: "AP (estimated)",
+            style: MarkerStyle::Cross,
+        }
+    }));
+    let mut files = Vec::new();
+    let path = out.join("trajectory.png");
+    xy_plot_png(
+        &path,
+        &XyPlot {
+            title: "trajectory from above (estimate aligned to the truth)",
+            x_label: "x (m)",
+            y_label: "y (m)",
+            series: &[
+                Series {
+                    label: "truth",
+                    points: &tru,
+                    style: SeriesStyle::Line,
+                },
+                Series {
+                    label: "WINS",
+                    points: &est,
+                    style: SeriesStyle::Line,
+                },
+            ],
+            markers: &markers,
+            vertical_lines: &[],
+            equal_aspect: true,
+        },
+        900,
+        700,
+    )?;
+    files.push(path);
+
+    let errors: Vec<(f64, f64)> =
+        position_error_series(&run.converged_poses(), &truth.poses, options)?
+            .iter()
+            .map(|(t, e)| (t.as_secs_f64() - t0, *e))
+            .collect();
+    let converged = run.converged_at.map(|t| t.as_secs_f64() - t0);
+    let lines: Vec<VerticalLine> = converged
+        .iter()
+        .map(|&x| VerticalLine {
+            x,
+            label: "converged",
+        })
+        .collect();
+    let path = out.join("position_error.png");
+    xy_plot_png(
+        &path,
+        &XyPlot {
+            title: "position error after alignment",
+            x_label: "time (s)",
+            y_label: "error (m)",
+            series: &[Series {
+                label: "WINS",
+                points: &errors,
+                style: SeriesStyle::Line,
+            }],
+            markers: &[],
+            vertical_lines: &lines,
+            equal_aspect: false,
+        },
+        900,
+        500,
+    )?;
+    files.push(path);
+
+    let pairs = run.aoa_vs_truth(truth);
+    let mut series_data: Vec<(String, Points, Points)> = Vec::new();
+    for (l, name) in run.stats.per_ap.iter().map(|s| &s.name).enumerate() {
+        let measured = pairs
+            .iter()
+            .filter(|p| p.0 == l)
+            .map(|p| (p.1 - t0, p.2))
+            .collect();
+        let true_aoa = truth
+            .packets
+            .get(l)
+            .map(|rows| {
+                rows.iter()
+                    .map(|r| (r.t_ns as f64 * 1e-9 - t0, r.aoa_deg))
+                    .collect()
+            })
+            .unwrap_or_default();
+        series_data.push((name.clone(), measured, true_aoa));
+    }
+    let labels: Vec<(String, String)> = series_data
+        .iter()
+        .map(|(n, _, _)| (format!("{n} PAoA"), format!("{n} truth")))
+        .collect();
+    let mut series = Vec::new();
+    for ((_, measured, true_aoa), (lm, lt)) in series_data.iter().zip(&labels) {
+        series.push(Series {
+            label: lt,
+            points: true_aoa,
+            style: SeriesStyle::Line,
+        });
+        series.push(Series {
+            label: lm,
+            points: measured,
+            style: SeriesStyle::Dots,
+        });
+    }
+    let path = out.join("aoa.png");
+    xy_plot_png(
+        &path,
+        &XyPlot {
+            title: "AoA per packet fed to the estimator vs truth",
+            x_label: "time (s)",
+            y_label: "AoA (deg)",
+            series: &series,
+            markers: &[],
+            vertical_lines: &lines,
+            equal_aspect: false,
+        },
+        900,
+        500,
+    )?;
+    files.push(path);
+    Ok(files)
+}

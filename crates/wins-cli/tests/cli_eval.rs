@@ -1,0 +1,273 @@
+//! `wins eval` end to end: a truth and a rigidly moved, noisy, subsampled estimate on disk.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use wins::dataset::truth::Truth;
+
+fn wins(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wins"))
+        .args(args)
+        .output()
+        .expect("wins runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wins-cli-eval-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// A pose as TUM numbers: t [s], p [m], q = [x, y, z, w].
+#[derive(Clone, Copy)]
+struct Row {
+    t: f64,
+    p: [f64; 3],
+    q: [f64; 4],
+}
+
+/// Hamilton product `a ⊗ b` of [x, y, z, w] quaternions.
+fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    let ([ax, ay, az, aw], [bx, by, bz, bw]) = (a, b);
+    [
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    ]
+}
+
+/// `q ⊗ (0, v) ⊗ q*`.
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let conj = [-q[0], -q[1], -q[2], q[3]];
+    let r = quat_mul(quat_mul(q, [v[0], v[1], v[2], 0.0]), conj);
+    [r[0], r[1], r[2]]
+}
+
+/// The rigid transform `est_world_from_truth_world` of the tests: 0.8 rad about (1, 2, 3)/√14.
+fn est_from_truth() -> ([f64; 4], [f64; 3]) {
+    let (half, n) = (0.4f64, 14f64.sqrt());
+    let (s, c) = half.sin_cos();
+    ([s / n, 2.0 * s / n, 3.0 * s / n, c], [3.0, -2.0, 0.7])
+}
+
+/// Moves a truth pose into the estimate's world and adds a position offset there.
+fn moved(row: &Row, noise: [f64; 3]) -> Row {
+    let (q, t) = est_from_truth();
+    let p = rotate(q, row.p);
+    Row {
+        t: row.t,
+        p: [0, 1, 2].map(|k| p[k] + t[k] + noise[k]),
+        q: quat_mul(q, row.q),
+    }
+}
+
+fn tum(rows: &[Row]) -> String {
+    let mut text = String::from("# timestamp tx ty tz qx qy qz qw\n");
+    for r in rows {
+        text += &format!(
+            "{:.9} {} {} {} {} {} {} {}\n",
+            r.t, r.p[0], r.p[1], r.p[2], r.q[0], r.q[1], r.q[2], r.q[3]
+        );
+    }
+    text
+}
+
+/// Deterministic zero-mean noise in [−a, a] (a 64-bit LCG; no RNG crate in this test binary).
+fn noise(state: &mut u64, a: f64) -> [f64; 3] {
+    [0; 3].map(|_| {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * a
+    })
+}
+
+/// 200 Hz truth: a 3 m circle with a height oscillation, yaw along the circle.
+fn truth_rows(seconds: usize) -> Vec<Row> {
+    (0..seconds * 200)
+        .map(|k| {
+            let t = k as f64 / 200.0;
+            let a = 0.4 * t;
+            let yaw = a + std::f64::consts::FRAC_PI_2;
+            Row {
+                t: 100.0 + t,
+                p: [3.0 * a.cos(), 3.0 * a.sin(), 1.5 + 0.4 * (3.0 * a).sin()],
+                q: [0.0, 0.0, (yaw / 2.0).sin(), (yaw / 2.0).cos()],
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn eval_of_a_moved_noisy_estimate() {
+    let dir = temp_dir("tum");
+    let truth = truth_rows(30);
+    let mut state = 7;
+    // 50 Hz from 2 s on, ±2 cm uniform noise, then two poses after the truth ends.
+    let mut est: Vec<Row> = truth[400..].iter().step_by(4).copied().collect();
+    let mut noise_sq = 0.0;
+    for r in &mut est {
+        let n = noise(&mut state, 0.02);
+        noise_sq += n.iter().map(|x| x * x).sum::<f64>();
+        *r = moved(r, n);
+    }
+    let rms = (noise_sq / est.len() as f64).sqrt();
+    let evaluated = est.len();
+    for dt in [0.5, 1.0] {
+        let mut late = est[est.len() - 1];
+        late.t += dt;
+        est.push(late);
+    }
+    let (truth_path, est_path) = (dir.join("truth.tum"), dir.join("est.tum"));
+    std::fs::write(&truth_path, tum(&truth)).expect("write truth");
+    std::fs::write(&est_path, tum(&est)).expect("write est");
+    let json_path = dir.join("metrics.json");
+
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&truth_path),
+        "--json",
+        "--out",
+        s(&json_path),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let file: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json_path).expect("metrics.json")).expect("JSON");
+    assert_eq!(m, file);
+
+    assert_eq!(m["poses_evaluated"], evaluated);
+    assert_eq!(m["poses_unmatched"], 2);
+    // Alignment can only lower the error below the noise's RMS, and with 1400 poses by little.
+    let ate = m["ate_rmse_m"].as_f64().expect("ate");
+    assert!(ate <= rms && ate > 0.98 * rms, "ATE {ate}, noise RMS {rms}");
+    assert_eq!(m["position_error_rmse_m"], m["ate_rmse_m"]);
+    assert!(m["attitude_error_rmse_deg"].as_f64().expect("att") < 0.1);
+    assert!((m["convergence_time_s"].as_f64().expect("conv") - 2.0).abs() < 1e-9);
+    // |v| = 0.4·√(3² + 1.2²) m/s.
+    let v = m["max_speed_m_s"].as_f64().expect("speed");
+    assert!((v - 0.4 * (9.0f64 + 1.44).sqrt()).abs() < 1e-3, "{v}");
+    assert!(m["packets_used"].is_null() && m["aoa_error_median_deg"].is_null());
+    // The alignment is the inverse of the applied transform: it maps the estimate's origin to
+    // −Rᵀt in the truth world.
+    let (q, t) = est_from_truth();
+    let q_inv = [-q[0], -q[1], -q[2], q[3]];
+    let expected = rotate(q_inv, t.map(|x| -x));
+    for k in 0..3 {
+        let got = m["alignment"]["translation_m"][k].as_f64().expect("t");
+        assert!((got - expected[k]).abs() < 5e-3, "{got} vs {}", expected[k]);
+    }
+
+    let out = wins(&["eval", s(&est_path), s(&truth_path), "--rpe-delta", "5"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(
+        text.contains("ATE") && text.contains("2 unmatched"),
+        "{text}"
+    );
+    assert!(text.contains("Δ 5 frames"), "{text}");
+}
+
+#[test]
+fn eval_errors_are_reported() {
+    let dir = temp_dir("bad");
+    // A straight line: the rotation about it is undefined.
+    let line: Vec<Row> = (0..100)
+        .map(|k| Row {
+            t: k as f64 * 0.01,
+            p: [k as f64 * 0.1, 0.0, 1.0],
+            q: [0.0, 0.0, 0.0, 1.0],
+        })
+        .collect();
+    let path = dir.join("line.tum");
+    std::fs::write(&path, tum(&line)).expect("write");
+    let out = wins(&["eval", s(&path), s(&path)]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("collinear"), "{}", stderr(&out));
+
+    let out = wins(&["eval", s(&path), s(&path), "--aps", s(&path)]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("dataset directory"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn eval_against_a_dataset_with_ap_estimates() {
+    let dir = temp_dir("dataset");
+    let ds = dir.join("ds");
+    let out = wins(&[
+        "simulate",
+        "--scenario",
+        "paper-circle",
+        "--duration",
+        "3",
+        "--out",
+        s(&ds),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let truth = Truth::load(&ds).expect("truth");
+    let rows: Vec<Row> = truth
+        .poses
+        .iter()
+        .step_by(4)
+        .map(|p| {
+            let q = p.world_from_body.quaternion();
+            let row = Row {
+                t: p.t.as_secs_f64(),
+                p: [p.p_b_in_w.x, p.p_b_in_w.y, p.p_b_in_w.z],
+                q: [q.i, q.j, q.k, q.w],
+            };
+            moved(&row, [0.0; 3])
+        })
+        .collect();
+    let est_path = dir.join("est.tum");
+    std::fs::write(&est_path, tum(&rows)).expect("write est");
+    // The AP estimate is 0.25 m off along the truth's x, expressed in the estimate's world.
+    let ap = &truth.aps[0];
+    let (q, t) = est_from_truth();
+    let p = rotate(q, [ap.x_m + 0.25, ap.y_m, ap.z_m]);
+    let aps_path = dir.join("aps.csv");
+    std::fs::write(
+        &aps_path,
+        format!(
+            "name,x_m,y_m,z_m\n{},{},{},{}\n",
+            ap.name,
+            p[0] + t[0],
+            p[1] + t[1],
+            p[2] + t[2]
+        ),
+    )
+    .expect("write aps");
+
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&ds),
+        "--aps",
+        s(&aps_path),
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert!(m["ate_rmse_m"].as_f64().expect("ate") < 1e-9, "{m}");
+    let ap_error = m["ap_position_error_m"][&ap.name]
+        .as_f64()
+        .expect("AP error");
+    assert!((ap_error - 0.25).abs() < 1e-9, "{ap_error}");
+    // paper-circle flies at 1.27 m/s.
+    let v = m["max_speed_m_s"].as_f64().expect("speed");
+    assert!((v - 1.27).abs() < 0.05, "{v}");
+}

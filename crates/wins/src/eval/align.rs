@@ -1,0 +1,221 @@
+//! SE(3) Umeyama alignment of estimated positions onto truth positions (rotation and translation,
+//! no scale), exactly what `evo_ape … -a` applies before computing the ATE.
+
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::EvalError;
+use crate::dataset::truth::Pose;
+
+/// Fewest point pairs that can fix a rotation.
+pub const MIN_ALIGNMENT_PAIRS: usize = 3;
+
+/// The second singular value of the cross-covariance must exceed this fraction of the first;
+/// below it the points are collinear (or do not move) and the rotation about their line is free.
+pub const MIN_RELATIVE_SINGULAR_VALUE: f64 = 1e-9;
+
+/// The rigid transform `truth_world_from_est_world` found by [`umeyama`]:
+/// `p_in_truth_w = R · p_in_est_w + t`. Serialized as `{"rotation_xyzw": [x, y, z, w],
+/// "translation_m": [x, y, z]}` so that it can be re-applied elsewhere.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Alignment {
+    /// Rotation `R` as a Hamilton unit quaternion, components `[x, y, z, w]`.
+    pub rotation_xyzw: [f64; 4],
+    /// Translation `t`, m.
+    pub translation_m: [f64; 3],
+}
+
+impl Alignment {
+    /// The identity (no alignment).
+    pub fn identity() -> Self {
+        Self::from_isometry(&Isometry3::identity())
+    }
+
+    /// From a rigid transform `truth_world_from_est_world`.
+    pub fn from_isometry(truth_w_from_est_w: &Isometry3<f64>) -> Self {
+        let q = truth_w_from_est_w.rotation.quaternion();
+        let t = truth_w_from_est_w.translation.vector;
+        Self {
+            rotation_xyzw: [q.i, q.j, q.k, q.w],
+            translation_m: [t.x, t.y, t.z],
+        }
+    }
+
+    /// The rigid transform `truth_world_from_est_world` (the quaternion is renormalized).
+    pub fn isometry(&self) -> Isometry3<f64> {
+        let [x, y, z, w] = self.rotation_xyzw;
+        let [tx, ty, tz] = self.translation_m;
+        Isometry3::from_parts(
+            Translation3::new(tx, ty, tz),
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z)),
+        )
+    }
+
+    /// A point of the estimate's world expressed in the truth's world.
+    pub fn apply_point(&self, p_in_est_w: &Vector3<f64>) -> Vector3<f64> {
+        self.isometry()
+            .transform_point(&(*p_in_est_w).into())
+            .coords
+    }
+
+    /// An estimated pose expressed in the truth's world (`T_align · T_est`, as evo aligns).
+    pub fn apply_pose(&self, est: &Pose) -> Pose {
+        let iso = self.isometry();
+        Pose {
+            t: est.t,
+            p_b_in_w: iso.transform_point(&est.p_b_in_w.into()).coords,
+            world_from_body: iso.rotation * est.world_from_body,
+        }
+    }
+}
+
+/// Least-squares rigid transform taking `est[i]` onto `truth[i]` (Umeyama 1991, eqs. 34–43 with
+/// scale fixed to 1; the reflection guard of eq. 43 keeps `det R = +1`).
+///
+/// Errors: different lengths, fewer than [`MIN_ALIGNMENT_PAIRS`] pairs, or a degenerate
+/// cross-covariance (all points on one line, or all equal: see [`MIN_RELATIVE_SINGULAR_VALUE`]).
+/// Planar point sets are fine: the reflection guard fixes the third axis.
+pub fn umeyama(est: &[Vector3<f64>], truth: &[Vector3<f64>]) -> Result<Alignment, EvalError> {
+    if est.len() != truth.len() {
+        return Err(EvalError::LengthMismatch {
+            est: est.len(),
+            truth: truth.len(),
+        });
+    }
+    let n = est.len();
+    if n < MIN_ALIGNMENT_PAIRS {
+        return Err(EvalError::TooFewPairs {
+            pairs: n,
+            needed: MIN_ALIGNMENT_PAIRS,
+        });
+    }
+    let inv_n = 1.0 / n as f64;
+    // Eqs. 34–35: centroids.
+    let mean_x = est.iter().sum::<Vector3<f64>>() * inv_n;
+    let mean_y = truth.iter().sum::<Vector3<f64>>() * inv_n;
+    // Eq. 38: cross-covariance Σ_xy = 1/n Σ (y − μ_y)(x − μ_x)ᵀ.
+    let cov = est.iter().zip(truth).fold(Matrix3::zeros(), |acc, (x, y)| {
+        acc + (y - mean_y) * (x - mean_x).transpose()
+    }) * inv_n;
+    let svd = cov.svd(true, true);
+    let d = svd.singular_values;
+    let degenerate = || EvalError::Degenerate {
+        singular_values: [d[0], d[1], d[2]],
+    };
+    // `svd` sorts the singular values in decreasing order.
+    if !d.iter().all(|s| s.is_finite()) || d[0] <= 0.0 || d[1] <= MIN_RELATIVE_SINGULAR_VALUE * d[0]
+    {
+        return Err(degenerate());
+    }
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Err(degenerate());
+    };
+    // Eq. 43: S = diag(1, 1, −1) when det(U)·det(V) < 0.
+    let mut s = Matrix3::identity();
+    if u.determinant() * v_t.determinant() < 0.0 {
+        s[(2, 2)] = -1.0;
+    }
+    // Eqs. 40–41 (c = 1).
+    let r = nalgebra::Rotation3::from_matrix_unchecked(u * s * v_t);
+    let t = mean_y - r * mean_x;
+    Ok(Alignment::from_isometry(&Isometry3::from_parts(
+        t.into(),
+        UnitQuaternion::from_rotation_matrix(&r),
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn random_points(rng: &mut ChaCha8Rng, n: usize) -> Vec<Vector3<f64>> {
+        (0..n)
+            .map(|_| Vector3::new(rng.random(), rng.random(), rng.random()) * 10.0)
+            .collect()
+    }
+
+    fn random_transform(rng: &mut ChaCha8Rng) -> Isometry3<f64> {
+        let axis_angle = Vector3::new(rng.random(), rng.random(), rng.random()) * 2.0;
+        let t = Vector3::new(rng.random(), rng.random(), rng.random()) * 20.0;
+        Isometry3::from_parts(t.into(), UnitQuaternion::from_scaled_axis(axis_angle))
+    }
+
+    #[test]
+    fn recovers_a_known_rigid_transform_exactly() {
+        for seed in 0..20 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let est = random_points(&mut rng, 3 + seed as usize);
+            let truth_from_est = random_transform(&mut rng);
+            let truth: Vec<_> = est
+                .iter()
+                .map(|p| truth_from_est.transform_point(&(*p).into()).coords)
+                .collect();
+            let found = umeyama(&est, &truth).expect("aligned").isometry();
+            let dr = found.rotation.angle_to(&truth_from_est.rotation);
+            let dt = (found.translation.vector - truth_from_est.translation.vector).norm();
+            assert!(dr < 1e-12 && dt < 1e-11, "seed {seed}: {dr} rad, {dt} m");
+        }
+    }
+
+    #[test]
+    fn planar_points_align_without_reflection() {
+        // With a zero singular value the SVD's third axes have arbitrary signs: only the
+        // reflection guard (Umeyama eq. 43) keeps the rotation right for every seed.
+        for seed in 0..20 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let est: Vec<_> = random_points(&mut rng, 50)
+                .into_iter()
+                .map(|p| Vector3::new(p.x, p.y, 1.5))
+                .collect();
+            let truth_from_est = random_transform(&mut rng);
+            let truth: Vec<_> = est
+                .iter()
+                .map(|p| truth_from_est.transform_point(&(*p).into()).coords)
+                .collect();
+            let found = umeyama(&est, &truth).expect("aligned").isometry();
+            let dr = found.rotation.angle_to(&truth_from_est.rotation);
+            assert!(dr < 1e-12, "seed {seed}: {dr} rad");
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_are_errors() {
+        let p = |x: f64| Vector3::new(x, 2.0 * x, -x);
+        let line: Vec<_> = (0..10).map(|i| p(i as f64)).collect();
+        assert!(matches!(
+            umeyama(&line, &line),
+            Err(EvalError::Degenerate { .. })
+        ));
+        let still = vec![Vector3::new(1.0, 2.0, 3.0); 10];
+        assert!(matches!(
+            umeyama(&still, &still),
+            Err(EvalError::Degenerate { .. })
+        ));
+        assert!(matches!(
+            umeyama(&line[..2], &line[..2]),
+            Err(EvalError::TooFewPairs {
+                pairs: 2,
+                needed: 3
+            })
+        ));
+        assert!(matches!(
+            umeyama(&line[..4], &line[..3]),
+            Err(EvalError::LengthMismatch { est: 4, truth: 3 })
+        ));
+    }
+
+    #[test]
+    fn alignment_round_trips_through_json() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let a = Alignment::from_isometry(&random_transform(&mut rng));
+        let text = serde_json::to_string(&a).expect("json");
+        assert!(text.contains("\"rotation_xyzw\"") && text.contains("\"translation_m\""));
+        let back: Alignment = serde_json::from_str(&text).expect("parsed");
+        let p = Vector3::new(1.0, -2.0, 0.5);
+        assert!((back.apply_point(&p) - a.apply_point(&p)).norm() < 1e-12);
+        assert_eq!(Alignment::identity().apply_point(&p), p);
+    }
+}

@@ -1,0 +1,277 @@
+//! Trajectory evaluation: an estimated trajectory (and AP positions) against the truth.
+//!
+//! ```text
+//! estimate, truth ─► associate (nearest time ≤ 10 ms) ─► SE(3) Umeyama on positions ─► Metrics
+//!                                                         └─► same transform on estimated APs
+//! ```
+//!
+//! The numbers are the paper's (ATE, per-axis error spread, AP error) and the usual VIO ones of
+//! Zhang & Scaramuzza (IROS 2018), computed as evo 1.38 computes them, so that `ate_rmse_m` equals
+//! `evo_ape tum TRUTH EST -a` and `rpe_*` equal `evo_rpe tum TRUTH EST --delta Δ --delta_unit f`
+//! (`scripts/evo_check.sh` checks both). The definitions are on the fields of [`Metrics`].
+
+pub mod align;
+pub mod aps;
+pub mod associate;
+mod evaluate;
+pub mod metrics;
+pub mod rpe;
+
+use serde::{Deserialize, Serialize};
+
+pub use align::{Alignment, umeyama};
+pub use aps::{EstimatedAp, read_estimated_aps, write_estimated_aps};
+pub use associate::{Association, associate};
+pub use evaluate::{evaluate, position_error_series};
+pub use metrics::Metrics;
+pub use rpe::{RelativePoseError, relative_pose_errors};
+
+use crate::time::NANOS_PER_SEC;
+
+/// Default association tolerance, s (evo's `--t_max_diff` default).
+pub const DEFAULT_MAX_TIME_DIFF_S: f64 = 0.01;
+/// Default RPE frame delta (evo_rpe's default).
+pub const DEFAULT_RPE_DELTA_FRAMES: usize = 1;
+
+/// Evaluation settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EvalOptions {
+    /// Largest `|t_est − t_truth|` of an associated pair, s. The default 0.01 suits truth at
+    /// ≥ 100 Hz; sparser truth needs at least half its period.
+    pub max_time_diff_s: f64,
+    /// RPE delta Δ in associated poses (≥ 1); 1 compares consecutive estimated poses.
+    pub rpe_delta_frames: usize,
+}
+
+impl Default for EvalOptions {
+    fn default() -> Self {
+        Self {
+            max_time_diff_s: DEFAULT_MAX_TIME_DIFF_S,
+            rpe_delta_frames: DEFAULT_RPE_DELTA_FRAMES,
+        }
+    }
+}
+
+impl EvalOptions {
+    /// Checks the ranges.
+    pub fn validate(&self) -> Result<(), EvalError> {
+        if !(self.max_time_diff_s.is_finite() && self.max_time_diff_s >= 0.0) {
+            return Err(EvalError::InvalidOption {
+                option: "max_time_diff_s",
+                reason: format!("{} is not a finite time ≥ 0", self.max_time_diff_s),
+            });
+        }
+        if self.rpe_delta_frames == 0 {
+            return Err(EvalError::InvalidOption {
+                option: "rpe_delta_frames",
+                reason: "must be at least 1".into(),
+            });
+        }
+        Ok(())
+    }
+
+    pub(crate) fn max_time_diff_ns(&self) -> i64 {
+        (self.max_time_diff_s * NANOS_PER_SEC as f64).round() as i64
+    }
+}
+
+/// Why an evaluation could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    /// A trajectory has no pose.
+    #[error("the {trajectory} trajectory is empty")]
+    EmptyTrajectory {
+        /// `"estimate"` or `"truth"`.
+        trajectory: &'static str,
+    },
+    /// A pose earlier than the one before it.
+    #[error("the {trajectory} trajectory goes back in time at pose {index}")]
+    Unsorted {
+        /// `"estimate"` or `"truth"`.
+        trajectory: &'static str,
+        /// Index of the pose.
+        index: usize,
+    },
+    /// A position or quaternion with a NaN or infinite component.
+    #[error("the {trajectory} trajectory has a non-finite pose at index {index}")]
+    NonFinite {
+        /// `"estimate"` or `"truth"`.
+        trajectory: &'static str,
+        /// Index of the pose.
+        index: usize,
+    },
+    /// Association found no pair.
+    #[error(
+        "no estimated pose within {max_time_diff_s} s of a truth pose ({est_poses} estimated, \
+         {truth_poses} truth poses): different clocks?"
+    )]
+    NoMatches {
+        /// Estimated poses.
+        est_poses: usize,
+        /// Truth poses.
+        truth_poses: usize,
+        /// The tolerance, s.
+        max_time_diff_s: f64,
+    },
+    /// Point lists of different lengths given to [`umeyama`].
+    #[error("{est} estimated points but {truth} truth points")]
+    LengthMismatch {
+        /// Estimated points.
+        est: usize,
+        /// Truth points.
+        truth: usize,
+    },
+    /// Too few associated poses to align.
+    #[error("{pairs} associated poses, at least {needed} are needed to align")]
+    TooFewPairs {
+        /// Pairs available.
+        pairs: usize,
+        /// Pairs needed.
+        needed: usize,
+    },
+    /// The estimated positions are collinear or constant: the alignment's rotation is undefined.
+    #[error(
+        "cannot align: the estimated positions are collinear or do not move (cross-covariance \
+         singular values {singular_values:?})"
+    )]
+    Degenerate {
+        /// Singular values of the cross-covariance, decreasing, m².
+        singular_values: [f64; 3],
+    },
+    /// Not enough associated poses for one RPE pair.
+    #[error("{poses} associated poses: too few for a relative pose error over {delta} frames")]
+    RpeTooShort {
+        /// Associated poses.
+        poses: usize,
+        /// The frame delta.
+        delta: usize,
+    },
+    /// An estimated AP whose name is not among the truth APs.
+    #[error("estimated AP {name:?} has no truth position")]
+    ApNotInTruth {
+        /// The AP name.
+        name: String,
+    },
+    /// Two estimated APs with one name.
+    #[error("estimated AP {name:?} is listed twice")]
+    DuplicateAp {
+        /// The AP name.
+        name: String,
+    },
+    /// A malformed row of an estimated-AP CSV.
+    #[error("AP positions, row {row}: {reason}")]
+    ApCsv {
+        /// 1-based data row (0: the header).
+        row: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An option out of range.
+    #[error("invalid {option}: {reason}")]
+    InvalidOption {
+        /// The option.
+        option: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::truth::Pose;
+    use crate::time::Timestamp;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    /// 100 Hz for 10 s; `helix` false: a straight line.
+    fn flight(helix: bool) -> Vec<Pose> {
+        (0..1000)
+            .map(|k| {
+                let s = k as f64 * 0.01;
+                let p = if helix {
+                    Vector3::new(s.cos(), s.sin(), 0.1 * s)
+                } else {
+                    Vector3::new(s, 0.0, 1.0)
+                };
+                Pose {
+                    t: Timestamp(k * 10_000_000),
+                    p_b_in_w: p,
+                    world_from_body: UnitQuaternion::identity(),
+                }
+            })
+            .collect()
+    }
+
+    fn eval(est: &[Pose], truth: &[Pose]) -> Result<Metrics, EvalError> {
+        evaluate(est, truth, &[], &[], &EvalOptions::default())
+    }
+
+    #[test]
+    fn degenerate_inputs_are_errors() {
+        let (line, helix) = (flight(false), flight(true));
+        assert!(eval(&helix, &helix).is_ok());
+        assert!(matches!(
+            eval(&line, &line),
+            Err(EvalError::Degenerate { .. })
+        ));
+        let too_few = eval(&helix[..2], &helix);
+        assert!(matches!(
+            too_few,
+            Err(EvalError::TooFewPairs { pairs: 2, .. })
+        ));
+        let mut nan = helix.clone();
+        nan[3].p_b_in_w.y = f64::NAN;
+        let non_finite = eval(&nan, &helix);
+        assert!(matches!(
+            non_finite,
+            Err(EvalError::NonFinite { index: 3, .. })
+        ));
+        let far = eval(&helix[..10], &helix[500..]);
+        assert!(matches!(
+            far,
+            Err(EvalError::NoMatches { est_poses: 10, .. })
+        ));
+        // Three poses align, but an RPE over 3 frames needs four.
+        let options = EvalOptions {
+            rpe_delta_frames: 3,
+            ..EvalOptions::default()
+        };
+        let short = evaluate(&helix[..3], &helix, &[], &[], &options);
+        assert!(matches!(
+            short,
+            Err(EvalError::RpeTooShort { poses: 3, delta: 3 })
+        ));
+    }
+
+    #[test]
+    fn options_are_validated() {
+        assert!(EvalOptions::default().validate().is_ok());
+        let bad = [
+            EvalOptions {
+                rpe_delta_frames: 0,
+                ..EvalOptions::default()
+            },
+            EvalOptions {
+                max_time_diff_s: -0.1,
+                ..EvalOptions::default()
+            },
+            EvalOptions {
+                max_time_diff_s: f64::NAN,
+                ..EvalOptions::default()
+            },
+        ];
+        for options in bad {
+            assert!(matches!(
+                options.validate(),
+                Err(EvalError::InvalidOption { .. })
+            ));
+        }
+        let parsed: EvalOptions = toml::from_str("rpe_delta_frames = 10").expect("toml");
+        assert_eq!(
+            (parsed.rpe_delta_frames, parsed.max_time_diff_s),
+            (10, 0.01)
+        );
+        assert!(toml::from_str::<EvalOptions>("delta = 1").is_err());
+    }
+}

@@ -1,0 +1,444 @@
+//! WINS end to end (paper Fig. 1 and Algorithm 1 with the estimator in the loop), as a push API:
+//! feed IMU samples and CSI packets in time order, get poses. A dataset replay ([`replay`]) and a
+//! live stream are two drivers of the same [`Pipeline`].
+//!
+//! Per packet of AP `l` ([`track`]): the first angle from SpotFi over the AP's first
+//! [`PipelineConfig::init_packets`] packets; then PAoA around a prediction, the previous angle
+//! turned by the gyro (not the state's direction to the AP: a wrong state would steer the window
+//! off the AP for good). The side of the linear array (front/back mirror) is resolved from the state once
+//! the window has converged; before that it is assumed in front
+//! ([`PipelineConfig::assume_front_until_converged`], the paper's ±90° set-up) and the packet log
+//! says so. A packet whose window holds no credible peak, or (after convergence) whose angle is
+//! further than [`PipelineConfig::gate_deg`] from the state's prediction, is dropped and counted.
+//! Accepted bearings join the frame at the next grid time ([`slot`]), moved to that instant by
+//! the gyro (and the velocity once known); the frame is solved by [`Wins`] when the IMU stream
+//! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed
+//! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
+
+pub mod output;
+pub mod replay;
+pub mod slot;
+pub mod stats;
+pub mod track;
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+
+use self::slot::{FrameSlot, PendingBearing, grid_time, move_bearing, rotation_between};
+pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
+use self::track::{ArrayPose, Track, TrackState};
+use crate::aoa::{AoaConfig, AoaError, AoaEstimator, ArrayGeometry, ChainCalibration};
+use crate::csi::intel5300::CsiRecord;
+use crate::fusion::bearing::Bearing;
+use crate::fusion::estimator::{PoseEstimate, Step, Wins, WinsConfig, WinsError};
+use crate::imu::{ImuNoise, ImuSample};
+use crate::time::Timestamp;
+
+/// Settings of the pipeline (the estimator's own come from [`WinsConfig::new`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// The AoA stage (MUSIC grid, PAoA half-width, SpotFi clustering).
+    pub aoa: AoaConfig,
+    /// Packets of an AP whose SpotFi direct path starts its track (paper: 10).
+    pub init_packets: usize,
+    /// Standard deviation given to every accepted bearing, degrees. PAoA's errors on the
+    /// simulated multipath are heavy-tailed (median 1.7°, 90th percentile 5.5°): 2° made the
+    /// window declare convergence too early and diverge; 3° does not.
+    pub bearing_sigma_deg: f64,
+    /// Frame grid, ms: bearings are grouped into frames this far apart (0: every packet is a
+    /// frame). 20 ms keeps one AP's 50 packets/s one per frame.
+    pub frame_period_ms: f64,
+    /// Consecutive packets without a credible peak after which an AP's track starts over.
+    pub max_misses: usize,
+    /// After convergence, bearings further than this from the state's prediction are dropped,
+    /// degrees.
+    pub gate_deg: f64,
+    /// After this many gated packets in a row of one AP the next is fed anyway (the state, not
+    /// the AoA, is then the suspect).
+    pub max_gated_in_row: usize,
+    /// Before convergence the state cannot tell front from back: assume front (the paper's
+    /// set-up), flagged in the packet log. `false` drops bearings until convergence, which
+    /// never comes with one AP.
+    pub assume_front_until_converged: bool,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            aoa: AoaConfig::default(),
+            init_packets: 10,
+            bearing_sigma_deg: 3.0,
+            frame_period_ms: 20.0,
+            max_misses: 25,
+            gate_deg: 5.0,
+            max_gated_in_row: 10,
+            assume_front_until_converged: true,
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Reads the settings from a TOML file (missing fields take their defaults, unknown ones are
+    /// errors; values are checked by [`Pipeline::new`]).
+    pub fn from_toml_file(path: &std::path::Path) -> Result<Self, PipelineError> {
+        let error = |reason: String| PipelineError::ConfigFile {
+            path: path.display().to_string(),
+            reason,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+        toml::from_str(&text).map_err(|e| error(e.to_string()))
+    }
+}
+
+/// The rig: what the pipeline needs to know about the hardware.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rig {
+    /// Antenna count and spacing.
+    pub geometry: ArrayGeometry,
+    /// `body_from_array`.
+    pub body_from_array: Isometry3<f64>,
+    /// Carrier frequency, Hz.
+    pub center_freq_hz: f64,
+    /// The NIC's chain calibration (`None`: uncalibrated, AoA wrong by tens of degrees).
+    pub calibration: Option<ChainCalibration>,
+    /// IMU noise densities.
+    pub imu_noise: ImuNoise,
+    /// AP names, in the order of the AP indices pushed.
+    pub ap_names: Vec<String>,
+}
+
+/// Why the pipeline cannot be built or an input was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// The AoA stage cannot be set up.
+    #[error("AoA stage: {0}")]
+    Aoa(#[from] AoaError),
+    /// A setting is out of range.
+    #[error("pipeline setting {field}: {reason}")]
+    Config {
+        /// The field.
+        field: &'static str,
+        /// Why.
+        reason: &'static str,
+    },
+    /// A settings file cannot be read or parsed.
+    #[error("{path}: {reason}")]
+    ConfigFile {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+    /// The estimator refused an input (counted; the state is unchanged).
+    #[error(transparent)]
+    Wins(#[from] WinsError),
+}
+
+/// Wall time spent per stage, s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StageTiming {
+    /// AoA: SpotFi and PAoA.
+    pub aoa_s: f64,
+    /// The estimator: IMU integration, window solves, marginalization.
+    pub estimator_s: f64,
+}
+
+/// WINS as one object (module doc).
+#[derive(Debug)]
+pub struct Pipeline {
+    config: PipelineConfig,
+    rig: Rig,
+    aoa: AoaEstimator,
+    wins: Wins,
+    tracks: Vec<Track>,
+    slot: FrameSlot,
+    history: VecDeque<ImuSample>,
+    latest: Option<PoseEstimate>,
+    stats: PipelineStats,
+    timing: StageTiming,
+}
+
+/// The state may move an AP's track to the other side of the array only when the measured cone
+/// angle is at least this far from broadside, degrees.
+const SIDE_SWITCH_MIN_AOA_DEG: f64 = 60.0;
+
+/// IMU samples kept for moving bearings to their frame, beyond the frame period.
+const HISTORY_MARGIN_NS: i64 = 50_000_000;
+
+impl Pipeline {
+    /// A pipeline for `rig` (initialization-free: no state is needed).
+    pub fn new(config: PipelineConfig, rig: Rig) -> Result<Self, PipelineError> {
+        if config.init_packets < crate::aoa::log::MIN_GROUP_SIZE {
+            return Err(PipelineError::Config {
+                field: "init_packets",
+                reason: "SpotFi needs at least 2 packets",
+            });
+        }
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(config.bearing_sigma_deg) || !positive(config.gate_deg) {
+            return Err(PipelineError::Config {
+                field: "bearing_sigma_deg / gate_deg",
+                reason: "must be finite and > 0",
+            });
+        }
+        if !(config.frame_period_ms.is_finite() && config.frame_period_ms >= 0.0) {
+            return Err(PipelineError::Config {
+                field: "frame_period_ms",
+                reason: "must be finite and >= 0",
+            });
+        }
+        let aoa = AoaEstimator::new(
+            &config.aoa,
+            rig.geometry,
+            rig.center_freq_hz,
+            rig.calibration.clone(),
+        )?;
+        let mut wins_config = WinsConfig::new(rig.imu_noise.clone());
+        wins_config.window.body_from_array = rig.body_from_array;
+        Ok(Self {
+            tracks: vec![Track::default(); rig.ap_names.len()],
+            stats: PipelineStats::new(&rig.ap_names),
+            wins: Wins::new(wins_config),
+            aoa,
+            config,
+            rig,
+            slot: FrameSlot::default(),
+            history: VecDeque::new(),
+            latest: None,
+            timing: StageTiming::default(),
+        })
+    }
+
+    /// The estimator (window, AP positions, counters).
+    pub fn wins(&self) -> &Wins {
+        &self.wins
+    }
+
+    /// Packet counters per AP.
+    pub fn stats(&self) -> &PipelineStats {
+        &self.stats
+    }
+
+    /// Wall time per stage so far.
+    pub fn timing(&self) -> StageTiming {
+        self.timing
+    }
+
+    /// The rig.
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    /// The latest pose, propagated to the last IMU sample.
+    pub fn latest(&self) -> Option<&PoseEstimate> {
+        self.latest.as_ref()
+    }
+
+    /// Integrates one IMU sample: first closes the frame it passes (its bearings go to the
+    /// estimator), then lets the estimator solve every frame the sample passes.
+    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, PipelineError> {
+        let started = Instant::now();
+        if self.slot.t.is_some_and(|t| t <= s.t) {
+            self.flush_slot()?;
+        }
+        let step = self.wins.push_imu(s);
+        self.timing.estimator_s += started.elapsed().as_secs_f64();
+        let step = step?;
+        if let Some(p) = step.imu_pose {
+            self.latest = Some(p);
+        }
+        self.history.push_back(*s);
+        let keep_from = self.slot.bearings.first().map_or(s.t.0, |b| b.t.0) - HISTORY_MARGIN_NS;
+        while self.history.len() > 2 && self.history[1].t.0 < keep_from {
+            self.history.pop_front();
+        }
+        Ok(step)
+    }
+
+    /// Processes one packet of AP `ap` received at `t` (IMU clock); returns its log row.
+    /// Packets must come in time order with the IMU samples (a packet at `t` before the samples
+    /// after `t`).
+    pub fn push_csi(&mut self, ap: usize, t: Timestamp, record: &CsiRecord) -> PacketLog {
+        let converged = self.wins.window().converged_at().is_some();
+        let mut row = PacketLog::new(ap, t, converged);
+        let Some(track) = self.tracks.get(ap) else {
+            row.status = PacketStatus::Skipped;
+            row.reason = format!("unknown AP index {ap}");
+            self.stats.count_unknown_ap();
+            return row;
+        };
+        let now = self
+            .latest
+            .map(|p| ArrayPose::of_body(&p.b0_from_body, &p.p_b_in_b0, &self.rig.body_from_array));
+        let started = Instant::now();
+        if let TrackState::Acquiring { .. } = track.state {
+            self.acquire(ap, t, record, now.as_ref(), &mut row);
+        } else {
+            self.follow(ap, t, record, now.as_ref(), converged, &mut row);
+        }
+        self.timing.aoa_s += started.elapsed().as_secs_f64();
+        self.stats.count(&row);
+        row
+    }
+
+    /// SpotFi over the first packets starts the track.
+    fn acquire(
+        &mut self,
+        ap: usize,
+        t: Timestamp,
+        record: &CsiRecord,
+        now: Option<&ArrayPose>,
+        row: &mut PacketLog,
+    ) {
+        row.status = PacketStatus::Acquisition;
+        let TrackState::Acquiring { records } = &mut self.tracks[ap].state else {
+            return;
+        };
+        records.push(record.clone());
+        if records.len() < self.config.init_packets {
+            return;
+        }
+        let group = self.aoa.spotfi(records.iter());
+        records.clear();
+        match group.direct {
+            Ok(direct) => {
+                row.aoa_deg = Some(direct.aoa_rad.to_degrees());
+                row.tof_ns = Some(direct.tof_s * 1e9);
+                self.tracks[ap].accept(direct.aoa_rad, t, now.copied());
+                self.stats.per_ap[ap].acquisitions += 1;
+            }
+            Err(e) => {
+                row.reason = format!("SpotFi found no direct path: {e}");
+                self.stats.per_ap[ap].acquisition_failures += 1;
+            }
+        }
+    }
+
+    /// PAoA around the prediction, then into the frame slot.
+    fn follow(
+        &mut self,
+        ap: usize,
+        t: Timestamp,
+        record: &CsiRecord,
+        now: Option<&ArrayPose>,
+        converged: bool,
+        row: &mut PacketLog,
+    ) {
+        let from_state = if converged {
+            self.wins
+                .window()
+                .ap_in_b0(ap)
+                .zip(now)
+                .and_then(|(c, pose)| {
+                    pose.bearing_to(&c)
+                        .map(|b| (b, (c - pose.p_a_in_b0).norm()))
+                })
+        } else {
+            None
+        };
+        // Algorithm 1: the previous angle turned by the gyro. Not the state's direction to the
+        // AP: a wrong state would then steer the window away from the AP for good.
+        let prediction = self.tracks[ap].predict_by_rotation(now);
+        let Some(prediction) = prediction else {
+            return;
+        };
+        let predicted = prediction.predicted_aoa_rad();
+        row.predicted_aoa_deg = Some(predicted.to_degrees());
+        let result = match self.aoa.paoa(record, &prediction) {
+            Ok(r) => r,
+            Err(e) => {
+                row.status = PacketStatus::Skipped;
+                row.reason = e.to_string();
+                return;
+            }
+        };
+        let Some(peak) = result.peak else {
+            row.status = PacketStatus::NoCrediblePeak;
+            if self.tracks[ap].miss(self.config.max_misses) {
+                row.reason = "track lost: reacquiring with SpotFi".into();
+                self.stats.per_ap[ap].track_losses += 1;
+            }
+            return;
+        };
+        row.aoa_deg = Some(peak.aoa_deg());
+        row.tof_ns = Some(peak.tof_s * 1e9);
+        self.tracks[ap].accept(peak.aoa_rad, t, now.copied());
+        // The side: continuous along the track (the AP crosses from front to back only through
+        // the array's axis, |θ| → 90°); the state may switch it only there.
+        let track = &mut self.tracks[ap];
+        let side = match from_state {
+            Some(((state_aoa, state_side), _)) => {
+                let off = (peak.aoa_rad - state_aoa).abs() > self.config.gate_deg.to_radians();
+                // A run of gated packets means the state, not the AoA, is off: feed again.
+                if off && track.gated_in_row < self.config.max_gated_in_row {
+                    track.gated_in_row += 1;
+                    row.status = PacketStatus::Gated;
+                    return;
+                }
+                track.gated_in_row = 0;
+                if state_side != track.side
+                    && peak.aoa_rad.abs() >= SIDE_SWITCH_MIN_AOA_DEG.to_radians()
+                {
+                    track.side = state_side;
+                }
+                row.side_from_state = state_side == track.side;
+                track.side
+            }
+            None if self.config.assume_front_until_converged => track.side,
+            None => {
+                row.status = PacketStatus::SideUnknown;
+                return;
+            }
+        };
+        row.side = Some(side);
+        row.status = PacketStatus::Fed;
+        let motion = from_state
+            .zip(self.latest)
+            .map(|((_, range), p)| (p.world_from_body.inverse() * p.v_b_in_w, range));
+        let pending = PendingBearing {
+            t,
+            bearing: Bearing {
+                ap,
+                aoa_rad: peak.aoa_rad,
+                side,
+                sigma_rad: self.config.bearing_sigma_deg.to_radians(),
+            },
+            motion,
+        };
+        let frame_t = grid_time(t, (self.config.frame_period_ms * 1e6).round() as i64);
+        if self.slot.t.is_some_and(|st| st != frame_t)
+            && let Err(e) = self.flush_slot()
+        {
+            row.reason = format!("estimator refused the previous frame: {e}");
+        }
+        self.slot.t = Some(frame_t);
+        self.slot.bearings.push(pending);
+    }
+
+    /// Sends the open frame to the estimator, each bearing moved to the frame's time.
+    fn flush_slot(&mut self) -> Result<(), PipelineError> {
+        let Some(frame_t) = self.slot.t.take() else {
+            return Ok(());
+        };
+        let pending = std::mem::take(&mut self.slot.bearings);
+        let bias = self.wins.window().gyro_bias_rad_s();
+        let bearings: Vec<Bearing> = pending
+            .iter()
+            .map(|p| {
+                let bp_from_bk = rotation_between(&self.history, p.t, frame_t, &bias);
+                let dt_s = frame_t.secs_since(p.t);
+                move_bearing(p, &bp_from_bk.inverse(), dt_s, &self.rig.body_from_array)
+            })
+            .collect();
+        let n = bearings.len();
+        if let Err(e) = self.wins.push_bearings(frame_t, bearings) {
+            self.stats.refused_bearings += n as u64;
+            return Err(e.into());
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,185 @@
+//! The files of a run directory and the scoring of a run against a dataset's truth.
+//!
+//! | file | content |
+//! |---|---|
+//! | `trajectory.tum` | body poses in `w` at every frame after convergence (TUM: `t x y z qx qy qz qw`) |
+//! | `trajectory_all.tum` | the same from the first frame (before convergence `w` is not yet fixed) |
+//! | `aps.csv` | estimated AP positions in `w` ([`crate::eval::aps`] format) |
+//! | `aoa.csv` | one row per packet ([`super::PacketLog`]) |
+//! | `stats.json` | packets used/dropped per AP and why, estimator counters, per-stage wall time |
+//! | `metrics.json`, `report.txt` | with a truth only: [`crate::eval::Metrics`] and its text |
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::replay::RunOutput;
+use super::{PacketStatus, PipelineStats, StageTiming};
+use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
+use crate::eval::{EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, write_estimated_aps};
+use crate::fusion::estimator::{PoseEstimate, WinsStats};
+
+/// Converged trajectory file.
+pub const TRAJECTORY_FILE: &str = "trajectory.tum";
+/// Whole trajectory file.
+pub const TRAJECTORY_ALL_FILE: &str = "trajectory_all.tum";
+/// Estimated APs.
+pub const APS_FILE: &str = "aps.csv";
+/// Per-packet AoA log.
+pub const AOA_FILE: &str = "aoa.csv";
+/// Run statistics.
+pub const STATS_FILE: &str = "stats.json";
+/// Metrics against the truth.
+pub const METRICS_FILE: &str = "metrics.json";
+/// Text report.
+pub const REPORT_FILE: &str = "report.txt";
+
+/// A packet's AoA is paired with the truth packet nearest in time within this, ns (the NIC
+/// clock has 1 µs resolution).
+const TRUTH_PAIR_NS: i64 = 1_000;
+
+/// `stats.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunStats<'a> {
+    /// Flight time replayed, s.
+    pub flight_s: f64,
+    /// Wall time of the replay, s.
+    pub wall_s: f64,
+    /// `flight_s / wall_s`.
+    pub realtime_factor: f64,
+    /// Convergence, s on the IMU clock (null if never).
+    pub converged_at_s: Option<f64>,
+    /// Frames solved / after convergence.
+    pub frames: usize,
+    /// Frames after convergence.
+    pub frames_converged: usize,
+    /// Wall time per stage, s.
+    pub timing: StageTiming,
+    /// Packets per AP and why they were dropped.
+    pub packets: &'a PipelineStats,
+    /// The estimator's counters.
+    pub estimator: WinsStats,
+    /// IMU samples refused.
+    pub imu_refused: u64,
+}
+
+fn pose_of(p: &PoseEstimate) -> Pose {
+    Pose {
+        t: p.t,
+        p_b_in_w: p.p_b_in_w,
+        world_from_body: p.world_from_body,
+    }
+}
+
+impl RunOutput {
+    /// Poses after convergence, as [`Pose`]s.
+    pub fn converged_poses(&self) -> Vec<Pose> {
+        self.converged_frames().map(pose_of).collect()
+    }
+
+    /// The AP estimates in the evaluation's format.
+    pub fn estimated_aps(&self) -> Vec<EstimatedAp> {
+        self.aps
+            .iter()
+            .map(|a| EstimatedAp {
+                name: a.name.clone(),
+                x_m: a.p_in_w.x,
+                y_m: a.p_in_w.y,
+                z_m: a.p_in_w.z,
+            })
+            .collect()
+    }
+
+    /// `stats.json`'s content.
+    pub fn run_stats(&self) -> RunStats<'_> {
+        RunStats {
+            flight_s: self.flight_s,
+            wall_s: self.wall_s,
+            realtime_factor: self.realtime_factor(),
+            converged_at_s: self.converged_at.map(|t| t.as_secs_f64()),
+            frames: self.frames.len(),
+            frames_converged: self.converged_frames().count(),
+            timing: self.timing,
+            packets: &self.stats,
+            estimator: self.wins,
+            imu_refused: self.imu_refused,
+        }
+    }
+
+    /// `(AP, time s, measured AoA °, true AoA °)` of every fed packet that has a truth row.
+    pub fn aoa_vs_truth(&self, truth: &Truth) -> Vec<(usize, f64, f64, f64)> {
+        self.packets
+            .iter()
+            .filter(|r| r.status == PacketStatus::Fed)
+            .filter_map(|r| {
+                let rows = truth.packets.get(r.ap)?;
+                let i = rows.partition_point(|p| p.t_ns < r.t_ns - TRUTH_PAIR_NS);
+                let row = rows
+                    .get(i)
+                    .filter(|p| (p.t_ns - r.t_ns).abs() <= TRUTH_PAIR_NS)?;
+                Some((r.ap, r.t_ns as f64 * 1e-9, r.aoa_deg?, row.aoa_deg))
+            })
+            .collect()
+    }
+
+    /// The run scored against `truth`: [`evaluate`] on the converged trajectory, plus the
+    /// run-only fields (AoA median error, packets, real-time factor).
+    pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
+        let poses = self.converged_poses();
+        let mut m = evaluate(
+            &poses,
+            &truth.poses,
+            &self.estimated_aps(),
+            &truth.aps,
+            options,
+        )?;
+        let mut errors: Vec<f64> = self
+            .aoa_vs_truth(truth)
+            .iter()
+            .map(|(_, _, est, tru)| (est - tru).abs())
+            .collect();
+        errors.sort_by(f64::total_cmp);
+        m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
+        m.packets_used = Some(self.stats.fed());
+        m.packets_dropped = Some(self.stats.dropped());
+        m.realtime_factor = Some(self.realtime_factor());
+        Ok(m)
+    }
+}
+
+/// Writes the run directory (created if needed); returns the files written.
+pub fn write_run(
+    dir: &Path,
+    run: &RunOutput,
+    metrics: Option<&Metrics>,
+) -> io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let mut written = Vec::new();
+    let mut put = |name: &str, f: &mut dyn FnMut(&mut BufWriter<File>) -> io::Result<()>| {
+        let path = dir.join(name);
+        let mut w = BufWriter::new(File::create(&path)?);
+        f(&mut w)?;
+        w.flush()?;
+        written.push(path);
+        Ok::<(), io::Error>(())
+    };
+    put(TRAJECTORY_FILE, &mut |w| {
+        write_tum(w, &run.converged_poses())
+    })?;
+    let all: Vec<Pose> = run.frames.iter().map(pose_of).collect();
+    put(TRAJECTORY_ALL_FILE, &mut |w| write_tum(w, &all))?;
+    put(APS_FILE, &mut |w| {
+        write_estimated_aps(w, &run.estimated_aps())
+    })?;
+    put(AOA_FILE, &mut |w| write_csv(w, &run.packets))?;
+    let stats = serde_json::to_string_pretty(&run.run_stats()).map_err(io::Error::other)?;
+    put(STATS_FILE, &mut |w| writeln!(w, "{stats}"))?;
+    if let Some(m) = metrics {
+        let text = serde_json::to_string_pretty(m).map_err(io::Error::other)?;
+        put(METRICS_FILE, &mut |w| writeln!(w, "{text}"))?;
+        put(REPORT_FILE, &mut |w| w.write_all(m.report().as_bytes()))?;
+    }
+    Ok(written)
+}

@@ -1,0 +1,165 @@
+//! A dataset directory through the [`Pipeline`]: IMU samples and every AP's packets merged by
+//! time (a packet before the IMU samples after it), as a live driver would push them.
+
+use std::time::Instant;
+
+use nalgebra::Vector3;
+
+use super::{PacketLog, Pipeline, PipelineConfig, PipelineError, PipelineStats, Rig, StageTiming};
+use crate::aoa::ChainCalibration;
+use crate::dataset::Dataset;
+use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::imu::ImuNoise;
+use crate::time::Timestamp;
+
+/// Why a dataset cannot be replayed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The manifest has no IMU noise and none was given.
+    #[error("the dataset states no IMU noise densities (dataset.toml [imu.noise]); give them")]
+    NoImuNoise,
+    /// No IMU samples.
+    #[error("the dataset has no IMU samples")]
+    NoImu,
+    /// The pipeline cannot be built.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+}
+
+/// An estimated AP position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ApEstimate {
+    /// The AP's name.
+    pub name: String,
+    /// Position in the estimator's world frame `w`, m.
+    pub p_in_w: Vector3<f64>,
+    /// Largest standard deviation of the position, m.
+    pub sigma_m: f64,
+}
+
+/// Everything a replay produced.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    /// The pose of every solved frame, in time order (`converged` says which are usable).
+    pub frames: Vec<PoseEstimate>,
+    /// One row per packet, in processing order.
+    pub packets: Vec<PacketLog>,
+    /// The APs at the end of the run (in `w` of the last frame).
+    pub aps: Vec<ApEstimate>,
+    /// When the window reported convergence.
+    pub converged_at: Option<Timestamp>,
+    /// Packet counters.
+    pub stats: PipelineStats,
+    /// The estimator's counters.
+    pub wins: WinsStats,
+    /// Wall time per stage, s.
+    pub timing: StageTiming,
+    /// Wall time of the whole replay, s.
+    pub wall_s: f64,
+    /// Flight time replayed (first to last IMU sample), s.
+    pub flight_s: f64,
+    /// IMU samples the estimator refused (non-finite, out of order).
+    pub imu_refused: u64,
+}
+
+impl RunOutput {
+    /// Flight time over wall time.
+    pub fn realtime_factor(&self) -> f64 {
+        self.flight_s / self.wall_s.max(1e-12)
+    }
+
+    /// Frames after convergence.
+    pub fn converged_frames(&self) -> impl Iterator<Item = &PoseEstimate> {
+        self.frames.iter().filter(|p| p.converged)
+    }
+}
+
+/// The rig of a dataset: its manifest, with the IMU noise and calibration overridable.
+pub fn rig_of(
+    dataset: &Dataset,
+    imu_noise: Option<ImuNoise>,
+    calibration: Option<ChainCalibration>,
+) -> Result<Rig, ReplayError> {
+    let m = &dataset.manifest;
+    Ok(Rig {
+        geometry: m.array.geometry,
+        body_from_array: m.array.body_from_array(),
+        center_freq_hz: m.channel.center_freq_hz,
+        calibration: calibration.or_else(|| dataset.calibration.clone()),
+        imu_noise: imu_noise
+            .or_else(|| m.imu.noise.clone())
+            .ok_or(ReplayError::NoImuNoise)?,
+        ap_names: m.aps.iter().map(|a| a.name.clone()).collect(),
+    })
+}
+
+/// Replays `dataset` through a pipeline for `rig`.
+pub fn replay(
+    dataset: &Dataset,
+    rig: Rig,
+    config: PipelineConfig,
+) -> Result<RunOutput, ReplayError> {
+    let (Some(first), Some(last)) = (dataset.imu.first(), dataset.imu.last()) else {
+        return Err(ReplayError::NoImu);
+    };
+    let flight_s = last.t.secs_since(first.t);
+    let started = Instant::now();
+    let mut pipeline = Pipeline::new(config, rig)?;
+    // (time, 0 = packet / 1 = IMU, AP, index): packets before IMU samples at the same time.
+    let mut events: Vec<(Timestamp, u8, usize, usize)> = dataset
+        .imu
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.t, 1, 0, i))
+        .collect();
+    for (l, ap) in dataset.aps.iter().enumerate() {
+        events.extend(ap.packets.iter().enumerate().map(|(i, p)| (p.t, 0, l, i)));
+    }
+    events.sort_unstable();
+    let mut frames = Vec::new();
+    let mut packets = Vec::new();
+    let mut imu_refused = 0;
+    for (_, kind, l, i) in events {
+        if kind == 0 {
+            let p = &dataset.aps[l].packets[i];
+            packets.push(pipeline.push_csi(l, p.t, &p.record));
+        } else {
+            match pipeline.push_imu(&dataset.imu[i]) {
+                Ok(step) => frames.extend(step.frames),
+                Err(_) => imu_refused += 1,
+            }
+        }
+    }
+    let wins = pipeline.wins();
+    let w_from_b0 = wins.world_from_b0();
+    let window = wins.window();
+    let aps = pipeline
+        .rig()
+        .ap_names
+        .iter()
+        .enumerate()
+        .filter_map(|(l, name)| {
+            let c = window.ap_in_b0(l)?;
+            let sigma_m = window.ap_covariance(l).map_or(f64::INFINITY, |p| {
+                p.symmetric_eigenvalues().max().max(0.0).sqrt()
+            });
+            Some(ApEstimate {
+                name: name.clone(),
+                p_in_w: w_from_b0 * c,
+                sigma_m,
+            })
+        })
+        .collect();
+    Ok(RunOutput {
+        frames,
+        packets,
+        aps,
+        converged_at: window.converged_at(),
+        stats: pipeline.stats().clone(),
+        wins: wins.stats(),
+        timing: pipeline.timing(),
+        wall_s: started.elapsed().as_secs_f64(),
+        flight_s,
+        imu_refused,
+    })
+}

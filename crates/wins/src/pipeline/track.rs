@@ -1,0 +1,173 @@
+//! One AP's AoA track (paper Algorithm 1): the first angle from SpotFi over the AP's first
+//! packets, then PAoA per packet around a prediction: the previous angle turned by the gyro's
+//! rotation since (the translation part, ~0.6° per packet at 50 Hz, is left to the ±20° window).
+//! The estimated pose and AP give the side (front/back) and a gate once converged. A track that
+//! finds no credible peak for too long starts over from SpotFi.
+
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+
+use crate::aoa::AoaPrediction;
+use crate::aoa::steering::aoa_rad;
+use crate::csi::intel5300::CsiRecord;
+use crate::fusion::bearing::{Side, side_of};
+use crate::time::Timestamp;
+
+/// The array's pose in `b0` at one instant (from the estimator's propagated pose).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArrayPose {
+    /// `R_{a}^{b_0}`.
+    pub b0_from_array: UnitQuaternion<f64>,
+    /// Array centre in `b0`, m.
+    pub p_a_in_b0: Vector3<f64>,
+}
+
+impl ArrayPose {
+    /// The array pose of a body pose in `b0`.
+    pub fn of_body(
+        b0_from_body: &UnitQuaternion<f64>,
+        p_b_in_b0: &Vector3<f64>,
+        body_from_array: &Isometry3<f64>,
+    ) -> Self {
+        Self {
+            b0_from_array: b0_from_body * body_from_array.rotation,
+            p_a_in_b0: p_b_in_b0 + b0_from_body * body_from_array.translation.vector,
+        }
+    }
+
+    /// The cone angle and side of a point (in `b0`) seen from this pose, or `None` when the point
+    /// is at the array centre.
+    pub fn bearing_to(&self, point_in_b0: &Vector3<f64>) -> Option<(f64, Side)> {
+        let d = self.b0_from_array.inverse() * (point_in_b0 - self.p_a_in_b0);
+        (d.norm() > 1e-9).then(|| (aoa_rad(&d), side_of(&d)))
+    }
+}
+
+/// Where a track is.
+#[derive(Clone, Debug)]
+pub enum TrackState {
+    /// Collecting the first packets for SpotFi.
+    Acquiring {
+        /// Records collected so far.
+        records: Vec<CsiRecord>,
+    },
+    /// Following the AP packet by packet.
+    Tracking {
+        /// The last angle (measured or SpotFi's), rad.
+        aoa_rad: f64,
+        /// When it was measured.
+        t: Timestamp,
+        /// The array's pose then (`None` before the estimator had a pose).
+        pose: Option<ArrayPose>,
+        /// Consecutive packets without a credible peak.
+        misses: usize,
+    },
+}
+
+/// One AP's track.
+#[derive(Clone, Debug)]
+pub struct Track {
+    /// The current state.
+    pub state: TrackState,
+    /// Packets gated in a row after convergence (see `PipelineConfig::max_gated_in_row`).
+    pub gated_in_row: usize,
+    /// The side of the array the AP is on (front until the state says otherwise).
+    pub side: Side,
+}
+
+impl Default for Track {
+    fn default() -> Self {
+        Self {
+            state: TrackState::Acquiring {
+                records: Vec::new(),
+            },
+            gated_in_row: 0,
+            side: Side::Front,
+        }
+    }
+}
+
+impl Track {
+    /// The Algorithm-1 prediction before convergence: the previous angle turned by the array's
+    /// rotation since (no translation part: the range is not known yet). `None` while acquiring.
+    pub fn predict_by_rotation(&self, now: Option<&ArrayPose>) -> Option<AoaPrediction> {
+        let TrackState::Tracking { aoa_rad, pose, .. } = &self.state else {
+            return None;
+        };
+        let aj_from_ai = match (pose, now) {
+            (Some(then), Some(now)) => now.b0_from_array.inverse() * then.b0_from_array,
+            _ => UnitQuaternion::identity(),
+        };
+        Some(AoaPrediction::from_motion(
+            *aoa_rad,
+            &aj_from_ai,
+            &Vector3::zeros(),
+            f64::INFINITY,
+        ))
+    }
+
+    /// Records an accepted angle.
+    pub fn accept(&mut self, aoa_rad: f64, t: Timestamp, pose: Option<ArrayPose>) {
+        self.state = TrackState::Tracking {
+            aoa_rad,
+            t,
+            pose,
+            misses: 0,
+        };
+    }
+
+    /// Records a packet without a credible peak; returns `true` when the track was lost (it is
+    /// then acquiring again).
+    pub fn miss(&mut self, max_misses: usize) -> bool {
+        if let TrackState::Tracking { misses, .. } = &mut self.state {
+            *misses += 1;
+            if *misses > max_misses {
+                *self = Self {
+                    side: self.side,
+                    ..Self::default()
+                };
+                return true;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_point_ahead_and_to_the_left_is_in_front_at_a_positive_angle() {
+        let pose = ArrayPose {
+            b0_from_array: UnitQuaternion::identity(),
+            p_a_in_b0: Vector3::zeros(),
+        };
+        let (aoa, side) = pose.bearing_to(&Vector3::new(1.0, 1.0, 0.0)).unwrap();
+        assert!((aoa - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
+        assert_eq!(side, Side::Front);
+        let (aoa, side) = pose.bearing_to(&Vector3::new(-1.0, 1.0, 0.0)).unwrap();
+        assert!((aoa - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
+        assert_eq!(side, Side::Back);
+        assert!(pose.bearing_to(&Vector3::zeros()).is_none());
+    }
+
+    #[test]
+    fn the_rotation_prediction_follows_a_yaw_and_a_lost_track_reacquires() {
+        let mut track = Track::default();
+        assert!(track.predict_by_rotation(None).is_none());
+        let then = ArrayPose {
+            b0_from_array: UnitQuaternion::identity(),
+            p_a_in_b0: Vector3::zeros(),
+        };
+        track.accept(0.2, Timestamp(0), Some(then));
+        let now = ArrayPose {
+            b0_from_array: UnitQuaternion::from_euler_angles(0.0, 0.0, 0.1),
+            ..then
+        };
+        let p = track.predict_by_rotation(Some(&now)).unwrap();
+        assert!((p.predicted_aoa_rad() - 0.1).abs() < 1e-12);
+        assert!(!track.miss(1));
+        assert!(track.miss(1));
+        assert!(matches!(track.state, TrackState::Acquiring { .. }));
+    }
+}

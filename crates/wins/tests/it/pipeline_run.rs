@@ -1,0 +1,171 @@
+//! The WINS pipeline on simulated datasets (issue 6): a dataset written to disk, loaded, replayed
+//! through the push API and scored against its truth.
+
+use std::path::PathBuf;
+
+use wins::csi::intel5300::CsiRecord;
+use wins::dataset::Dataset;
+use wins::dataset::truth::Truth;
+use wins::eval::{EvalOptions, Metrics};
+use wins::imu::ImuSample;
+use wins::pipeline::output::{METRICS_FILE, TRAJECTORY_FILE, write_run};
+use wins::pipeline::replay::{RunOutput, replay, rig_of};
+use wins::pipeline::{PacketStatus, PipelineConfig};
+use wins::sim::{Scenario, simulate, write_dataset};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("wins-it-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Simulates `name` for `seconds`, writes it, loads it back; `spoil` may damage the loaded data.
+fn dataset(
+    name: &str,
+    seconds: f64,
+    dir: &PathBuf,
+    spoil: impl Fn(&mut Dataset),
+) -> (Dataset, Truth) {
+    let mut s = Scenario::built_in(name).unwrap();
+    s.duration_s = seconds;
+    let out = simulate(&s, &mut |_| {}).unwrap();
+    write_dataset(dir, &s, &out).unwrap();
+    let mut data = Dataset::load(dir).unwrap();
+    spoil(&mut data);
+    (data, Truth::load(dir).unwrap())
+}
+
+fn run(data: &Dataset) -> RunOutput {
+    let rig = rig_of(data, None, None).unwrap();
+    replay(data, rig, PipelineConfig::default()).unwrap()
+}
+
+fn check_accounting(run: &RunOutput) {
+    for s in &run.stats.per_ap {
+        assert_eq!(s.fed + s.acquisition + s.dropped(), s.packets, "{s:?}");
+    }
+    assert_eq!(
+        run.packets.len() as u64,
+        run.stats.per_ap.iter().map(|s| s.packets).sum::<u64>()
+    );
+    for f in &run.frames {
+        assert!(f.p_b_in_w.iter().all(|x| x.is_finite()), "NaN at {:?}", f.t);
+    }
+}
+
+fn print(label: &str, run: &RunOutput, m: &Metrics) {
+    println!(
+        "{label}: converged {:.2} s, position mean {:.3} m (ATE {:.3} m), attitude {:.2}°, APs {:?}, \
+         AoA median {:.2}°, {} fed / {} dropped, {:.0}× real time (AoA {:.3} s, estimator {:.3} s)",
+        m.convergence_time_s,
+        m.position_error_mean_m,
+        m.ate_rmse_m,
+        m.attitude_error_mean_deg,
+        m.ap_position_error_m,
+        m.aoa_error_median_deg.unwrap_or(f64::NAN),
+        run.stats.fed(),
+        run.stats.dropped(),
+        run.realtime_factor(),
+        run.timing.aoa_s,
+        run.timing.estimator_s,
+    );
+}
+
+/// paper-circle, default seed, 40 s, from the files on disk. Asserted: accounting, outputs, the
+/// AoA stage, convergence; the accuracy bounds are regression bounds around what this session
+/// measured (0.3 m class), NOT issue 6's targets, which are not met on every seed (README).
+#[test]
+fn paper_circle_from_disk_end_to_end() {
+    let dir = temp_dir("pipeline-circle");
+    let (data, truth) = dataset("paper-circle", 40.0, &dir, |_| {});
+    let run = run(&data);
+    check_accounting(&run);
+    let m = run.score(&truth, &EvalOptions::default()).unwrap();
+    print("paper-circle 40 s", &run, &m);
+    let aoa = m.aoa_error_median_deg.unwrap();
+    assert!(aoa < 2.5, "{aoa}");
+    assert!(m.convergence_time_s < 20.0, "{}", m.convergence_time_s);
+    assert!(m.position_error_mean_m < 1.0, "{}", m.position_error_mean_m);
+    assert!(
+        m.ap_position_error_m["ap0"] < 1.0,
+        "{:?}",
+        m.ap_position_error_m
+    );
+    assert!(run.stats.fed() > 1500, "{}", run.stats.fed());
+
+    let out = dir.join("run");
+    let written = write_run(&out, &run, Some(&m)).unwrap();
+    assert!(written.iter().all(|p| p.is_file()));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join(METRICS_FILE)).unwrap()).unwrap();
+    for key in [
+        "position_error_mean_m",
+        "position_error_rmse_m",
+        "convergence_time_s",
+        "attitude_error_mean_deg",
+        "ap_position_error_m",
+        "aoa_error_median_deg",
+        "packets_used",
+        "packets_dropped",
+        "realtime_factor",
+    ] {
+        assert!(!json[key].is_null(), "{key} missing");
+    }
+    let tum = std::fs::read_to_string(out.join(TRAJECTORY_FILE)).unwrap();
+    assert_eq!(
+        tum.lines().filter(|l| !l.starts_with('#')).count(),
+        run.converged_frames().count()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Three APs and an obstacle finish with finite output and every packet accounted for.
+#[test]
+fn three_aps_and_an_obstacle_finish() {
+    for name in ["paper-circle-3ap", "paper-circle-obstacle"] {
+        let dir = temp_dir(name);
+        let (data, truth) = dataset(name, 20.0, &dir, |_| {});
+        let run = run(&data);
+        check_accounting(&run);
+        assert_eq!(run.stats.per_ap.len(), data.aps.len());
+        if let Ok(m) = run.score(&truth, &EvalOptions::default()) {
+            print(name, &run, &m);
+            assert!(m.position_error_mean_m.is_finite());
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// Bad input is counted, never a panic: a NaN IMU sample, a packet of an AP the rig does not
+/// know, packets with two chains and a time outage of the CSI.
+#[test]
+fn bad_input_is_counted() {
+    let dir = temp_dir("pipeline-bad");
+    let (data, _) = dataset("paper-circle", 8.0, &dir, |d| {
+        let nan = ImuSample {
+            gyro_rad_s: nalgebra::Vector3::new(f64::NAN, 0.0, 0.0),
+            ..d.imu[300]
+        };
+        d.imu[300] = nan;
+        for p in d.aps[0].packets.iter_mut().skip(100).take(5) {
+            let mut header = p.record.header;
+            header.nrx = 2;
+            header.ntx = 1;
+            let csi = &p.record.csi()[..header.num_entries()];
+            p.record = CsiRecord::new(header, csi, p.record.timestamp).unwrap();
+        }
+        let (from, to) = (3_000_000_000, 5_000_000_000);
+        d.aps[0].packets.retain(|p| p.t.0 < from || p.t.0 > to);
+    });
+    let run = run(&data);
+    check_accounting(&run);
+    assert_eq!(run.imu_refused, 1);
+    assert_eq!(run.stats.per_ap[0].skipped, 5, "{:?}", run.stats.per_ap[0]);
+    let skipped: Vec<_> = run
+        .packets
+        .iter()
+        .filter(|r| r.status == PacketStatus::Skipped)
+        .collect();
+    assert!(skipped.iter().all(|r| !r.reason.is_empty()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
