@@ -193,8 +193,8 @@ fn draw(
 ) -> Result<Vec<PathBuf>> {
     let align = &m.alignment;
     let t0 = truth.poses.first().map_or(0.0, |p| p.t.as_secs_f64());
-    let est: Vec<(f64, f64)> = run
-        .converged_poses()
+    let poses = run.converged_poses();
+    let est: Vec<(f64, f64)> = poses
         .iter()
         .map(|p| {
             let q = align.apply_point(&p.p_b_in_w);
@@ -254,11 +254,10 @@ fn draw(
     )?;
     files.push(path);
 
-    let errors: Vec<(f64, f64)> =
-        position_error_series(&run.converged_poses(), &truth.poses, options)?
-            .iter()
-            .map(|(t, e)| (t.as_secs_f64() - t0, *e))
-            .collect();
+    let errors: Vec<(f64, f64)> = position_error_series(&poses, &truth.poses, options)?
+        .iter()
+        .map(|(t, e)| (t.as_secs_f64() - t0, *e))
+        .collect();
     let converged = run.converged_at.map(|t| t.as_secs_f64() - t0);
     let lines: Vec<VerticalLine> = converged
         .iter()

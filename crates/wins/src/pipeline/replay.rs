@@ -140,9 +140,7 @@ pub fn replay(
         .enumerate()
         .filter_map(|(l, name)| {
             let c = window.ap_in_b0(l)?;
-            let sigma_m = window.ap_covariance(l).map_or(f64::INFINITY, |p| {
-                p.symmetric_eigenvalues().max().max(0.0).sqrt()
-            });
+            let sigma_m = window.ap_sigma_m(l).unwrap_or(f64::INFINITY);
             Some(ApEstimate {
                 name: name.clone(),
                 p_in_w: w_from_b0 * c,

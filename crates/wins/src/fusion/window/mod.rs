@@ -377,20 +377,14 @@ impl SlidingWindow {
     /// Largest marginal position σ over the APs (largest eigenvalue of each 3×3 block), m;
     /// infinite without APs.
     pub fn max_ap_sigma_m(&self) -> f64 {
-        (0..self.num_aps)
-            .map(|l| {
-                let o = ap_offset(l);
-                let block = self.border_covariance.fixed_view::<3, 3>(o, o).into_owned();
-                block.symmetric_eigenvalues().max().max(0.0).sqrt()
-            })
-            .fold(
-                if self.num_aps == 0 {
-                    f64::INFINITY
-                } else {
-                    0.0
-                },
-                f64::max,
-            )
+        (0..self.num_aps).filter_map(|l| self.ap_sigma_m(l)).fold(
+            if self.num_aps == 0 {
+                f64::INFINITY
+            } else {
+                0.0
+            },
+            f64::max,
+        )
     }
 
     /// When the estimate first converged (module doc), if it has.
@@ -459,6 +453,12 @@ impl SlidingWindow {
     pub fn ap_covariance(&self, l: usize) -> Option<nalgebra::Matrix3<f64>> {
         let o = ap_offset(l);
         (l < self.num_aps).then(|| self.border_covariance.fixed_view::<3, 3>(o, o).into_owned())
+    }
+
+    /// AP `l`'s largest marginal position σ (largest eigenvalue of its 3×3 block), m.
+    pub fn ap_sigma_m(&self, l: usize) -> Option<f64> {
+        self.ap_covariance(l)
+            .map(|p| p.symmetric_eigenvalues().max().max(0.0).sqrt())
     }
 
     /// The accelerometer bias estimate, m/s².
