@@ -164,7 +164,7 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
         writeln!(
             out,
             "{}: {} packets: {} fed, {} for SpotFi, dropped {} (no credible peak {}, gated {}, \
-             side unknown {}, skipped {}); {} track losses",
+             off track {}, side unknown {}, skipped {}); {} track losses",
             s.name,
             s.packets,
             s.fed,
@@ -172,6 +172,7 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
             s.dropped(),
             s.no_credible_peak,
             s.gated,
+            s.off_track,
             s.side_unknown,
             s.skipped,
             s.track_losses

@@ -75,6 +75,10 @@ pub struct WinsStats {
     pub frames_late: u64,
     /// Window solves that failed (the frame stays, the previous estimate is kept).
     pub solve_failures: u64,
+    /// Times the converged estimate was lost and the window started over (a new `b0`).
+    pub restarts: u64,
+    /// Candidate convergences rejected as implausible.
+    pub rejected_convergences: u64,
 }
 
 /// Why an input was refused (the estimator's state is unchanged; the refusal is counted).
@@ -134,7 +138,11 @@ impl Wins {
 
     /// Counters.
     pub fn stats(&self) -> WinsStats {
-        self.stats
+        WinsStats {
+            rejected_convergences: self.stats.rejected_convergences
+                + self.window.rejected_candidates(),
+            ..self.stats
+        }
     }
 
     /// The window (for AP positions, covariances, convergence).
@@ -213,7 +221,14 @@ impl Wins {
             self.stats.solve_failures += 1;
         }
         self.stats.frames += 1;
-        self.window.latest().map(|f| self.to_world(&f))
+        let pose = self.window.latest().map(|f| self.to_world(&f));
+        if self.window.is_lost() {
+            // Start over from zeros (initialization-free), as after a cold start.
+            self.stats.rejected_convergences += self.window.rejected_candidates();
+            self.stats.restarts += 1;
+            self.window = SlidingWindow::new(self.config.window.clone());
+        }
+        pose
     }
 
     /// The gyro bias estimate with a zero accelerometer bias (the window corrects ΔR with it; the

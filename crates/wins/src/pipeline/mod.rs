@@ -60,6 +60,14 @@ pub struct PipelineConfig {
     /// After this many gated packets in a row of one AP the next is fed anyway (the state, not
     /// the AoA, is then the suspect).
     pub max_gated_in_row: usize,
+    /// Packets further than this from the track's own prediction (the last track angle turned
+    /// by the gyro) are dropped as jumps to another path, degrees.
+    pub track_gate_deg: f64,
+    /// After this many packets off the track in a row, the track starts over from SpotFi.
+    pub max_off_track_in_row: usize,
+    /// How far the track follows each accepted angle (1: to the raw angle, the paper's
+    /// Algorithm 1; smaller: a first-order filter against multipath jitter).
+    pub track_gain: f64,
     /// Before convergence the state cannot tell front from back: assume front (the paper's
     /// set-up), flagged in the packet log. `false` drops bearings until convergence, which
     /// never comes with one AP.
@@ -76,6 +84,9 @@ impl Default for PipelineConfig {
             max_misses: 25,
             gate_deg: 5.0,
             max_gated_in_row: 10,
+            track_gate_deg: 10.0,
+            max_off_track_in_row: 10,
+            track_gain: 0.3,
             assume_front_until_converged: true,
         }
     }
@@ -179,10 +190,19 @@ impl Pipeline {
             });
         }
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(config.bearing_sigma_deg) || !positive(config.gate_deg) {
+        if !positive(config.bearing_sigma_deg)
+            || !positive(config.gate_deg)
+            || !positive(config.track_gate_deg)
+        {
             return Err(PipelineError::Config {
-                field: "bearing_sigma_deg / gate_deg",
+                field: "bearing_sigma_deg / gate_deg / track_gate_deg",
                 reason: "must be finite and > 0",
+            });
+        }
+        if !(config.track_gain > 0.0 && config.track_gain <= 1.0) {
+            return Err(PipelineError::Config {
+                field: "track_gain",
+                reason: "must be in (0, 1]",
             });
         }
         if !(config.frame_period_ms.is_finite() && config.frame_period_ms >= 0.0) {
@@ -366,7 +386,21 @@ impl Pipeline {
         };
         row.aoa_deg = Some(peak.aoa_deg());
         row.tof_ns = Some(peak.tof_s * 1e9);
-        self.tracks[ap].accept(peak.aoa_rad, t, now.copied());
+        if (peak.aoa_rad - predicted).abs() > self.config.track_gate_deg.to_radians() {
+            row.status = PacketStatus::OffTrack;
+            if self.tracks[ap].off_track(self.config.max_off_track_in_row) {
+                row.reason = "track lost: reacquiring with SpotFi".into();
+                self.stats.per_ap[ap].track_losses += 1;
+            }
+            return;
+        }
+        self.tracks[ap].update(
+            peak.aoa_rad,
+            predicted,
+            self.config.track_gain,
+            t,
+            now.copied(),
+        );
         // The side: continuous along the track (the AP crosses from front to back only through
         // the array's axis, |θ| → 90°); the state may switch it only there.
         let track = &mut self.tracks[ap];

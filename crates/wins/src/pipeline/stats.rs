@@ -18,6 +18,9 @@ pub enum PacketStatus {
     /// After convergence, the angle was further than the gate from the state's prediction:
     /// dropped.
     Gated,
+    /// The angle was further than the track gate from the track's own prediction (a jump to
+    /// another path): dropped.
+    OffTrack,
     /// Before convergence with `assume_front_until_converged = false`: dropped.
     SideUnknown,
     /// Could not be processed (wrong shape, bad chains, unknown AP): dropped, `reason` says why.
@@ -92,6 +95,8 @@ pub struct ApStats {
     pub no_credible_peak: u64,
     /// Dropped: outside the gate around the state's prediction.
     pub gated: u64,
+    /// Dropped: off the AP's track (a jump to another path).
+    pub off_track: u64,
     /// Dropped: side unknown before convergence.
     pub side_unknown: u64,
     /// Dropped: could not be processed.
@@ -100,14 +105,14 @@ pub struct ApStats {
     pub acquisitions: u64,
     /// SpotFi acquisitions without a direct path.
     pub acquisition_failures: u64,
-    /// Tracks lost after too many packets without a peak.
+    /// Tracks lost after too many packets without a peak or off the track.
     pub track_losses: u64,
 }
 
 impl ApStats {
     /// Packets dropped for any reason (neither fed nor used for acquisition).
     pub fn dropped(&self) -> u64 {
-        self.no_credible_peak + self.gated + self.side_unknown + self.skipped
+        self.no_credible_peak + self.gated + self.off_track + self.side_unknown + self.skipped
     }
 }
 
@@ -148,6 +153,7 @@ impl PipelineStats {
             PacketStatus::Acquisition => s.acquisition += 1,
             PacketStatus::NoCrediblePeak => s.no_credible_peak += 1,
             PacketStatus::Gated => s.gated += 1,
+            PacketStatus::OffTrack => s.off_track += 1,
             PacketStatus::SideUnknown => s.side_unknown += 1,
             PacketStatus::Skipped => s.skipped += 1,
         }

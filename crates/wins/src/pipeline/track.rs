@@ -70,6 +70,8 @@ pub struct Track {
     pub state: TrackState,
     /// Packets gated in a row after convergence (see `PipelineConfig::max_gated_in_row`).
     pub gated_in_row: usize,
+    /// Packets off the track in a row (see `PipelineConfig::track_gate_deg`).
+    pub off_track_in_row: usize,
     /// The side of the array the AP is on (front until the state says otherwise).
     pub side: Side,
 }
@@ -81,6 +83,7 @@ impl Default for Track {
                 records: Vec::new(),
             },
             gated_in_row: 0,
+            off_track_in_row: 0,
             side: Side::Front,
         }
     }
@@ -115,16 +118,48 @@ impl Track {
         };
     }
 
+    /// Records a measured angle `aoa_rad` against the track's prediction `predicted_rad`: the
+    /// track moves by `gain` of the difference (a first-order filter: one packet's multipath
+    /// error does not become the next packet's window centre, which let tracks random-walk onto
+    /// reflections). `gain = 1` keeps the raw angle (the paper's Algorithm 1).
+    pub fn update(
+        &mut self,
+        aoa_rad: f64,
+        predicted_rad: f64,
+        gain: f64,
+        t: Timestamp,
+        pose: Option<ArrayPose>,
+    ) {
+        self.off_track_in_row = 0;
+        self.accept(predicted_rad + gain * (aoa_rad - predicted_rad), t, pose);
+    }
+
+    /// Records a packet whose angle jumped off the track; returns `true` when more than
+    /// `max_in_row` did so in a row: the track is then lost (acquiring again).
+    pub fn off_track(&mut self, max_in_row: usize) -> bool {
+        self.off_track_in_row += 1;
+        if self.off_track_in_row > max_in_row {
+            self.restart();
+            return true;
+        }
+        false
+    }
+
+    /// Starts over from SpotFi (the side is kept).
+    fn restart(&mut self) {
+        *self = Self {
+            side: self.side,
+            ..Self::default()
+        };
+    }
+
     /// Records a packet without a credible peak; returns `true` when the track was lost (it is
     /// then acquiring again).
     pub fn miss(&mut self, max_misses: usize) -> bool {
         if let TrackState::Tracking { misses, .. } = &mut self.state {
             *misses += 1;
             if *misses > max_misses {
-                *self = Self {
-                    side: self.side,
-                    ..Self::default()
-                };
+                self.restart();
                 return true;
             }
         }
@@ -168,6 +203,25 @@ mod tests {
         assert!((p.predicted_aoa_rad() - 0.1).abs() < 1e-12);
         assert!(!track.miss(1));
         assert!(track.miss(1));
+        assert!(matches!(track.state, TrackState::Acquiring { .. }));
+    }
+
+    #[test]
+    fn the_track_follows_a_share_of_each_angle_and_a_run_of_jumps_restarts_it() {
+        let mut track = Track::default();
+        track.accept(0.0, Timestamp(0), None);
+        track.update(0.1, 0.0, 0.3, Timestamp(1), None);
+        let TrackState::Tracking { aoa_rad, .. } = track.state else {
+            panic!("tracking");
+        };
+        assert!((aoa_rad - 0.03).abs() < 1e-12);
+        assert!(!track.off_track(2));
+        assert!(!track.off_track(2));
+        // An accepted angle ends the run.
+        track.update(0.03, 0.03, 0.3, Timestamp(2), None);
+        assert!(!track.off_track(2));
+        assert!(!track.off_track(2));
+        assert!(track.off_track(2));
         assert!(matches!(track.state, TrackState::Acquiring { .. }));
     }
 }

@@ -283,7 +283,7 @@ pub fn aoa_info(inp: &AoaFactorInput) -> Option<AoaInfo> {
         n_gg: Matrix3::zeros(),
         b_g: Vector3::zeros(),
     };
-    for AoaRow { j, g, y, var } in rows {
+    for &AoaRow { j, g, y, var } in rows.as_slice() {
         info.n += j * j.transpose() / var;
         info.b_c += j * y / var;
         info.n_cg += j * g.transpose() / var;
@@ -325,8 +325,26 @@ pub struct AoaFactorInput<'a> {
     pub sigmas: AoaSigmas,
 }
 
-/// The two rows of [`aoa_info`].
-pub fn aoa_rows(inp: &AoaFactorInput) -> Option<[AoaRow; 2]> {
+/// The rows of [`aoa_info`]: at most two.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AoaRows {
+    rows: [AoaRow; 2],
+    len: usize,
+}
+
+impl AoaRows {
+    /// The rows.
+    pub fn as_slice(&self) -> &[AoaRow] {
+        &self.rows[..self.len]
+    }
+}
+
+/// The rows of [`aoa_info`]. Algebraic (`AoaPoint::Range`): the horizontal normal and the
+/// AP-at-array-height row. At a point (`AoaPoint::At`): with [`AoaSigmas::cone`] the exact
+/// measurement of a linear array, the cone `âᵀ x / |x| = sin θ` (`â` the array axis in `b0`), no
+/// elevation assumed and no side needed (the point is on one); else the two angle rows of the
+/// horizontal model.
+pub fn aoa_rows(inp: &AoaFactorInput) -> Option<AoaRows> {
     let AoaFactorInput {
         bearing,
         b0_from_bj,
@@ -336,14 +354,11 @@ pub fn aoa_rows(inp: &AoaFactorInput) -> Option<[AoaRow; 2]> {
         gyro,
         sigmas,
     } = *inp;
-    let (u, up, s, sin_b) = horizontal_direction(bearing, up_in_bj, body_from_array)?;
-    // δθ cos θ = −s sin β δβ.
-    let sigma_beta = bearing.sigma_rad * bearing.aoa_rad.cos() / (s * sin_b.abs()).max(0.1);
-    let sigma_theta2 = sigma_beta.powi(2) + sigmas.attitude_rad.powi(2);
     let t_ba = body_from_array.translation.vector;
     let offset = b0_from_bj * t_ba;
     let r_j = b0_from_bj.to_rotation_matrix().into_inner();
-    let row = |dir_b: Vector3<f64>, var: f64| {
+    // The row `dir_bᵀ R_jᵀ x / |x| = target` (or `… / λ` without a point) in `b_j`.
+    let row = |dir_b: Vector3<f64>, target: f64, var: f64| {
         let dir = b0_from_bj * dir_b;
         let (j, r0, unit) = match point {
             AoaPoint::Range(range_m) => (dir / range_m, 0.0, None),
@@ -354,7 +369,7 @@ pub fn aoa_rows(inp: &AoaFactorInput) -> Option<[AoaRow; 2]> {
                 ((dir - unit * along) / range_m, along, Some(unit))
             }
         };
-        let mut y = j.dot(&offset) - r0;
+        let mut y = j.dot(&offset) - r0 + target;
         let mut g = Vector3::zeros();
         if let (Some((psi, b_hat)), Some(unit)) = (gyro, unit) {
             // ∂r/∂b_g = jᵀ R̂ [t]× Ψ − ûᵀ R̂ [d_b]× Ψ.
@@ -365,11 +380,32 @@ pub fn aoa_rows(inp: &AoaFactorInput) -> Option<[AoaRow; 2]> {
         }
         AoaRow { j, g, y, var }
     };
-    Some([
-        row(up.cross(&u), sigma_theta2),
-        row(up, sigmas.elevation_rad.powi(2)),
-    ])
+    if sigmas.cone && matches!(point, AoaPoint::At(_)) {
+        // δ sin θ = cos θ δθ; the attitude turns the axis by the same angle.
+        let cos2 = bearing.aoa_rad.cos().max(COS_FLOOR).powi(2);
+        let var = cos2 * (bearing.sigma_rad.powi(2) + sigmas.attitude_rad.powi(2));
+        let axis = body_from_array.rotation * Vector3::y();
+        let cone = row(axis, bearing.aoa_rad.sin(), var);
+        return Some(AoaRows {
+            rows: [cone, cone],
+            len: 1,
+        });
+    }
+    let (u, up, s, sin_b) = horizontal_direction(bearing, up_in_bj, body_from_array)?;
+    // δθ cos θ = −s sin β δβ.
+    let sigma_beta = bearing.sigma_rad * bearing.aoa_rad.cos() / (s * sin_b.abs()).max(0.1);
+    let sigma_theta2 = sigma_beta.powi(2) + sigmas.attitude_rad.powi(2);
+    Some(AoaRows {
+        rows: [
+            row(up.cross(&u), 0.0, sigma_theta2),
+            row(up, 0.0, sigmas.elevation_rad.powi(2)),
+        ],
+        len: 2,
+    })
 }
+
+/// `cos θ` floor of the cone row's variance (θ near ±90° would make it vanish).
+const COS_FLOOR: f64 = 0.1;
 
 /// Where an AoA row is linearized (see [`aoa_info`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -387,6 +423,8 @@ pub struct AoaSigmas {
     pub attitude_rad: f64,
     /// 1σ of the AP-at-array-height assumption, rad.
     pub elevation_rad: f64,
+    /// At a linearization point, use the exact cone row instead of the horizontal model.
+    pub cone: bool,
 }
 
 #[cfg(test)]

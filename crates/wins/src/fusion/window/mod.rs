@@ -66,8 +66,24 @@ pub struct WindowConfig {
     pub estimate_gyro_bias: bool,
     /// 1σ of the translation gauge `p_0 = 0`, m.
     pub gauge_sigma_m: f64,
-    /// Converged when every AP's largest marginal position σ is below this, m.
+    /// A convergence candidate when every AP's largest marginal position σ (algebraic rows) is
+    /// below this, m.
     pub converged_ap_sigma_m: f64,
+    /// The candidate is accepted when, re-linearized as angles, every AP's σ is below this, m …
+    pub converged_ap_sigma_after_m: f64,
+    /// … and the bearings' residual RMS (in units of their σ) is below this.
+    pub converged_max_residual_rms: f64,
+    /// … and every AP is at least this far from the newest frame, m (a collapsed AP fits its
+    /// bearings trivially) …
+    pub converged_min_range_m: f64,
+    /// After convergence, the estimate is declared lost when the bearings' residual RMS (in
+    /// units of their σ) stays above this for [`Self::lost_after_frames`] frames in a row, or at
+    /// once when a state is not finite or an AP leaves [`Self::range_limits_m`]'s upper bound.
+    pub lost_residual_rms: f64,
+    /// See `lost_residual_rms`.
+    pub lost_after_frames: usize,
+    /// After a rejected candidate, the next is tried this much later, s.
+    pub convergence_retry_s: f64,
     /// Pose of the antenna array on the body.
     pub body_from_array: Isometry3<f64>,
     /// Refresh the linearization from the solution (AoA ranges after convergence, the upward
@@ -77,6 +93,9 @@ pub struct WindowConfig {
     /// After convergence, linearize the AoA rows as angles at the solution (scale-free) instead
     /// of the algebraic rows (see [`factors::aoa_info`]).
     pub angle_rows: bool,
+    /// With `angle_rows`, the exact cone row of a linear array (`âᵀ x / |x| = sin θ`, no AP
+    /// height assumed) instead of the horizontal model's two rows.
+    pub cone_rows: bool,
 
     /// Gauss–Newton iterations per solve once converged (≥ 1).
     pub iterations: usize,
@@ -106,11 +125,18 @@ impl Default for WindowConfig {
             estimate_gyro_bias: true,
             gauge_sigma_m: 1e-3,
             converged_ap_sigma_m: 0.25,
+            converged_ap_sigma_after_m: 1.5,
+            converged_max_residual_rms: 2.0,
+            converged_min_range_m: 1.0,
+            convergence_retry_s: 1.0,
+            lost_residual_rms: 4.0,
+            lost_after_frames: 25,
             body_from_array: Isometry3::identity(),
             adaptive_weights: true,
             angle_rows: true,
+            cone_rows: false,
 
-            iterations: 2,
+            iterations: 1,
             iterations_at_convergence: 10,
             startup_solve_every: 10,
         }
@@ -211,6 +237,11 @@ pub struct SlidingWindow {
     gyro_bias_rad_s: Vector3<f64>,
     solved_once: bool,
     converged_at: Option<Timestamp>,
+    /// No candidate convergence before this (after a rejected one).
+    retry_after: Option<Timestamp>,
+    rejected_candidates: u64,
+    /// Converged frames in a row whose bearings did not fit (see `lost_residual_rms`).
+    misfit_in_row: usize,
     marginalized: usize,
 }
 
@@ -228,6 +259,9 @@ impl SlidingWindow {
             gyro_bias_rad_s: Vector3::zeros(),
             solved_once: false,
             converged_at: None,
+            retry_after: None,
+            rejected_candidates: 0,
+            misfit_in_row: 0,
             marginalized: 0,
         }
     }
@@ -336,14 +370,17 @@ impl SlidingWindow {
             1
         };
         let mut result = self.iterate(iterations);
+        if was_converged {
+            self.check_fit();
+        }
+        let t = self.frames.back().map(|f| f.t);
         if result.is_ok()
             && !was_converged
             && self.num_aps > 0
             && self.max_ap_sigma_m() < self.config.converged_ap_sigma_m
+            && t.zip(self.retry_after).is_none_or(|(t, r)| t >= r)
         {
-            self.converged_at = self.frames.back().map(|f| f.t);
-            // Re-linearize every frame kept since the start at the converged solution.
-            result = self.iterate(self.config.iterations_at_convergence.max(1));
+            result = self.try_converge();
         }
         // The window stays bounded even when a solve failed (the previous estimate is kept).
         let keep = if self.converged_at.is_some() {
@@ -355,6 +392,98 @@ impl SlidingWindow {
             self.marginalize_oldest();
         }
         result
+    }
+
+    /// A candidate convergence: re-linearizes every frame kept since the start at the solution
+    /// (angle rows, gyro bias) and keeps it only if the result is plausible
+    /// ([`Self::plausible`]); else restores the startup solution and retries after
+    /// [`WindowConfig::convergence_retry_s`].
+    fn try_converge(&mut self) -> Result<(), WindowError> {
+        let saved = (
+            self.frames.iter().map(|f| f.x).collect::<Vec<_>>(),
+            self.border.clone(),
+            self.border_covariance.clone(),
+            self.gyro_bias_rad_s,
+        );
+        let t = self.frames.back().map(|f| f.t);
+        self.converged_at = t;
+        let result = self.iterate(self.config.iterations_at_convergence.max(1));
+        if result.is_ok() && self.plausible() {
+            return Ok(());
+        }
+        let (xs, border, cov, gyro) = saved;
+        for (f, x) in self.frames.iter_mut().zip(xs) {
+            f.x = x;
+        }
+        self.border = border;
+        self.border_covariance = cov;
+        self.gyro_bias_rad_s = gyro;
+        self.converged_at = None;
+        self.rejected_candidates += 1;
+        self.retry_after =
+            t.map(|t| Timestamp(t.0 + (self.config.convergence_retry_s * 1e9).round() as i64));
+        result
+    }
+
+    /// Whether a re-linearized solution is believable: every AP at a range inside
+    /// [`WindowConfig::range_limits_m`] from the newest frame, its angle-row σ below
+    /// [`WindowConfig::converged_ap_sigma_after_m`], and the bearings fitting within
+    /// [`WindowConfig::converged_max_residual_rms`] of their σ.
+    fn plausible(&self) -> bool {
+        let c = &self.config;
+        let (lo, hi) = (c.converged_min_range_m, c.range_limits_m.1);
+        self.ap_ranges_m().iter().all(|r| (lo..=hi).contains(r))
+            && self.max_ap_sigma_m() <= c.converged_ap_sigma_after_m
+            && self
+                .aoa_residual_rms()
+                .is_some_and(|rms| rms <= c.converged_max_residual_rms)
+    }
+
+    /// Each AP's distance from the newest frame, m.
+    fn ap_ranges_m(&self) -> Vec<f64> {
+        let Some(p) = self
+            .frames
+            .back()
+            .map(|f| f.x.fixed_rows::<3>(0).into_owned())
+        else {
+            return Vec::new();
+        };
+        (0..self.num_aps)
+            .filter_map(|l| self.ap_in_b0(l))
+            .map(|c| (c - p).norm())
+            .collect()
+    }
+
+    /// Whether the converged estimate has been lost (see [`WindowConfig::lost_residual_rms`]);
+    /// checked after every solve, the caller starts a new window.
+    pub fn is_lost(&self) -> bool {
+        self.converged_at.is_some() && self.misfit_in_row >= self.config.lost_after_frames.max(1)
+    }
+
+    /// Updates the lost test after a converged solve.
+    fn check_fit(&mut self) {
+        let c = &self.config;
+        let finite = self.border.iter().all(|v| v.is_finite())
+            && self
+                .frames
+                .iter()
+                .all(|f| f.x.iter().all(|v| v.is_finite()));
+        let in_range = self.ap_ranges_m().iter().all(|r| *r <= c.range_limits_m.1);
+        if !finite || !in_range {
+            self.misfit_in_row = usize::MAX;
+        } else if self
+            .aoa_residual_rms()
+            .is_some_and(|rms| rms > c.lost_residual_rms)
+        {
+            self.misfit_in_row = self.misfit_in_row.saturating_add(1);
+        } else {
+            self.misfit_in_row = 0;
+        }
+    }
+
+    /// Candidate convergences rejected as implausible so far.
+    pub fn rejected_candidates(&self) -> u64 {
+        self.rejected_candidates
     }
 
     fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {

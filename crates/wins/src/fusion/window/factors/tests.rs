@@ -18,6 +18,9 @@ fn psi() -> Matrix3<f64> {
     Matrix3::new(4.0, 0.3, -0.2, 0.1, 3.5, 0.4, -0.3, 0.2, 4.2)
 }
 
+/// A row's direction in `b_j` and the value it should take.
+type Target = (Vector3<f64>, f64);
+
 #[test]
 fn aoa_rows_match_finite_differences_of_the_angle() {
     let r_hat = rot(0.1, -0.05, 0.7);
@@ -40,6 +43,7 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
     let sigmas = AoaSigmas {
         attitude_rad: 0.005,
         elevation_rad: 0.08,
+        cone: false,
     };
     let input = AoaFactorInput {
         bearing: &bearing,
@@ -50,34 +54,47 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
         gyro: Some((&psi, &b_hat)),
         sigmas,
     };
-    let rows = aoa_rows(&input).unwrap();
-    // The angle residual of row i at (c, p, b_g).
-    let angle = |i: usize, c: Vector3<f64>, p: Vector3<f64>, b: Vector3<f64>| {
-        let r = r_hat * exp(&(psi * (b - b_hat)));
-        let x = c - p - r * t;
-        (r * dirs_b[i]).dot(&x) / x.norm()
-    };
-    for (i, row) in rows.iter().enumerate() {
-        let lin = |c: Vector3<f64>, p: Vector3<f64>, b: Vector3<f64>| {
-            row.j.dot(&(c - p)) + row.g.dot(&b) - row.y
+    // The horizontal model's two angle rows, then the cone row `âᵀ x / |x| = sin θ`.
+    let axis = body_from_array.rotation * Vector3::y();
+    let models: [(bool, Vec<Target>); 2] = [
+        (false, vec![(dirs_b[0], 0.0), (dirs_b[1], 0.0)]),
+        (true, vec![(axis, bearing.aoa_rad.sin())]),
+    ];
+    for (cone, dirs) in models {
+        let rows = aoa_rows(&AoaFactorInput {
+            sigmas: AoaSigmas { cone, ..sigmas },
+            ..input
+        })
+        .unwrap();
+        assert_eq!(rows.as_slice().len(), dirs.len());
+        // The residual of row i at (c, p, b_g).
+        let angle = |i: usize, c: Vector3<f64>, p: Vector3<f64>, b: Vector3<f64>| {
+            let r = r_hat * exp(&(psi * (b - b_hat)));
+            let x = c - p - r * t;
+            (r * dirs[i].0).dot(&x) / x.norm() - dirs[i].1
         };
-        assert!((lin(c, p, b_hat) - angle(i, c, p, b_hat)).abs() < 1e-12);
-        for a in 0..3 {
-            let e = Vector3::ith(a, H);
-            let fd_c = (angle(i, c + e, p, b_hat) - angle(i, c - e, p, b_hat)) / (2.0 * H);
-            let fd_p = (angle(i, c, p + e, b_hat) - angle(i, c, p - e, b_hat)) / (2.0 * H);
-            let fd_b = (angle(i, c, p, b_hat + e) - angle(i, c, p, b_hat - e)) / (2.0 * H);
-            assert!(
-                (fd_c - row.j[a]).abs() < 1e-7,
-                "row {i} c{a}: {fd_c} vs {}",
-                row.j[a]
-            );
-            assert!((fd_p + row.j[a]).abs() < 1e-7, "row {i} p{a}");
-            assert!(
-                (fd_b - row.g[a]).abs() < 1e-6,
-                "row {i} b{a}: {fd_b} vs {}",
-                row.g[a]
-            );
+        for (i, row) in rows.as_slice().iter().enumerate() {
+            let lin = |c: Vector3<f64>, p: Vector3<f64>, b: Vector3<f64>| {
+                row.j.dot(&(c - p)) + row.g.dot(&b) - row.y
+            };
+            assert!((lin(c, p, b_hat) - angle(i, c, p, b_hat)).abs() < 1e-12);
+            for a in 0..3 {
+                let e = Vector3::ith(a, H);
+                let fd_c = (angle(i, c + e, p, b_hat) - angle(i, c - e, p, b_hat)) / (2.0 * H);
+                let fd_p = (angle(i, c, p + e, b_hat) - angle(i, c, p - e, b_hat)) / (2.0 * H);
+                let fd_b = (angle(i, c, p, b_hat + e) - angle(i, c, p, b_hat - e)) / (2.0 * H);
+                assert!(
+                    (fd_c - row.j[a]).abs() < 1e-7,
+                    "cone {cone} row {i} c{a}: {fd_c} vs {}",
+                    row.j[a]
+                );
+                assert!((fd_p + row.j[a]).abs() < 1e-7, "cone {cone} row {i} p{a}");
+                assert!(
+                    (fd_b - row.g[a]).abs() < 1e-6,
+                    "cone {cone} row {i} b{a}: {fd_b} vs {}",
+                    row.g[a]
+                );
+            }
         }
     }
     // Without a point the rows are the algebraic ones and ignore the gyro bias.
@@ -86,8 +103,8 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
         ..input
     })
     .unwrap();
-    assert_eq!(algebraic[0].g, Vector3::zeros());
-    assert!((algebraic[0].j - r_hat * dirs_b[0] / 5.0).norm() < 1e-15);
+    assert_eq!(algebraic.as_slice()[0].g, Vector3::zeros());
+    assert!((algebraic.as_slice()[0].j - r_hat * dirs_b[0] / 5.0).norm() < 1e-15);
 }
 
 /// A preintegrated second of rotating, accelerating motion with zero noise.
