@@ -68,6 +68,9 @@ pub struct PipelineConfig {
     /// How far the track follows each accepted angle (1: to the raw angle, the paper's
     /// Algorithm 1; smaller: a first-order filter against multipath jitter).
     pub track_gain: f64,
+    /// The estimator's exact cone AoA rows instead of the AP-at-array-height model (see
+    /// `WindowConfig::cone_rows`; off: it diverges on the built-in flights).
+    pub cone_rows: bool,
     /// Before convergence the state cannot tell front from back: assume front (the paper's
     /// set-up), flagged in the packet log. `false` drops bearings until convergence, which
     /// never comes with one AP.
@@ -87,6 +90,7 @@ impl Default for PipelineConfig {
             track_gate_deg: 10.0,
             max_off_track_in_row: 10,
             track_gain: 0.3,
+            cone_rows: false,
             assume_front_until_converged: true,
         }
     }
@@ -219,6 +223,7 @@ impl Pipeline {
         )?;
         let mut wins_config = WinsConfig::new(rig.imu_noise.clone());
         wins_config.window.body_from_array = rig.body_from_array;
+        wins_config.window.cone_rows = config.cone_rows;
         Ok(Self {
             tracks: vec![Track::default(); rig.ap_names.len()],
             stats: PipelineStats::new(&rig.ap_names),
