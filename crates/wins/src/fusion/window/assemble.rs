@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use super::arrow::{ArrowSystem, FRAME_DIM};
 use super::factors::{
     AoaFactorInput, AoaInfo, AoaPoint, AoaSigmas, BIAS_DIM, ImuFactorInput, ImuInfo, aoa_info,
-    aoa_rows, imu_info,
+    imu_info,
 };
 use super::{Frame, SlidingWindow, nominal_gravity};
 
@@ -187,50 +187,4 @@ fn add_aoa(sys: &mut ArrowSystem, k: usize, o: usize, info: &AoaInfo) {
     sys.rhs_border
         .fixed_rows_mut::<3>(GYRO)
         .add_assign(&info.b_g);
-}
-
-impl SlidingWindow {
-    /// Root mean square of the AoA rows' residuals over the window, each in units of its σ, as
-    /// angles at the current solution (1 when the bearings fit as well as their σ says); `None`
-    /// without AoA rows.
-    pub fn aoa_residual_rms(&self) -> Option<f64> {
-        let c = &self.config;
-        let gyro_b = self.gyro_bias_rad_s;
-        let (mut sum, mut n) = (0.0, 0usize);
-        for f in &self.frames {
-            let up = f.up(c.adaptive_weights);
-            let p = f.x.fixed_rows::<3>(0).into_owned();
-            let r = f.rotation(&gyro_b);
-            for b in f.bearings.iter().filter(|b| b.is_valid()) {
-                let Some(ap) = self.ap_in_b0(b.ap) else {
-                    continue;
-                };
-                let x = ap - p - r * c.body_from_array.translation.vector;
-                if x.norm() < c.range_limits_m.0 {
-                    continue;
-                }
-                let Some(rows) = aoa_rows(&AoaFactorInput {
-                    bearing: b,
-                    b0_from_bj: &r,
-                    up_in_bj: &up,
-                    body_from_array: &c.body_from_array,
-                    point: AoaPoint::At(x),
-                    gyro: None,
-                    sigmas: AoaSigmas {
-                        attitude_rad: c.attitude_sigma_rad,
-                        elevation_rad: c.elevation_sigma_rad,
-                        cone: c.cone_rows,
-                    },
-                }) else {
-                    continue;
-                };
-                for row in rows.as_slice() {
-                    let e = row.j.dot(&(ap - p)) - row.y;
-                    sum += e * e / row.var;
-                    n += 1;
-                }
-            }
-        }
-        (n > 0).then(|| (sum / n as f64).sqrt())
-    }
 }

@@ -12,15 +12,20 @@
 //! Initialization-free: the first frame gets `p_0 = 0` (the translation gauge) and only weak
 //! zero-mean priors on everything else (velocity, gravity, biases, APs). Until converged the AoA
 //! rows are the paper's algebraic ones with a constant range λ, and no frame is marginalized (up to
-//! [`WindowConfig::max_startup_frames`]). Converged means every AP's marginal position σ (largest
-//! axis) is below a threshold; then every row is re-linearized at the solution as an angle (scale-
-//! free, see [`factors::aoa_info`]) and iterated, the gyro bias joins as an unknown (rotations
+//! [`WindowConfig::max_startup_frames`]). A convergence candidate is when every AP's marginal
+//! position σ (largest axis) is below a threshold; then every row is re-linearized at the solution
+//! as an angle (scale-free, see [`factors::aoa_info`]) and iterated, and the result is kept only if
+//! plausible (`health`: AP ranges, angle-row σ, residuals; else the startup solution is restored
+//! and the candidate retried later). Once converged the gyro bias joins as an unknown (rotations
 //! `R̂_k Exp(Ψ_k δb_g)`, first order), and the window shrinks to
-//! [`WindowConfig::max_frames`] with [`WindowConfig::iterations`] Gauss–Newton steps per frame.
+//! [`WindowConfig::max_frames`] with [`WindowConfig::iterations`] Gauss–Newton steps per frame. A
+//! converged window whose bearings stop fitting reports itself lost ([`SlidingWindow::is_lost`]);
+//! the estimator then starts a new one.
 
 pub mod arrow;
 mod assemble;
 pub mod factors;
+mod health;
 mod marginalize;
 
 use std::collections::VecDeque;
@@ -392,98 +397,6 @@ impl SlidingWindow {
             self.marginalize_oldest();
         }
         result
-    }
-
-    /// A candidate convergence: re-linearizes every frame kept since the start at the solution
-    /// (angle rows, gyro bias) and keeps it only if the result is plausible
-    /// ([`Self::plausible`]); else restores the startup solution and retries after
-    /// [`WindowConfig::convergence_retry_s`].
-    fn try_converge(&mut self) -> Result<(), WindowError> {
-        let saved = (
-            self.frames.iter().map(|f| f.x).collect::<Vec<_>>(),
-            self.border.clone(),
-            self.border_covariance.clone(),
-            self.gyro_bias_rad_s,
-        );
-        let t = self.frames.back().map(|f| f.t);
-        self.converged_at = t;
-        let result = self.iterate(self.config.iterations_at_convergence.max(1));
-        if result.is_ok() && self.plausible() {
-            return Ok(());
-        }
-        let (xs, border, cov, gyro) = saved;
-        for (f, x) in self.frames.iter_mut().zip(xs) {
-            f.x = x;
-        }
-        self.border = border;
-        self.border_covariance = cov;
-        self.gyro_bias_rad_s = gyro;
-        self.converged_at = None;
-        self.rejected_candidates += 1;
-        self.retry_after =
-            t.map(|t| Timestamp(t.0 + (self.config.convergence_retry_s * 1e9).round() as i64));
-        result
-    }
-
-    /// Whether a re-linearized solution is believable: every AP at a range inside
-    /// [`WindowConfig::range_limits_m`] from the newest frame, its angle-row σ below
-    /// [`WindowConfig::converged_ap_sigma_after_m`], and the bearings fitting within
-    /// [`WindowConfig::converged_max_residual_rms`] of their σ.
-    fn plausible(&self) -> bool {
-        let c = &self.config;
-        let (lo, hi) = (c.converged_min_range_m, c.range_limits_m.1);
-        self.ap_ranges_m().iter().all(|r| (lo..=hi).contains(r))
-            && self.max_ap_sigma_m() <= c.converged_ap_sigma_after_m
-            && self
-                .aoa_residual_rms()
-                .is_some_and(|rms| rms <= c.converged_max_residual_rms)
-    }
-
-    /// Each AP's distance from the newest frame, m.
-    fn ap_ranges_m(&self) -> Vec<f64> {
-        let Some(p) = self
-            .frames
-            .back()
-            .map(|f| f.x.fixed_rows::<3>(0).into_owned())
-        else {
-            return Vec::new();
-        };
-        (0..self.num_aps)
-            .filter_map(|l| self.ap_in_b0(l))
-            .map(|c| (c - p).norm())
-            .collect()
-    }
-
-    /// Whether the converged estimate has been lost (see [`WindowConfig::lost_residual_rms`]);
-    /// checked after every solve, the caller starts a new window.
-    pub fn is_lost(&self) -> bool {
-        self.converged_at.is_some() && self.misfit_in_row >= self.config.lost_after_frames.max(1)
-    }
-
-    /// Updates the lost test after a converged solve.
-    fn check_fit(&mut self) {
-        let c = &self.config;
-        let finite = self.border.iter().all(|v| v.is_finite())
-            && self
-                .frames
-                .iter()
-                .all(|f| f.x.iter().all(|v| v.is_finite()));
-        let in_range = self.ap_ranges_m().iter().all(|r| *r <= c.range_limits_m.1);
-        if !finite || !in_range {
-            self.misfit_in_row = usize::MAX;
-        } else if self
-            .aoa_residual_rms()
-            .is_some_and(|rms| rms > c.lost_residual_rms)
-        {
-            self.misfit_in_row = self.misfit_in_row.saturating_add(1);
-        } else {
-            self.misfit_in_row = 0;
-        }
-    }
-
-    /// Candidate convergences rejected as implausible so far.
-    pub fn rejected_candidates(&self) -> u64 {
-        self.rejected_candidates
     }
 
     fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {

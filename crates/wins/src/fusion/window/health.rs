@@ -1,0 +1,144 @@
+//! Is the window's estimate believable? The convergence test's second stage (a candidate is
+//! re-linearized and kept only if plausible) and the lost test after convergence.
+
+use super::factors::{AoaFactorInput, AoaPoint, AoaSigmas, aoa_rows};
+use super::{SlidingWindow, WindowError};
+use crate::time::Timestamp;
+
+impl SlidingWindow {
+    /// A candidate convergence: re-linearizes every frame kept since the start at the solution
+    /// (angle rows, gyro bias) and keeps it only if the result is plausible
+    /// ([`Self::plausible`]); else restores the startup solution and retries after
+    /// [`WindowConfig::convergence_retry_s`].
+    pub(super) fn try_converge(&mut self) -> Result<(), WindowError> {
+        let saved = (
+            self.frames.iter().map(|f| f.x).collect::<Vec<_>>(),
+            self.border.clone(),
+            self.border_covariance.clone(),
+            self.gyro_bias_rad_s,
+        );
+        let t = self.frames.back().map(|f| f.t);
+        self.converged_at = t;
+        let result = self.iterate(self.config.iterations_at_convergence.max(1));
+        if result.is_ok() && self.plausible() {
+            return Ok(());
+        }
+        let (xs, border, cov, gyro) = saved;
+        for (f, x) in self.frames.iter_mut().zip(xs) {
+            f.x = x;
+        }
+        self.border = border;
+        self.border_covariance = cov;
+        self.gyro_bias_rad_s = gyro;
+        self.converged_at = None;
+        self.rejected_candidates += 1;
+        self.retry_after =
+            t.map(|t| Timestamp(t.0 + (self.config.convergence_retry_s * 1e9).round() as i64));
+        result
+    }
+
+    /// Whether a re-linearized solution is believable: every AP at a range inside
+    /// [`WindowConfig::range_limits_m`] from the newest frame, its angle-row σ below
+    /// [`WindowConfig::converged_ap_sigma_after_m`], and the bearings fitting within
+    /// [`WindowConfig::converged_max_residual_rms`] of their σ.
+    fn plausible(&self) -> bool {
+        let c = &self.config;
+        let (lo, hi) = (c.converged_min_range_m, c.range_limits_m.1);
+        self.ap_ranges_m().iter().all(|r| (lo..=hi).contains(r))
+            && self.max_ap_sigma_m() <= c.converged_ap_sigma_after_m
+            && self
+                .aoa_residual_rms()
+                .is_some_and(|rms| rms <= c.converged_max_residual_rms)
+    }
+
+    /// Each AP's distance from the newest frame, m.
+    fn ap_ranges_m(&self) -> Vec<f64> {
+        let Some(p) = self
+            .frames
+            .back()
+            .map(|f| f.x.fixed_rows::<3>(0).into_owned())
+        else {
+            return Vec::new();
+        };
+        (0..self.num_aps)
+            .filter_map(|l| self.ap_in_b0(l))
+            .map(|c| (c - p).norm())
+            .collect()
+    }
+
+    /// Whether the converged estimate has been lost (see [`WindowConfig::lost_residual_rms`]);
+    /// checked after every solve, the caller starts a new window.
+    pub fn is_lost(&self) -> bool {
+        self.converged_at.is_some() && self.misfit_in_row >= self.config.lost_after_frames.max(1)
+    }
+
+    /// Updates the lost test after a converged solve.
+    pub(super) fn check_fit(&mut self) {
+        let c = &self.config;
+        let finite = self.border.iter().all(|v| v.is_finite())
+            && self
+                .frames
+                .iter()
+                .all(|f| f.x.iter().all(|v| v.is_finite()));
+        let in_range = self.ap_ranges_m().iter().all(|r| *r <= c.range_limits_m.1);
+        if !finite || !in_range {
+            self.misfit_in_row = usize::MAX;
+        } else if self
+            .aoa_residual_rms()
+            .is_some_and(|rms| rms > c.lost_residual_rms)
+        {
+            self.misfit_in_row = self.misfit_in_row.saturating_add(1);
+        } else {
+            self.misfit_in_row = 0;
+        }
+    }
+
+    /// Candidate convergences rejected as implausible so far.
+    pub fn rejected_candidates(&self) -> u64 {
+        self.rejected_candidates
+    }
+
+    /// Root mean square of the AoA rows' residuals over the window, each in units of its σ, as
+    /// angles at the current solution (1 when the bearings fit as well as their σ says); `None`
+    /// without AoA rows.
+    pub fn aoa_residual_rms(&self) -> Option<f64> {
+        let c = &self.config;
+        let gyro_b = self.gyro_bias_rad_s;
+        let (mut sum, mut n) = (0.0, 0usize);
+        for f in &self.frames {
+            let up = f.up(c.adaptive_weights);
+            let p = f.x.fixed_rows::<3>(0).into_owned();
+            let r = f.rotation(&gyro_b);
+            for b in f.bearings.iter().filter(|b| b.is_valid()) {
+                let Some(ap) = self.ap_in_b0(b.ap) else {
+                    continue;
+                };
+                let x = ap - p - r * c.body_from_array.translation.vector;
+                if x.norm() < c.range_limits_m.0 {
+                    continue;
+                }
+                let Some(rows) = aoa_rows(&AoaFactorInput {
+                    bearing: b,
+                    b0_from_bj: &r,
+                    up_in_bj: &up,
+                    body_from_array: &c.body_from_array,
+                    point: AoaPoint::At(x),
+                    gyro: None,
+                    sigmas: AoaSigmas {
+                        attitude_rad: c.attitude_sigma_rad,
+                        elevation_rad: c.elevation_sigma_rad,
+                        cone: c.cone_rows,
+                    },
+                }) else {
+                    continue;
+                };
+                for row in rows.as_slice() {
+                    let e = row.j.dot(&(ap - p)) - row.y;
+                    sum += e * e / row.var;
+                    n += 1;
+                }
+            }
+        }
+        (n > 0).then(|| (sum / n as f64).sqrt())
+    }
+}
