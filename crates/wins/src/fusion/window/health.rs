@@ -9,7 +9,7 @@ impl SlidingWindow {
     /// A candidate convergence: re-linearizes every frame kept since the start at the solution
     /// (angle rows, gyro bias) and keeps it only if the result is plausible
     /// ([`Self::plausible`]); else restores the startup solution and retries after
-    /// [`WindowConfig::convergence_retry_s`].
+    /// [`super::WindowConfig::convergence_retry_s`].
     pub(super) fn try_converge(&mut self) -> Result<(), WindowError> {
         let saved = (
             self.frames.iter().map(|f| f.x).collect::<Vec<_>>(),
@@ -38,9 +38,9 @@ impl SlidingWindow {
     }
 
     /// Whether a re-linearized solution is believable: every AP at a range inside
-    /// [`WindowConfig::range_limits_m`] from the newest frame, its angle-row σ below
-    /// [`WindowConfig::converged_ap_sigma_after_m`], and the bearings fitting within
-    /// [`WindowConfig::converged_max_residual_rms`] of their σ.
+    /// [`super::WindowConfig::range_limits_m`] from the newest frame, its angle-row σ below
+    /// [`super::WindowConfig::converged_ap_sigma_after_m`], and the bearings fitting within
+    /// [`super::WindowConfig::converged_max_residual_rms`] of their σ.
     fn plausible(&self) -> bool {
         let c = &self.config;
         let (lo, hi) = (c.converged_min_range_m, c.range_limits_m.1);
@@ -66,7 +66,7 @@ impl SlidingWindow {
             .collect()
     }
 
-    /// Whether the converged estimate has been lost (see [`WindowConfig::lost_residual_rms`]);
+    /// Whether the converged estimate has been lost (see [`super::WindowConfig::lost_residual_rms`]);
     /// checked after every solve, the caller starts a new window.
     pub fn is_lost(&self) -> bool {
         self.converged_at.is_some() && self.misfit_in_row >= self.config.lost_after_frames.max(1)
