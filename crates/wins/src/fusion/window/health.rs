@@ -37,7 +37,8 @@ impl SlidingWindow {
         result
     }
 
-    /// Whether a re-linearized solution is believable: every AP at a range inside
+    /// Whether a re-linearized solution is believable: every AP between
+    /// [`super::WindowConfig::converged_min_range_m`] and the upper
     /// [`super::WindowConfig::range_limits_m`] from the newest frame, its angle-row σ below
     /// [`super::WindowConfig::converged_ap_sigma_after_m`], and the bearings fitting within
     /// [`super::WindowConfig::converged_max_residual_rms`] of their σ.
