@@ -69,7 +69,7 @@ pub struct PipelineConfig {
     /// Algorithm 1; smaller: a first-order filter against multipath jitter).
     pub track_gain: f64,
     /// The estimator's exact cone AoA rows instead of the AP-at-array-height model (see
-    /// `WindowConfig::cone_rows`; off: it diverges on the built-in flights).
+    /// `WindowConfig::cone_rows`). Off by default: on the built-in flights it is worse (README).
     pub cone_rows: bool,
     /// Before convergence the state cannot tell front from back: assume front (the paper's
     /// set-up), flagged in the packet log. `false` drops bearings until convergence, which

@@ -49,10 +49,6 @@ impl SlidingWindow {
     }
 
     pub(super) fn imu_factor(&self, k: usize) -> Option<ImuInfo> {
-        imu_info(&self.imu_input(k)?)
-    }
-
-    fn imu_input(&self, k: usize) -> Option<ImuFactorInput<'_>> {
         let (a, b) = (&self.frames[k], &self.frames[k + 1]);
         let pre = b.from_prev.as_ref()?;
         let adaptive = self.solved_once && self.config.adaptive_weights;
@@ -70,7 +66,7 @@ impl SlidingWindow {
         } else {
             g_next
         };
-        Some(ImuFactorInput {
+        imu_info(&ImuFactorInput {
             pre,
             b0_from_bk: &a.b0_from_bk,
             gyro_bias_rad_s: self.gyro_bias_rad_s,
@@ -80,6 +76,16 @@ impl SlidingWindow {
             step_in_b0,
             attitude_sigma_rad: self.config.attitude_sigma_rad,
         })
+    }
+
+    /// The AoA rows' σ besides the bearings' own, and their model.
+    pub(super) fn aoa_sigmas(&self) -> AoaSigmas {
+        let c = &self.config;
+        AoaSigmas {
+            attitude_rad: c.attitude_sigma_rad,
+            elevation_rad: c.elevation_sigma_rad,
+            cone: c.cone_rows,
+        }
     }
 
     fn aoa_factors(&self, k: usize) -> impl Iterator<Item = (usize, AoaInfo)> + '_ {
@@ -98,11 +104,7 @@ impl SlidingWindow {
                     body_from_array: &c.body_from_array,
                     point: self.aoa_point(f, b.ap),
                     gyro,
-                    sigmas: AoaSigmas {
-                        attitude_rad: c.attitude_sigma_rad,
-                        elevation_rad: c.elevation_sigma_rad,
-                        cone: c.cone_rows,
-                    },
+                    sigmas: self.aoa_sigmas(),
                 })?;
                 Some((b.ap, info))
             })

@@ -1,7 +1,7 @@
 //! Is the window's estimate believable? The convergence test's second stage (a candidate is
 //! re-linearized and kept only if plausible) and the lost test after convergence.
 
-use super::factors::{AoaFactorInput, AoaPoint, AoaSigmas, aoa_rows};
+use super::factors::{AoaFactorInput, AoaPoint, aoa_rows};
 use super::{SlidingWindow, WindowError};
 use crate::time::Timestamp;
 
@@ -125,11 +125,7 @@ impl SlidingWindow {
                     body_from_array: &c.body_from_array,
                     point: AoaPoint::At(x),
                     gyro: None,
-                    sigmas: AoaSigmas {
-                        attitude_rad: c.attitude_sigma_rad,
-                        elevation_rad: c.elevation_sigma_rad,
-                        cone: c.cone_rows,
-                    },
+                    sigmas: self.aoa_sigmas(),
                 }) else {
                     continue;
                 };

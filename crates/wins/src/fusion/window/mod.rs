@@ -74,12 +74,13 @@ pub struct WindowConfig {
     /// A convergence candidate when every AP's largest marginal position σ (algebraic rows) is
     /// below this, m.
     pub converged_ap_sigma_m: f64,
-    /// The candidate is accepted when, re-linearized as angles, every AP's σ is below this, m …
+    /// The candidate is accepted when, re-linearized as angles, every AP's σ is below this, m,
+    /// and the next two tests pass.
     pub converged_ap_sigma_after_m: f64,
-    /// … and the bearings' residual RMS (in units of their σ) is below this.
+    /// The bearings' residual RMS (in units of their σ) must be below this.
     pub converged_max_residual_rms: f64,
-    /// … and every AP is at least this far from the newest frame, m (a collapsed AP fits its
-    /// bearings trivially) …
+    /// Every AP must be at least this far from the newest frame, m (a collapsed AP fits its
+    /// bearings trivially).
     pub converged_min_range_m: f64,
     /// After convergence, the estimate is declared lost when the bearings' residual RMS (in
     /// units of their σ) stays above this for [`Self::lost_after_frames`] frames in a row, or at
