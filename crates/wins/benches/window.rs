@@ -1,4 +1,5 @@
-//! One sliding-window update of a converged window (two Gauss–Newton iterations: build the normal
+//! One sliding-window update of a converged window (`WindowConfig::iterations` Gauss–Newton
+//! iterations, one by default: build the normal
 //! equations, block Cholesky; then marginalize the leaving frame) at 30 frames (the paper: 37.19
 //! ms) and 300 frames, one AP, 50 Hz frames on the paper's circle. Reference in the same run: the same system solved densely (nalgebra Cholesky),
 //! so the ratio is machine-independent.

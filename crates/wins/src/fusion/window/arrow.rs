@@ -94,25 +94,32 @@ impl ArrowSystem {
             .map(|d| Vec9::from_fn(|i, _| inv_sqrt(d[(i, i)])))
             .collect();
         let s_border = DVector::from_fn(self.border_dim(), |i, _| inv_sqrt(self.corner[(i, i)]));
-        let mut scaled = self.clone();
-        for k in 0..n {
-            let sk = Block::from_diagonal(&s_frames[k]);
-            scaled.diag[k] = sk * self.diag[k] * sk;
-            if k + 1 < n {
-                scaled.lower[k] = Block::from_diagonal(&s_frames[k + 1]) * self.lower[k] * sk;
-            }
-            let mut bk = self.border[k].clone();
-            for r in 0..bk.nrows() {
-                for c in 0..FRAME_DIM {
-                    bk[(r, c)] *= s_border[r] * s_frames[k][c];
-                }
-            }
-            scaled.border[k] = bk;
-            scaled.rhs_frames[k] = self.rhs_frames[k].component_mul(&s_frames[k]);
-        }
+        // D H D with D diagonal: every entry (i, j) times s_i s_j.
+        let scale_block =
+            |m: &Block, si: &Vec9, sj: &Vec9| Block::from_fn(|i, j| m[(i, j)] * si[i] * sj[j]);
         let sb = DMatrix::from_diagonal(&s_border);
-        scaled.corner = &sb * &self.corner * &sb;
-        scaled.rhs_border = self.rhs_border.component_mul(&s_border);
+        let scaled = ArrowSystem {
+            diag: (0..n)
+                .map(|k| scale_block(&self.diag[k], &s_frames[k], &s_frames[k]))
+                .collect(),
+            lower: (0..n.saturating_sub(1))
+                .map(|k| scale_block(&self.lower[k], &s_frames[k + 1], &s_frames[k]))
+                .collect(),
+            border: (0..n)
+                .map(|k| {
+                    DMatrix::from_fn(self.border_dim(), FRAME_DIM, |r, c| {
+                        self.border[k][(r, c)] * s_border[r] * s_frames[k][c]
+                    })
+                })
+                .collect(),
+            corner: DMatrix::from_fn(self.border_dim(), self.border_dim(), |i, j| {
+                self.corner[(i, j)] * s_border[i] * s_border[j]
+            }),
+            rhs_frames: (0..n)
+                .map(|k| self.rhs_frames[k].component_mul(&s_frames[k]))
+                .collect(),
+            rhs_border: self.rhs_border.component_mul(&s_border),
+        };
         // Directions the data barely constrain (scale and tilt before the flight has excited them)
         // can sit below ε relative to the stiff IMU chain; then a tiny damping of the scaled
         // system keeps the solve finite and leaves those directions to the priors.

@@ -437,13 +437,17 @@ impl SlidingWindow {
 
     /// Frames in the window, oldest first.
     pub fn frames(&self) -> impl Iterator<Item = FrameEstimate> + '_ {
-        self.frames.iter().map(|f| FrameEstimate {
+        self.frames.iter().map(|f| self.estimate(f))
+    }
+
+    fn estimate(&self, f: &Frame) -> FrameEstimate {
+        FrameEstimate {
             t: f.t,
             p_in_b0: f.x.fixed_rows::<3>(0).into_owned(),
             v_in_bk: f.x.fixed_rows::<3>(3).into_owned(),
             g_in_bk: f.x.fixed_rows::<3>(6).into_owned(),
             b0_from_bk: f.rotation(&self.gyro_bias_rad_s),
-        })
+        }
     }
 
     /// Per window frame: the IMU interval from the previous frame (None for the oldest frame of
@@ -464,7 +468,7 @@ impl SlidingWindow {
 
     /// The newest frame.
     pub fn latest(&self) -> Option<FrameEstimate> {
-        self.frames().last()
+        self.frames.back().map(|f| self.estimate(f))
     }
 
     /// Number of frames in the window.
