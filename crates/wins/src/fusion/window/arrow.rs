@@ -15,7 +15,7 @@
 //! so a solve costs O(n·(9³ + 9²·m)) for n frames and a border of m, linear in the window size.
 //! `(L_BB L_BBᵀ)⁻¹` is the border's marginal covariance, for free.
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn, SMatrix, SVector};
+use nalgebra::{Cholesky, Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector};
 
 /// Size of one frame's state `[p, v, g]`.
 pub const FRAME_DIM: usize = 9;
@@ -23,6 +23,9 @@ pub const FRAME_DIM: usize = 9;
 pub type Block = SMatrix<f64, FRAME_DIM, FRAME_DIM>;
 /// 9-vector.
 pub type Vec9 = SVector<f64, FRAME_DIM>;
+
+/// A border block transposed: frame rows × border columns.
+type BorderT = OMatrix<f64, Const<FRAME_DIM>, Dyn>;
 
 /// Information matrix and vector of the window, in arrow form.
 #[derive(Clone, Debug)]
@@ -145,38 +148,38 @@ impl ArrowSystem {
     fn solve_unscaled(&self) -> Option<ArrowSolution> {
         let n = self.frames();
         let m = self.border_dim();
-        let mut l_diag: Vec<Cholesky<f64, nalgebra::Const<FRAME_DIM>>> = Vec::with_capacity(n);
+        let mut l_diag: Vec<Block> = Vec::with_capacity(n);
         let mut l_lower: Vec<Block> = Vec::with_capacity(n.saturating_sub(1));
-        let mut l_border: Vec<DMatrix<f64>> = Vec::with_capacity(n);
+        // `L_B,kᵀ = L_kk⁻¹ (H_B,k − L_B,k−1 L_k,k−1ᵀ)ᵀ`, kept transposed (9 × m).
+        let mut l_border_t: Vec<BorderT> = Vec::with_capacity(n);
         // Forward substitution runs alongside: y_k = L_kk⁻¹ (b_k − L_k,k−1 y_k−1).
         let mut y_frames: Vec<Vec9> = Vec::with_capacity(n);
         let mut schur = self.corner.clone();
         let mut y_border_acc = self.rhs_border.clone();
         for k in 0..n {
             let mut a = self.diag[k];
-            let mut bk = self.border[k].clone();
+            let mut bt =
+                BorderT::from_fn_generic(Const::<FRAME_DIM>, Dyn(m), |r, c| self.border[k][(c, r)]);
             let mut rhs = self.rhs_frames[k];
             if k > 0 {
                 let lk = &l_lower[k - 1];
                 a -= lk * lk.transpose();
-                bk -= &l_border[k - 1] * lk.transpose();
+                bt.gemm(-1.0, lk, &l_border_t[k - 1], 1.0);
                 rhs -= lk * y_frames[k - 1];
             }
-            let chol = Cholesky::new(a)?;
-            let l = chol.l();
-            // X L_kkᵀ = B  ⇔  L_kk Xᵀ = Bᵀ.
-            let lb = solve_right_lt(&l, &bk);
-            let y = l.solve_lower_triangular(&rhs)?;
+            let l = Cholesky::new(a)?.unpack();
+            if !l.solve_lower_triangular_mut(&mut bt) || !l.solve_lower_triangular_mut(&mut rhs) {
+                return None;
+            }
             if k + 1 < n {
-                let lo = self.lower[k];
-                let lo_t: Block = l.solve_lower_triangular(&lo.transpose())?;
+                let lo_t: Block = l.solve_lower_triangular(&self.lower[k].transpose())?;
                 l_lower.push(lo_t.transpose());
             }
-            schur -= &lb * lb.transpose();
-            y_border_acc -= &lb * y;
-            l_border.push(lb);
-            y_frames.push(y);
-            l_diag.push(chol);
+            schur.gemm_tr(-1.0, &bt, &bt, 1.0);
+            y_border_acc.gemv_tr(-1.0, &bt, &rhs, 1.0);
+            l_border_t.push(bt);
+            y_frames.push(rhs);
+            l_diag.push(l);
         }
         let (border, border_covariance) = if m > 0 {
             let chol_b = Cholesky::<f64, Dyn>::new(schur)?;
@@ -195,10 +198,12 @@ impl ArrowSystem {
                 r -= l_lower[k].transpose() * frames[k + 1];
             }
             if m > 0 {
-                let t = l_border[k].transpose() * &border;
-                r -= Vec9::from_iterator(t.iter().copied());
+                r.gemv(-1.0, &l_border_t[k], &border, 1.0);
             }
-            frames[k] = l_diag[k].l().transpose().solve_upper_triangular(&r)?;
+            if !l_diag[k].tr_solve_lower_triangular_mut(&mut r) {
+                return None;
+            }
+            frames[k] = r;
         }
         Some(ArrowSolution {
             frames,
@@ -239,22 +244,6 @@ impl ArrowSystem {
         }
         (h, b)
     }
-}
-
-/// `X = B L⁻ᵀ` for lower-triangular `L` (9×9) and `B` (m×9).
-fn solve_right_lt(l: &Block, b: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut x = b.clone();
-    for r in 0..b.nrows() {
-        // Row r: x_r L^T = b_r  ⇔  L x_rᵀ = b_rᵀ, forward substitution.
-        for i in 0..FRAME_DIM {
-            let mut s = b[(r, i)];
-            for j in 0..i {
-                s -= l[(i, j)] * x[(r, j)];
-            }
-            x[(r, i)] = s / l[(i, i)];
-        }
-    }
-    x
 }
 
 #[cfg(test)]

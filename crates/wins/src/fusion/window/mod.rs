@@ -28,13 +28,14 @@ pub mod factors;
 mod health;
 mod marginalize;
 
+use std::cell::RefCell;
 use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, UnitQuaternion, Vector3};
 
 use self::arrow::{ArrowSystem, FRAME_DIM, Vec9};
-use self::assemble::ap_offset;
-use self::factors::BIAS_DIM;
+use self::assemble::{ImuLinearization, ap_offset};
+use self::factors::{BIAS_DIM, ImuInfo};
 use crate::fusion::bearing::Bearing;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::so3::exp;
@@ -209,6 +210,8 @@ struct Frame {
 
     /// Upward direction in `b_k` before the solution has a gravity (mean specific force).
     up_hint: Vector3<f64>,
+    /// The IMU factor from the previous frame as last linearized, and where.
+    imu_cache: RefCell<Option<(ImuLinearization, ImuInfo)>>,
 }
 
 impl Frame {
@@ -344,6 +347,7 @@ impl SlidingWindow {
             psi,
             gyro_lin: self.gyro_bias_rad_s,
             up_hint,
+            imu_cache: RefCell::new(None),
         });
         Ok(())
     }
