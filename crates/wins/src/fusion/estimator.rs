@@ -8,11 +8,14 @@
 //! estimates the gyro bias jointly, which is what removes the gyro drift from the attitude (the
 //! paper's relaxed rotation averaging, [`super::attitude`], fed back in the loop made it worse:
 //! see the README). Poses come out in the world frame `w`: origin and heading of `b0`, z along
-//! the solved upward gravity.
+//! the solved upward gravity. When a converged estimate is lost, the window starts over with a
+//! new `b0`; `w` stays the same: the new window is placed at the position and heading of the
+//! lost one's last pose whose bearings still fitted, so the output trajectory does not jump back
+//! to the origin (that pose's error carries over).
 
 use std::collections::VecDeque;
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 use super::bearing::Bearing;
 use super::window::{FrameEstimate, SlidingWindow, WindowConfig, WindowError};
@@ -52,7 +55,7 @@ pub struct PoseEstimate {
     pub v_b_in_w: Vector3<f64>,
     /// Attitude.
     pub world_from_body: UnitQuaternion<f64>,
-    /// Body position in `b0` (the estimator's own frame), m.
+    /// Body position in `b0` (the current window's own frame; a restart starts a new one), m.
     pub p_b_in_b0: Vector3<f64>,
     /// `R_{b}^{b_0}`.
     pub b0_from_body: UnitQuaternion<f64>,
@@ -117,6 +120,11 @@ pub struct Wins {
     window: SlidingWindow,
     pending: VecDeque<(Timestamp, Vec<Bearing>)>,
     stats: WinsStats,
+    /// `w` from the current window's gravity-aligned `b0` frame: identity until a restart.
+    anchor: Isometry3<f64>,
+    first_converged_at: Option<Timestamp>,
+    /// The last converged pose whose bearings fitted (the anchor of a restart).
+    last_good: Option<PoseEstimate>,
 }
 
 impl Wins {
@@ -127,6 +135,9 @@ impl Wins {
             window: SlidingWindow::new(config.window.clone()),
             pending: VecDeque::new(),
             stats: WinsStats::default(),
+            anchor: Isometry3::identity(),
+            first_converged_at: None,
+            last_good: None,
             config,
         }
     }
@@ -143,6 +154,11 @@ impl Wins {
                 + self.window.rejected_candidates(),
             ..self.stats
         }
+    }
+
+    /// When the estimate first converged (a restart does not reset it), if it has.
+    pub fn converged_at(&self) -> Option<Timestamp> {
+        self.first_converged_at
     }
 
     /// The window (for AP positions, covariances, convergence).
@@ -221,12 +237,25 @@ impl Wins {
             self.stats.solve_failures += 1;
         }
         self.stats.frames += 1;
+        if self.first_converged_at.is_none() {
+            self.first_converged_at = self.window.converged_at();
+        }
         let pose = self.window.latest().map(|f| self.to_world(&f));
+        if self.window.converged_at().is_some() && self.window.misfit_frames() == 0 {
+            self.last_good = pose;
+        }
         if self.window.is_lost() {
-            // Start over from zeros (initialization-free), as after a cold start.
+            // Start over from zeros (initialization-free), as after a cold start, placed where
+            // the lost window last was (module doc).
             self.stats.rejected_convergences += self.window.rejected_candidates();
             self.stats.restarts += 1;
             self.window = SlidingWindow::new(self.config.window.clone());
+            if let Some(p) = self.last_good.take() {
+                self.anchor = Isometry3::from_parts(
+                    Translation3::from(p.p_b_in_w),
+                    heading(&p.world_from_body),
+                );
+            }
         }
         pose
     }
@@ -240,23 +269,26 @@ impl Wins {
         }
     }
 
-    /// `R_w_b0`: z along the solved upward gravity, heading of `b0`.
-    pub fn world_from_b0(&self) -> UnitQuaternion<f64> {
+    /// `T_w_b0` of the current window: z along the solved upward gravity, origin and heading of
+    /// `b0` (after a restart, moved to where the lost window last was; module doc).
+    pub fn world_from_b0(&self) -> Isometry3<f64> {
         let up = self
             .window
             .latest()
             .and_then(|f| (f.b0_from_bk * f.g_in_bk).try_normalize(1e-9));
-        up.and_then(|u| UnitQuaternion::rotation_between(&u, &Vector3::z()))
-            .unwrap_or_else(UnitQuaternion::identity)
+        let level = up
+            .and_then(|u| UnitQuaternion::rotation_between(&u, &Vector3::z()))
+            .unwrap_or_else(UnitQuaternion::identity);
+        self.anchor * Isometry3::from_parts(Translation3::identity(), level)
     }
 
     fn to_world(&self, f: &FrameEstimate) -> PoseEstimate {
         let w_b0 = self.world_from_b0();
         PoseEstimate {
             t: f.t,
-            p_b_in_w: w_b0 * f.p_in_b0,
-            v_b_in_w: w_b0 * (f.b0_from_bk * f.v_in_bk),
-            world_from_body: w_b0 * f.b0_from_bk,
+            p_b_in_w: w_b0.transform_point(&f.p_in_b0.into()).coords,
+            v_b_in_w: w_b0.rotation * (f.b0_from_bk * f.v_in_bk),
+            world_from_body: w_b0.rotation * f.b0_from_bk,
             p_b_in_b0: f.p_in_b0,
             b0_from_body: f.b0_from_bk,
             converged: self.window.converged_at().is_some(),
@@ -288,4 +320,14 @@ impl Wins {
         };
         Some(self.to_world(&moved))
     }
+}
+
+/// The rotation about z with the heading of `r` (its x axis projected on the horizontal plane);
+/// identity when that axis is vertical.
+fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let x = r * Vector3::x();
+    if x.xy().norm() < 1e-6 {
+        return UnitQuaternion::identity();
+    }
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x))
 }

@@ -173,6 +173,8 @@ pub struct Pipeline {
     slot: FrameSlot,
     history: VecDeque<ImuSample>,
     latest: Option<PoseEstimate>,
+    /// The estimator's restarts seen so far (a restart starts a new `b0`).
+    restarts_seen: u64,
     stats: PipelineStats,
     timing: StageTiming,
 }
@@ -234,6 +236,7 @@ impl Pipeline {
             slot: FrameSlot::default(),
             history: VecDeque::new(),
             latest: None,
+            restarts_seen: 0,
             timing: StageTiming::default(),
         })
     }
@@ -273,6 +276,16 @@ impl Pipeline {
         let step = self.wins.push_imu(s);
         self.timing.estimator_s += started.elapsed().as_secs_f64();
         let step = step?;
+        let restarts = self.wins.stats().restarts;
+        if restarts != self.restarts_seen {
+            // The tracks' poses are in the lost window's `b0`: the next prediction of each
+            // track uses no rotation (at most one packet's turn, well inside the PAoA window).
+            self.restarts_seen = restarts;
+            self.latest = None;
+            for track in &mut self.tracks {
+                track.forget_pose();
+            }
+        }
         if let Some(p) = step.imu_pose {
             self.latest = Some(p);
         }

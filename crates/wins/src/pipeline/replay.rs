@@ -143,7 +143,7 @@ pub fn replay(
             let sigma_m = window.ap_sigma_m(l).unwrap_or(f64::INFINITY);
             Some(ApEstimate {
                 name: name.clone(),
-                p_in_w: w_from_b0 * c,
+                p_in_w: w_from_b0.transform_point(&c.into()).coords,
                 sigma_m,
             })
         })
@@ -152,7 +152,7 @@ pub fn replay(
         frames,
         packets,
         aps,
-        converged_at: window.converged_at(),
+        converged_at: wins.converged_at(),
         stats: pipeline.stats().clone(),
         wins: wins.stats(),
         timing: pipeline.timing(),

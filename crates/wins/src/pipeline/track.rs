@@ -108,6 +108,13 @@ impl Track {
         ))
     }
 
+    /// Drops the array pose of the last angle (its frame is gone: the estimator restarted).
+    pub fn forget_pose(&mut self) {
+        if let TrackState::Tracking { pose, .. } = &mut self.state {
+            *pose = None;
+        }
+    }
+
     /// Records an accepted angle.
     pub fn accept(&mut self, aoa_rad: f64, t: Timestamp, pose: Option<ArrayPose>) {
         self.state = TrackState::Tracking {

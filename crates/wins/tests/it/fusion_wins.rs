@@ -30,6 +30,18 @@ fn run(
     estimate_gyro_bias: bool,
     keep: impl Fn(f64) -> bool,
 ) -> Run {
+    run_with_offset(scenario, sigma_deg, seed, estimate_gyro_bias, keep, |_| 0.0)
+}
+
+/// [`run`] with `offset_deg(t_s)` added to every bearing (a broken AoA stage).
+fn run_with_offset(
+    scenario: &Scenario,
+    sigma_deg: f64,
+    seed: u64,
+    estimate_gyro_bias: bool,
+    keep: impl Fn(f64) -> bool,
+    offset_deg: impl Fn(f64) -> f64,
+) -> Run {
     let out: SimOutput = simulate(scenario, &mut |_| {}).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let noise = Normal::new(0.0, sigma_deg.to_radians()).unwrap();
@@ -40,7 +52,8 @@ fn run(
             if !keep(p.t.as_secs_f64()) {
                 continue;
             }
-            let aoa = (p.truth.aoa_rad + noise.sample(&mut rng))
+            let offset = offset_deg(p.t.as_secs_f64()).to_radians();
+            let aoa = (p.truth.aoa_rad + offset + noise.sample(&mut rng))
                 .clamp(-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2);
             packets.push((
                 p.t,
@@ -272,4 +285,48 @@ fn outages_and_a_still_start_stay_finite_and_recover() {
             .iter()
             .all(|p| p.p_b_in_w.iter().all(|x| x.is_finite()))
     );
+}
+
+#[test]
+fn a_lost_estimate_restarts_where_it_was() {
+    // From 20 s the bearings swing ±40° at 3.7 Hz (a broken AoA stage; a constant offset is
+    // absorbed by moving the AP): the converged window stops fitting, is declared lost
+    // and starts over; the output world must not jump back to the first frame's origin, and the
+    // convergence time stays the first one.
+    let sc = scenario("paper-circle", 26.0);
+    let r = run_with_offset(
+        &sc,
+        2.0,
+        11,
+        true,
+        |_| true,
+        |t| {
+            if t >= 20.0 {
+                40.0 * (std::f64::consts::TAU * 3.7 * t).sin()
+            } else {
+                0.0
+            }
+        },
+    );
+    let stats = r.wins.stats();
+    assert!(stats.restarts >= 1, "{stats:?}");
+    let first = r.wins.converged_at().map(|t| t.as_secs_f64());
+    assert!(first.is_some_and(|t| t < 20.0), "{first:?}");
+    // The restart: the first pose of a new window (its b0 is its first frame, p_b_in_b0 ≈ 0).
+    let i = (1..r.poses.len())
+        .rfind(|&i| r.poses[i].p_b_in_b0.norm() < 0.01 && r.poses[i - 1].p_b_in_b0.norm() > 0.5)
+        .expect("a new window's first frame");
+    assert!(i > 0 && r.poses[i].t.as_secs_f64() > 20.0);
+    let jump = (r.poses[i].p_b_in_w - r.poses[i - 1].p_b_in_w).norm();
+    let from_origin = r.poses[i - 1].p_b_in_w.norm();
+    eprintln!(
+        "restart at {:.2} s: output moved {jump:.3} m (the lost pose is {from_origin:.2} m from the origin); {stats:?}",
+        r.poses[i].t.as_secs_f64()
+    );
+    assert!(
+        from_origin > 1.0,
+        "the test needs a restart away from the origin"
+    );
+    // The anchor is the last pose that still fitted, up to `lost_after_frames` (0.5 s) back.
+    assert!(jump < 1.0, "{jump}");
 }

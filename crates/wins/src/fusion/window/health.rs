@@ -73,6 +73,12 @@ impl SlidingWindow {
         self.converged_at.is_some() && self.misfit_in_row >= self.config.lost_after_frames.max(1)
     }
 
+    /// Converged frames in a row, up to now, whose bearings did not fit (0 when the last one
+    /// did; see [`super::WindowConfig::lost_residual_rms`]).
+    pub fn misfit_frames(&self) -> usize {
+        self.misfit_in_row
+    }
+
     /// Updates the lost test after a converged solve.
     pub(super) fn check_fit(&mut self) {
         let c = &self.config;
