@@ -29,11 +29,9 @@ impl Music {
     ) -> Vec<Peak> {
         // Refining costs more than the grid; a grid minimum this far above the credibility bound
         // cannot refine below it (peaks span several grid steps).
-        let na = spectrum.aoa_rad.len();
         let loose = (GRID_SLACK * self.config.max_residual).min(1.0);
-        let mut peaks: Vec<Peak> = grid_minima(spectrum, window)
+        let mut peaks: Vec<Peak> = grid_minima(spectrum, window, loose)
             .into_iter()
-            .filter(|&(ia, it)| spectrum.residual[it * na + ia] <= loose)
             .map(|(ia, it)| self.refine(subspace, spectrum.aoa_rad[ia], spectrum.tof_s[it], window))
             .collect();
         // Two grid minima may climb to the same peak.
@@ -108,10 +106,11 @@ fn parabolic_step(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
     }
 }
 
-/// Grid points (AoA index, ToF index) whose residual is a local minimum over their 8 neighbours.
-/// Points on the ToF edges never count (the true peak may lie beyond); points on the AoA edges count
-/// only where the edge is ±90° itself, not the edge of a search window.
-fn grid_minima(s: &Spectrum, window: AoaWindow) -> Vec<(usize, usize)> {
+/// Grid points (AoA index, ToF index) with a residual at most `max_residual` that is a local
+/// minimum over their 8 neighbours. Points on the ToF edges never count (the true peak may lie
+/// beyond); points on the AoA edges count only where the edge is ±90° itself, not the edge of a
+/// search window.
+fn grid_minima(s: &Spectrum, window: AoaWindow, max_residual: f64) -> Vec<(usize, usize)> {
     let (na, nt) = (s.aoa_rad.len(), s.tof_s.len());
     if na == 0 || nt < 3 {
         return Vec::new();
@@ -127,6 +126,10 @@ fn grid_minima(s: &Spectrum, window: AoaWindow) -> Vec<(usize, usize)> {
                 continue;
             }
             let v = at(ia, it);
+            // Most of the grid is far above any credible peak: skip the neighbour test there.
+            if v > max_residual {
+                continue;
+            }
             let mut is_min = true;
             'n: for dt in [-1i64, 0, 1] {
                 for da in [-1i64, 0, 1] {
@@ -182,11 +185,12 @@ mod tests {
             tof_s,
             residual,
         };
-        assert_eq!(grid_minima(&s, AoaWindow::FULL), vec![(0, 1)]);
+        assert_eq!(grid_minima(&s, AoaWindow::FULL, 1.0), vec![(0, 1)]);
+        assert!(grid_minima(&s, AoaWindow::FULL, 0.0).is_empty());
         let window = AoaWindow {
             min_rad: -89.5f64.to_radians(),
             max_rad: 0.0,
         };
-        assert!(grid_minima(&s, window).is_empty());
+        assert!(grid_minima(&s, window, 1.0).is_empty());
     }
 }
