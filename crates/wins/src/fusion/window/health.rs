@@ -9,7 +9,8 @@ impl SlidingWindow {
     /// A candidate convergence: re-linearizes every frame kept since the start at the solution
     /// (angle rows, gyro bias) and keeps it only if the result is plausible
     /// ([`Self::plausible`]); else restores the startup solution and retries after
-    /// [`super::WindowConfig::convergence_retry_s`].
+    /// [`super::WindowConfig::convergence_retry_s`] (doubling, see
+    /// [`super::WindowConfig::convergence_retry_max_s`]).
     pub(super) fn try_converge(&mut self) -> Result<(), WindowError> {
         let saved = (
             self.frames.iter().map(|f| f.x).collect::<Vec<_>>(),
@@ -32,8 +33,11 @@ impl SlidingWindow {
         self.gyro_bias_rad_s = gyro;
         self.converged_at = None;
         self.rejected_candidates += 1;
-        self.retry_after =
-            t.map(|t| Timestamp(t.0 + (self.config.convergence_retry_s * 1e9).round() as i64));
+        let c = &self.config;
+        let doublings = self.rejected_candidates.saturating_sub(2).min(16) as i32;
+        let wait_s = (c.convergence_retry_s * 2f64.powi(doublings))
+            .min(c.convergence_retry_max_s.max(c.convergence_retry_s));
+        self.retry_after = t.map(|t| Timestamp(t.0 + (wait_s * 1e9).round() as i64));
         result
     }
 

@@ -91,6 +91,10 @@ pub struct WindowConfig {
     pub lost_after_frames: usize,
     /// After a rejected candidate, the next is tried this much later, s.
     pub convergence_retry_s: f64,
+    /// From the third rejected candidate on, the wait doubles up to this, s: each candidate
+    /// iterates the whole startup window, so a flight that cannot converge (no excitation, a
+    /// gyro bias beyond the startup's reach) must not spend its time on them.
+    pub convergence_retry_max_s: f64,
     /// Pose of the antenna array on the body.
     pub body_from_array: Isometry3<f64>,
     /// Refresh the linearization from the solution (AoA ranges after convergence, the upward
@@ -136,6 +140,7 @@ impl Default for WindowConfig {
             converged_max_residual_rms: 2.0,
             converged_min_range_m: 1.0,
             convergence_retry_s: 1.0,
+            convergence_retry_max_s: 8.0,
             lost_residual_rms: 4.0,
             lost_after_frames: 25,
             body_from_array: Isometry3::identity(),
@@ -249,6 +254,8 @@ pub struct SlidingWindow {
     /// No candidate convergence before this (after a rejected one).
     retry_after: Option<Timestamp>,
     rejected_candidates: u64,
+    /// Frames added since the last solve (before convergence not every frame is solved).
+    unsolved_frames: usize,
     /// Converged frames in a row whose bearings did not fit (see `lost_residual_rms`).
     misfit_in_row: usize,
     marginalized: usize,
@@ -271,6 +278,7 @@ impl SlidingWindow {
             retry_after: None,
             rejected_candidates: 0,
             misfit_in_row: 0,
+            unsolved_frames: 0,
             marginalized: 0,
         }
     }
@@ -370,10 +378,18 @@ impl SlidingWindow {
     /// Solves the window, then marginalizes frames beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), WindowError> {
         let was_converged = self.converged_at.is_some();
-        let every = self.config.startup_solve_every.max(1);
-        if !was_converged && self.solved_once && !self.frames.len().is_multiple_of(every) {
+        // Every `startup_solve_every` frames, and at most once per 2 % of the window's length
+        // (a long startup would otherwise cost O(n²)).
+        let every = self
+            .config
+            .startup_solve_every
+            .max(self.frames.len() / 50)
+            .max(1);
+        self.unsolved_frames += 1;
+        if !was_converged && self.solved_once && self.unsolved_frames < every {
             return Ok(());
         }
+        self.unsolved_frames = 0;
         let iterations = if was_converged {
             self.config.iterations.max(1)
         } else {
