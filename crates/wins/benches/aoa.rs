@@ -79,6 +79,7 @@ fn prediction(truth_rad: f64) -> AoaPrediction {
         previous_aoa_rad: truth_rad + 3f64.to_radians(),
         rotation_part_rad: 0.0,
         translation_part_rad: 0.0,
+        in_front_after: true,
     }
 }
 

@@ -19,6 +19,9 @@ pub struct AoaPrediction {
     pub rotation_part_rad: f64,
     /// Change due to the array's translation, θ_t, rad.
     pub translation_part_rad: f64,
+    /// Whether the AP is predicted in front of the array (`x_a ≥ 0`) after the motion: a turn
+    /// can carry it through the array's axis to the other side, where the cone angle mirrors.
+    pub in_front_after: bool,
 }
 
 impl AoaPrediction {
@@ -34,27 +37,32 @@ impl AoaPrediction {
     /// and `range_m` the distance to the AP at `a_i` (from the estimator; a rough guess works).
     ///
     /// The paper takes `θ_t = ‖l‖ / r` (the arc length), which has no sign; here the AP is placed at
-    /// `r·(cos θ_i, sin θ_i, 0)` in `a_i` (in front of the array, in its plane: the linear array
-    /// measures no elevation) and both parts are the exact changes of the cone angle, signed.
+    /// `r·(±cos θ_i, sin θ_i, 0)` in `a_i` (in its plane: the linear array measures no elevation;
+    /// `+` when `in_front`, the paper's ±90° range, `−` behind the array, where a turn moves the
+    /// cone angle the other way) and both parts are the exact changes of the cone angle, signed.
     /// A range not above the displacement gives no translation part.
     pub fn from_motion(
         previous_aoa_rad: f64,
+        in_front: bool,
         aj_from_ai: &UnitQuaternion<f64>,
         p_aj_in_ai: &Vector3<f64>,
         range_m: f64,
     ) -> Self {
-        let toward_ap_in_ai = Vector3::new(previous_aoa_rad.cos(), previous_aoa_rad.sin(), 0.0);
+        let x = if in_front { 1.0 } else { -1.0 } * previous_aoa_rad.cos();
+        let toward_ap_in_ai = Vector3::new(x, previous_aoa_rad.sin(), 0.0);
         let mut from_new_origin = toward_ap_in_ai * range_m - p_aj_in_ai;
         if !(range_m.is_finite() && range_m > p_aj_in_ai.norm()) || from_new_origin.norm() == 0.0 {
             from_new_origin = toward_ap_in_ai;
         }
         let cone = |v: &Vector3<f64>| (v.y / v.norm()).clamp(-1.0, 1.0).asin();
         let after_translation = cone(&from_new_origin);
-        let after_rotation = cone(&(aj_from_ai * from_new_origin));
+        let rotated = aj_from_ai * from_new_origin;
+        let after_rotation = cone(&rotated);
         Self {
             previous_aoa_rad,
             translation_part_rad: after_translation - previous_aoa_rad,
             rotation_part_rad: after_rotation - after_translation,
+            in_front_after: rotated.x >= 0.0,
         }
     }
 }
@@ -98,8 +106,13 @@ mod tests {
 
     #[test]
     fn no_motion_predicts_the_previous_angle() {
-        let p =
-            AoaPrediction::from_motion(0.3, &UnitQuaternion::identity(), &Vector3::zeros(), 5.0);
+        let p = AoaPrediction::from_motion(
+            0.3,
+            true,
+            &UnitQuaternion::identity(),
+            &Vector3::zeros(),
+            5.0,
+        );
         assert!(p.predicted_aoa_rad() - 0.3 < 1e-12);
         assert_eq!(p.rotation_part_rad, 0.0);
     }
@@ -109,9 +122,20 @@ mod tests {
         // Rotating the array by +10° about a_z turns the AP by −10° in the new frame.
         let yaw = UnitQuaternion::from_euler_angles(0.0, 0.0, 10f64.to_radians());
         let aj_from_ai = yaw.inverse();
-        let p = AoaPrediction::from_motion(0.2, &aj_from_ai, &Vector3::zeros(), 5.0);
+        let p = AoaPrediction::from_motion(0.2, true, &aj_from_ai, &Vector3::zeros(), 5.0);
         assert!((p.rotation_part_rad + 10f64.to_radians()).abs() < 1e-12);
         assert!((p.predicted_aoa_rad() - (0.2 - 10f64.to_radians())).abs() < 1e-12);
+        // Behind the array the same turn moves the cone angle the other way (the AP at azimuth
+        // 180° − 0.2 rad goes to 180° − 0.2 rad − 10°, whose cone angle is 0.2 rad + 10°).
+        let back = AoaPrediction::from_motion(0.2, false, &aj_from_ai, &Vector3::zeros(), 5.0);
+        assert!((back.rotation_part_rad - 10f64.to_radians()).abs() < 1e-12);
+        assert!(p.in_front_after && !back.in_front_after);
+        // A turn through the array's axis: at 85° in front, turning by −10° about a_z carries the
+        // AP behind the array at a cone angle of 85° again (azimuth 95°).
+        let through =
+            AoaPrediction::from_motion(85f64.to_radians(), true, &yaw, &Vector3::zeros(), 5.0);
+        assert!(!through.in_front_after);
+        assert!((through.predicted_aoa_rad() - 85f64.to_radians()).abs() < 1e-9);
     }
 
     #[test]
@@ -119,6 +143,7 @@ mod tests {
         // AP straight ahead at 10 m; moving 0.1 m toward +a_y puts it at −atan(0.1/10).
         let p = AoaPrediction::from_motion(
             0.0,
+            true,
             &UnitQuaternion::identity(),
             &Vector3::new(0.0, 0.1, 0.0),
             10.0,
@@ -127,6 +152,7 @@ mod tests {
         // Range unknown / too small: no translation part, never NaN.
         let q = AoaPrediction::from_motion(
             0.0,
+            true,
             &UnitQuaternion::identity(),
             &Vector3::new(0.0, 1.0, 0.0),
             0.5,

@@ -414,7 +414,7 @@ impl Pipeline {
         }
         self.tracks[ap].update(
             peak.aoa_rad,
-            predicted,
+            &prediction,
             self.config.track_gain,
             t,
             now.copied(),

@@ -3,6 +3,11 @@
 //! rotation since (the translation part, ~0.6° per packet at 50 Hz, is left to the ±20° window).
 //! The estimated pose and AP give the side (front/back) and a gate once converged. A track that
 //! finds no credible peak for too long starts over from SpotFi.
+//!
+//! A turn moves the cone angle of an AP in front one way and of an AP behind the other way, so the
+//! prediction uses the track's side, and a turn through the array's axis carries the track to the
+//! other side. SpotFi's first angle cannot tell the side: a track starts in front (the paper's
+//! set-up) until the state says otherwise.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
@@ -72,7 +77,7 @@ pub struct Track {
     pub gated_in_row: usize,
     /// Packets off the track in a row (see `PipelineConfig::track_gate_deg`).
     pub off_track_in_row: usize,
-    /// The side of the array the AP is on (front until the state says otherwise).
+    /// The side of the array the AP is on (front until a turn or the state says otherwise).
     pub side: Side,
 }
 
@@ -93,6 +98,11 @@ impl Track {
     /// The Algorithm-1 prediction before convergence: the previous angle turned by the array's
     /// rotation since (no translation part: the range is not known yet). `None` while acquiring.
     pub fn predict_by_rotation(&self, now: Option<&ArrayPose>) -> Option<AoaPrediction> {
+        self.predict_on(self.side, now)
+    }
+
+    /// [`Self::predict_by_rotation`] for the AP on `side`.
+    pub fn predict_on(&self, side: Side, now: Option<&ArrayPose>) -> Option<AoaPrediction> {
         let TrackState::Tracking { aoa_rad, pose, .. } = &self.state else {
             return None;
         };
@@ -102,6 +112,7 @@ impl Track {
         };
         Some(AoaPrediction::from_motion(
             *aoa_rad,
+            side == Side::Front,
             &aj_from_ai,
             &Vector3::zeros(),
             f64::INFINITY,
@@ -125,19 +136,26 @@ impl Track {
         };
     }
 
-    /// Records a measured angle `aoa_rad` against the track's prediction `predicted_rad`: the
-    /// track moves by `gain` of the difference (a first-order filter: one packet's multipath
-    /// error does not become the next packet's window centre, which let tracks random-walk onto
-    /// reflections). `gain = 1` keeps the raw angle (the paper's Algorithm 1).
+    /// Records a measured angle `aoa_rad` against the track's `prediction`: the track moves by
+    /// `gain` of the difference (a first-order filter: one packet's multipath error does not
+    /// become the next packet's window centre, which let tracks random-walk onto reflections;
+    /// `gain = 1` keeps the raw angle, the paper's Algorithm 1), and takes the predicted side (a
+    /// turn through the array's axis carries the AP to the other side).
     pub fn update(
         &mut self,
         aoa_rad: f64,
-        predicted_rad: f64,
+        prediction: &AoaPrediction,
         gain: f64,
         t: Timestamp,
         pose: Option<ArrayPose>,
     ) {
         self.off_track_in_row = 0;
+        self.side = if prediction.in_front_after {
+            Side::Front
+        } else {
+            Side::Back
+        };
+        let predicted_rad = prediction.predicted_aoa_rad();
         self.accept(predicted_rad + gain * (aoa_rad - predicted_rad), t, pose);
     }
 
@@ -214,10 +232,44 @@ mod tests {
     }
 
     #[test]
+    fn a_turn_through_the_axis_carries_the_track_behind_the_array() {
+        // The AP at 85° in front; the array turns by −10° about a_z, so the AP's azimuth goes to
+        // 95°: behind the array, at a cone angle of 85° again.
+        let mut track = Track::default();
+        let pose = |yaw_deg: f64| ArrayPose {
+            b0_from_array: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
+            p_a_in_b0: Vector3::zeros(),
+        };
+        track.accept(85f64.to_radians(), Timestamp(0), Some(pose(0.0)));
+        let p = track.predict_by_rotation(Some(&pose(-10.0))).unwrap();
+        assert!(!p.in_front_after);
+        assert!((p.predicted_aoa_rad() - 85f64.to_radians()).abs() < 1e-9);
+        track.update(
+            p.predicted_aoa_rad(),
+            &p,
+            1.0,
+            Timestamp(1),
+            Some(pose(-10.0)),
+        );
+        assert_eq!(track.side, Side::Back);
+        // Turning on, the AP goes further behind (azimuth 105°): the cone angle now falls, where
+        // the same turn with the AP in front would have raised it.
+        let q = track.predict_by_rotation(Some(&pose(-20.0))).unwrap();
+        assert!(!q.in_front_after);
+        assert!((q.predicted_aoa_rad() - 75f64.to_radians()).abs() < 1e-9);
+    }
+
+    #[test]
     fn the_track_follows_a_share_of_each_angle_and_a_run_of_jumps_restarts_it() {
         let mut track = Track::default();
         track.accept(0.0, Timestamp(0), None);
-        track.update(0.1, 0.0, 0.3, Timestamp(1), None);
+        let at = |rad: f64| AoaPrediction {
+            previous_aoa_rad: rad,
+            rotation_part_rad: 0.0,
+            translation_part_rad: 0.0,
+            in_front_after: true,
+        };
+        track.update(0.1, &at(0.0), 0.3, Timestamp(1), None);
         let TrackState::Tracking { aoa_rad, .. } = track.state else {
             panic!("tracking");
         };
@@ -225,7 +277,7 @@ mod tests {
         assert!(!track.off_track(2));
         assert!(!track.off_track(2));
         // An accepted angle ends the run.
-        track.update(0.03, 0.03, 0.3, Timestamp(2), None);
+        track.update(0.03, &at(0.03), 0.3, Timestamp(2), None);
         assert!(!track.off_track(2));
         assert!(!track.off_track(2));
         assert!(track.off_track(2));

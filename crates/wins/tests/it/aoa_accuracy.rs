@@ -123,6 +123,7 @@ fn paoa_with_a_prediction_within_five_degrees_matches_the_full_search() {
             previous_aoa_rad: p.truth.aoa_rad + rng.random_range(-5.0f64..5.0).to_radians(),
             rotation_part_rad: 0.0,
             translation_part_rad: 0.0,
+            in_front_after: true,
         };
         let r = est.paoa(record, &prediction).unwrap();
         assert!(r.window.max_rad - r.window.min_rad <= 40f64.to_radians() + 1e-12);
@@ -163,6 +164,7 @@ fn paoa_reports_an_empty_window() {
             previous_aoa_rad: if p.truth.aoa_rad > 0.0 { -1.2 } else { 1.2 },
             rotation_part_rad: 0.0,
             translation_part_rad: 0.0,
+            in_front_after: true,
         };
         let r = est.paoa(record, &away).unwrap();
         total += 1;
