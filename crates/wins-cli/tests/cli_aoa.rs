@@ -81,7 +81,11 @@ fn calibrate_on_the_truth_then_aoa_is_within_three_degrees() {
     let truth = Truth::load(&ds).expect("truth");
     let cal = ChainCalibration::load(&calib).expect("calibration file");
     assert!(cal.source.contains("truth of"), "{}", cal.source);
-    let want = &truth.info.chain_phase_offsets_rad;
+    let want = &truth
+        .info
+        .as_ref()
+        .expect("truth.toml")
+        .chain_phase_offsets_rad;
     for m in 1..3 {
         let err = (cal.phase_offsets_rad[m] - (want[m] - want[0]) + PI).rem_euclid(TAU) - PI;
         println!("chain {m}: offset error {:.2}°", err.to_degrees());

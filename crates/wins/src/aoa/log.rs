@@ -319,6 +319,7 @@ pub fn truth_pairs<'a>(
         .iter()
         .position(|a| a.name == ap)
         .and_then(|i| truth.packets.get(i))
+        .filter(|rows| !rows.is_empty())
         .ok_or_else(|| AoaLogError::NoTruth { ap: ap.to_string() })?;
     let rows: Vec<_> = rows.iter().filter(|r| r.received).collect();
     let records = &log.packets;

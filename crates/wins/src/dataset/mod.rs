@@ -6,7 +6,8 @@
 //! DIR/imu.csv          EuRoC-style: #timestamp [ns], gyro xyz [rad s^-1], accel xyz [m s^-2]
 //! DIR/<ap>.dat         Intel 5300 CSI Tool log, one per AP
 //! DIR/truth/           what only a simulator (or motion capture) knows; the estimator never reads it
-//!   poses.tum          body poses, TUM format: t[s] x y z qx qy qz qw (world_from_body)
+//!   poses.tum          body poses, TUM format: t[s] x y z qx qy qz qw (world_from_body); the only
+//!                      required file (motion capture has nothing else), the rest are optional
 //!   aps.csv            name,x_m,y_m,z_m
 //!   packets_<ap>.csv   per packet slot: true direct-path AoA, ToF, range, SNR, …
 //!   imu_biases.csv     true gyro and accelerometer biases at each IMU sample

@@ -115,8 +115,8 @@ pub struct Truth {
     pub packets: Vec<Vec<PacketRow>>,
     /// IMU biases at each IMU sample.
     pub imu_biases: Vec<BiasRow>,
-    /// Hardware constants.
-    pub info: TruthInfo,
+    /// Hardware constants (`None` without `truth.toml`).
+    pub info: Option<TruthInfo>,
 }
 
 /// A truth file that cannot be read.
@@ -197,29 +197,33 @@ pub fn read_tum(input: impl BufRead) -> Result<Vec<Pose>, String> {
 }
 
 impl Truth {
-    /// Loads `dataset_dir/truth/`; `ap_names` orders the packet files.
+    /// Loads `dataset_dir/truth/`: `poses.tum` is required, every other file is optional (a
+    /// motion-capture truth has only poses); a file that is there must parse.
     pub fn load(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
         let dir = dataset_dir.as_ref().join(TRUTH_DIR);
         let read = |name: &str| {
             let path = dir.join(name);
             std::fs::read(&path).map_err(|source| TruthError::Io { path, source })
         };
+
         let parse_err = |name: &str, reason: String| TruthError::Parse {
             path: dir.join(name),
             reason,
         };
-        let info: TruthInfo = toml::from_str(&String::from_utf8_lossy(&read("truth.toml")?))
+        // Only the poses are required (a motion-capture truth has nothing else); a file that is
+        // there must parse.
+        let info: Option<TruthInfo> = read_optional(&dir, "truth.toml")?
+            .map(|b| toml::from_str(&String::from_utf8_lossy(&b)))
+            .transpose()
             .map_err(|e| parse_err("truth.toml", e.to_string()))?;
         let poses =
             read_tum(read("poses.tum")?.as_slice()).map_err(|e| parse_err("poses.tum", e))?;
-        let aps: Vec<ApRow> = read_csv(&read("aps.csv")?).map_err(|e| parse_err("aps.csv", e))?;
+        let aps: Vec<ApRow> = csv_or_empty(&dir, "aps.csv")?;
         let mut packets = Vec::with_capacity(aps.len());
         for ap in &aps {
-            let name = packets_file(&ap.name);
-            packets.push(read_csv(&read(&name)?).map_err(|e| parse_err(&name, e))?);
+            packets.push(csv_or_empty(&dir, &packets_file(&ap.name))?);
         }
-        let imu_biases =
-            read_csv(&read("imu_biases.csv")?).map_err(|e| parse_err("imu_biases.csv", e))?;
+        let imu_biases = csv_or_empty(&dir, "imu_biases.csv")?;
         Ok(Self {
             poses,
             aps,
@@ -228,6 +232,29 @@ impl Truth {
             info,
         })
     }
+}
+
+/// The bytes of `dir/name`, or `None` when there is no such file.
+fn read_optional(dir: &Path, name: &str) -> Result<Option<Vec<u8>>, TruthError> {
+    let path = dir.join(name);
+    match std::fs::read(&path) {
+        Ok(b) => Ok(Some(b)),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(TruthError::Io { path, source }),
+    }
+}
+
+/// The rows of the CSV file `dir/name`, none when there is no such file.
+fn csv_or_empty<T: serde::de::DeserializeOwned>(
+    dir: &Path,
+    name: &str,
+) -> Result<Vec<T>, TruthError> {
+    read_optional(dir, name)?
+        .map_or(Ok(Vec::new()), |b| read_csv(&b))
+        .map_err(|reason| TruthError::Parse {
+            path: dir.join(name),
+            reason,
+        })
 }
 
 /// Serializes rows as CSV with a header.

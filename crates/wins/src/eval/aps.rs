@@ -57,13 +57,17 @@ pub fn read_estimated_aps(input: impl Read) -> Result<Vec<EstimatedAp>, EvalErro
     Ok(rows)
 }
 
-/// Per AP name, the distance between the aligned estimate and the truth AP of that name, m.
+/// Per AP name, the distance between the aligned estimate and the truth AP of that name, m. A
+/// truth without APs (e.g. motion capture only) scores none.
 pub(crate) fn ap_errors(
     aps: &[EstimatedAp],
     truth_aps: &[ApRow],
     alignment: &Alignment,
 ) -> Result<BTreeMap<String, f64>, EvalError> {
     let mut out = BTreeMap::new();
+    if truth_aps.is_empty() {
+        return Ok(out);
+    }
     for ap in aps {
         let truth = truth_aps
             .iter()

@@ -116,6 +116,26 @@ fn paper_circle_from_disk_end_to_end() {
         tum.lines().filter(|l| !l.starts_with('#')).count(),
         run.converged_frames().count()
     );
+
+    // A truth of poses only (motion capture): it loads and scores the trajectory, no AP or AoA.
+    for entry in std::fs::read_dir(dir.join("truth")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.file_name().is_some_and(|n| n != "poses.tum") {
+            std::fs::remove_file(path).unwrap();
+        }
+    }
+    let poses_only = Truth::load(&dir).unwrap();
+    assert!(poses_only.info.is_none() && poses_only.aps.is_empty());
+    let m2 = run.score(&poses_only, &EvalOptions::default()).unwrap();
+    assert_eq!(m2.position_error_mean_m, m.position_error_mean_m);
+    assert!(m2.ap_position_error_m.is_empty());
+    assert!(
+        m2.aoa_error_median_deg.is_none(),
+        "{:?}",
+        m2.aoa_error_median_deg
+    );
+    std::fs::remove_file(dir.join("truth").join("poses.tum")).unwrap();
+    assert!(Truth::load(&dir).is_err(), "the poses are required");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
