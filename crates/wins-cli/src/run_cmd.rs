@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use wins::aoa::ChainCalibration;
 use wins::dataset::Dataset;
 use wins::dataset::truth::{TRUTH_DIR, Truth};
-use wins::eval::{EvalOptions, Metrics, position_error_series};
+use wins::eval::{EvalOptions, Metrics};
 use wins::pipeline::PipelineConfig;
 use wins::pipeline::output::write_run;
 use wins::pipeline::replay::{RunOutput, replay, rig_of};
@@ -182,9 +182,8 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
 }
 
 /// (x, y) points of one series.
-type Points = Vec<(f64, f64)>;
-
-/// The three figures: trajectory from above, position error over time, AoA per packet.
+/// The three figures of `wins::pipeline::figures`: trajectory from above, position error over
+/// time, AoA per packet.
 fn draw(
     out: &Path,
     run: &RunOutput,
@@ -192,153 +191,91 @@ fn draw(
     m: &Metrics,
     options: &EvalOptions,
 ) -> Result<Vec<PathBuf>> {
-    let align = &m.alignment;
-    let t0 = truth.poses.first().map_or(0.0, |p| p.t.as_secs_f64());
-    let poses = run.converged_poses();
-    let est: Vec<(f64, f64)> = poses
+    let fig = run.figures(truth, m, options)?;
+    let marker = |label, style| move |&(x, y): &(f64, f64)| Marker { x, y, label, style };
+    let markers: Vec<Marker> = fig
+        .truth_aps_xy
         .iter()
-        .map(|p| {
-            let q = align.apply_point(&p.p_b_in_w);
-            (q.x, q.y)
-        })
+        .map(marker("AP (true)", MarkerStyle::Circle))
+        .chain(
+            fig.estimated_aps_xy
+                .iter()
+                .map(marker("AP (estimated)", MarkerStyle::Cross)),
+        )
         .collect();
-    let tru: Vec<(f64, f64)> = truth
-        .poses
-        .iter()
-        .map(|p| (p.p_b_in_w.x, p.p_b_in_w.y))
-        .collect();
-    let mut markers: Vec<Marker> = truth
-        .aps
-        .iter()
-        .map(|a| Marker {
-            x: a.x_m,
-            y: a.y_m,
-            label: "AP (true)",
-            style: MarkerStyle::Circle,
-        })
-        .collect();
-    markers.extend(run.aps.iter().map(|a| {
-        let q = align.apply_point(&a.p_in_w);
-        Marker {
-            x: q.x,
-            y: q.y,
-            label: "AP (estimated)",
-            style: MarkerStyle::Cross,
-        }
-    }));
-    let mut files = Vec::new();
-    let path = out.join("trajectory.png");
-    xy_plot_png(
-        &path,
-        &XyPlot {
-            title: "trajectory from above (estimate aligned to the truth)",
-            x_label: "x (m)",
-            y_label: "y (m)",
-            series: &[
-                Series {
-                    label: "truth",
-                    points: &tru,
-                    style: SeriesStyle::Line,
-                },
-                Series {
-                    label: "WINS",
-                    points: &est,
-                    style: SeriesStyle::Line,
-                },
-            ],
-            markers: &markers,
-            vertical_lines: &[],
-            equal_aspect: true,
-        },
-        900,
-        700,
-    )?;
-    files.push(path);
-
-    let errors: Vec<(f64, f64)> = position_error_series(&poses, &truth.poses, options)?
-        .iter()
-        .map(|(t, e)| (t.as_secs_f64() - t0, *e))
-        .collect();
-    let converged = run.converged_at.map(|t| t.as_secs_f64() - t0);
-    let lines: Vec<VerticalLine> = converged
+    let lines: Vec<VerticalLine> = fig
+        .converged_s
         .iter()
         .map(|&x| VerticalLine {
             x,
             label: "converged",
         })
         .collect();
-    let path = out.join("position_error.png");
-    xy_plot_png(
-        &path,
-        &XyPlot {
-            title: "position error after alignment",
-            x_label: "time (s)",
-            y_label: "error (m)",
-            series: &[Series {
-                label: "WINS",
-                points: &errors,
-                style: SeriesStyle::Line,
-            }],
-            markers: &[],
-            vertical_lines: &lines,
-            equal_aspect: false,
-        },
-        900,
-        500,
-    )?;
-    files.push(path);
-
-    let pairs = run.aoa_vs_truth(truth);
-    let mut series_data: Vec<(String, Points, Points)> = Vec::new();
-    for (l, name) in run.stats.per_ap.iter().map(|s| &s.name).enumerate() {
-        let measured = pairs
-            .iter()
-            .filter(|p| p.0 == l)
-            .map(|p| (p.1 - t0, p.2))
-            .collect();
-        let true_aoa = truth
-            .packets
-            .get(l)
-            .map(|rows| {
-                rows.iter()
-                    .map(|r| (r.t_ns as f64 * 1e-9 - t0, r.aoa_deg))
-                    .collect()
-            })
-            .unwrap_or_default();
-        series_data.push((name.clone(), measured, true_aoa));
-    }
-    let labels: Vec<(String, String)> = series_data
+    let line = |label, points| Series {
+        label,
+        points,
+        style: SeriesStyle::Line,
+    };
+    let labels: Vec<(String, String)> = fig
+        .aoa
         .iter()
-        .map(|(n, _, _)| (format!("{n} PAoA"), format!("{n} truth")))
+        .map(|a| (format!("{} truth", a.name), format!("{} PAoA", a.name)))
         .collect();
-    let mut series = Vec::new();
-    for ((_, measured, true_aoa), (lm, lt)) in series_data.iter().zip(&labels) {
-        series.push(Series {
-            label: lt,
-            points: true_aoa,
-            style: SeriesStyle::Line,
-        });
-        series.push(Series {
+    let mut aoa_series = Vec::new();
+    for (a, (lt, lm)) in fig.aoa.iter().zip(&labels) {
+        aoa_series.push(line(lt, &a.truth));
+        aoa_series.push(Series {
             label: lm,
-            points: measured,
+            points: &a.measured,
             style: SeriesStyle::Dots,
         });
     }
-    let path = out.join("aoa.png");
-    xy_plot_png(
-        &path,
-        &XyPlot {
-            title: "AoA per packet fed to the estimator vs truth",
-            x_label: "time (s)",
-            y_label: "AoA (deg)",
-            series: &series,
-            markers: &[],
-            vertical_lines: &lines,
-            equal_aspect: false,
-        },
-        900,
-        500,
-    )?;
-    files.push(path);
+    let plots = [
+        (
+            "trajectory.png",
+            XyPlot {
+                title: "trajectory from above (estimate aligned to the truth)",
+                x_label: "x (m)",
+                y_label: "y (m)",
+                series: &[line("truth", &fig.truth_xy), line("WINS", &fig.estimate_xy)],
+                markers: &markers,
+                vertical_lines: &[],
+                equal_aspect: true,
+            },
+            700,
+        ),
+        (
+            "position_error.png",
+            XyPlot {
+                title: "position error after alignment",
+                x_label: "time (s)",
+                y_label: "error (m)",
+                series: &[line("WINS", &fig.position_error)],
+                markers: &[],
+                vertical_lines: &lines,
+                equal_aspect: false,
+            },
+            500,
+        ),
+        (
+            "aoa.png",
+            XyPlot {
+                title: "AoA per packet fed to the estimator vs truth",
+                x_label: "time (s)",
+                y_label: "AoA (deg)",
+                series: &aoa_series,
+                markers: &[],
+                vertical_lines: &lines,
+                equal_aspect: false,
+            },
+            500,
+        ),
+    ];
+    let mut files = Vec::new();
+    for (name, plot, height) in &plots {
+        let path = out.join(name);
+        xy_plot_png(&path, plot, 900, *height)?;
+        files.push(path);
+    }
     Ok(files)
 }

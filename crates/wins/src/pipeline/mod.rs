@@ -15,6 +15,7 @@
 //! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed
 //! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
 
+pub mod figures;
 pub mod output;
 pub mod replay;
 pub mod slot;

@@ -117,6 +117,21 @@ fn paper_circle_from_disk_end_to_end() {
         run.converged_frames().count()
     );
 
+    // The figures' data: every converged pose, the AP, every fed packet paired with the truth.
+    let fig = run.figures(&truth, &m, &EvalOptions::default()).unwrap();
+    assert_eq!(fig.estimate_xy.len(), run.converged_frames().count());
+    assert_eq!(fig.truth_xy.len(), truth.poses.len());
+    assert_eq!((fig.truth_aps_xy.len(), fig.estimated_aps_xy.len()), (1, 1));
+    assert_eq!(fig.aoa.len(), 1);
+    assert_eq!(fig.aoa[0].measured.len(), run.aoa_vs_truth(&truth).len());
+    assert!(
+        fig.converged_s
+            .is_some_and(|t| (t - m.convergence_time_s).abs() < 0.1)
+    );
+    let error_mean =
+        fig.position_error.iter().map(|p| p.1).sum::<f64>() / fig.position_error.len() as f64;
+    assert!((error_mean - m.position_error_mean_m).abs() < 1e-9);
+
     // A truth of poses only (motion capture): it loads and scores the trajectory, no AP or AoA.
     for entry in std::fs::read_dir(dir.join("truth")).unwrap() {
         let path = entry.unwrap().path();
