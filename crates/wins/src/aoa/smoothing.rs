@@ -15,7 +15,7 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use super::music::MusicError;
+use super::music::error::MusicError;
 
 /// Where the windows of the smoothed matrix sit.
 #[derive(Clone, Debug, PartialEq)]

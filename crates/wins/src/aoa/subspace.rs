@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, SymmetricEigen};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
-use super::music::MusicError;
+use super::music::error::MusicError;
 
 /// How many eigenvectors count as paths.
 ///

@@ -31,35 +31,7 @@ use crate::csi::NUM_SUBCARRIERS;
 /// Most antennas a smoothing window may hold.
 pub const MAX_WINDOW_ANTENNAS: usize = 8;
 
-/// Why MUSIC cannot run on a packet or with a configuration.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum MusicError {
-    /// The smoothing windows do not fit the subcarriers or antennas.
-    #[error("smoothing layout: {0}")]
-    Layout(String),
-    /// The CSI has the wrong number of entries.
-    #[error("{len} CSI entries, expected {expected}")]
-    CsiLength {
-        /// Entries given.
-        len: usize,
-        /// Antennas × subcarriers of the layout.
-        expected: usize,
-    },
-    /// The CSI holds NaN or infinity.
-    #[error("CSI holds a non-finite value")]
-    NonFinite,
-    /// The CSI is all zeros (or the covariance has no positive eigenvalue).
-    #[error("CSI has no signal (zero covariance)")]
-    NoSignal,
-    /// A configuration value is out of range.
-    #[error("music.{field}: {reason}")]
-    Config {
-        /// The offending field.
-        field: &'static str,
-        /// What is wrong.
-        reason: String,
-    },
-}
+pub use self::error::MusicError;
 
 /// MUSIC settings. Defaults follow SpotFi where it is exact (see [`super::smoothing`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -449,4 +421,5 @@ impl Music {
     }
 }
 
+pub(crate) mod error;
 mod peaks;

@@ -1,0 +1,31 @@
+//! Why MUSIC cannot run (its own file: the smoothing and subspace stages report it too).
+
+/// Why MUSIC cannot run on a packet or with a configuration.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MusicError {
+    /// The smoothing windows do not fit the subcarriers or antennas.
+    #[error("smoothing layout: {0}")]
+    Layout(String),
+    /// The CSI has the wrong number of entries.
+    #[error("{len} CSI entries, expected {expected}")]
+    CsiLength {
+        /// Entries given.
+        len: usize,
+        /// Antennas × subcarriers of the layout.
+        expected: usize,
+    },
+    /// The CSI holds NaN or infinity.
+    #[error("CSI holds a non-finite value")]
+    NonFinite,
+    /// The CSI is all zeros (or the covariance has no positive eigenvalue).
+    #[error("CSI has no signal (zero covariance)")]
+    NoSignal,
+    /// A configuration value is out of range.
+    #[error("music.{field}: {reason}")]
+    Config {
+        /// The offending field.
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+}
