@@ -21,8 +21,8 @@
 //! [`WindowConfig::max_frames`] with [`WindowConfig::iterations`] Gauss–Newton steps per frame. A
 //! converged window whose bearings stop fitting reports itself lost ([`SlidingWindow::is_lost`]);
 //! the estimator then starts a new one. An IMU factor is re-linearized only when its
-//! linearization point has moved by more than a small fraction of its noise (`assemble`), which
-//! halves the cost of a solve and changes no printed figure.
+//! linearization point has moved by more than a small fraction of its noise (`assemble`): the 3-AP
+//! replay's estimator time fell from 0.64 to 0.55 s with it, and no printed figure changed.
 
 pub mod arrow;
 mod assemble;
