@@ -22,7 +22,7 @@
 //! converged window whose bearings stop fitting reports itself lost ([`SlidingWindow::is_lost`]);
 //! the estimator then starts a new one. An IMU factor is re-linearized only when its
 //! linearization point has moved by more than a small fraction of its noise (`assemble`): the 3-AP
-//! replay's estimator time fell from 0.64 to 0.55 s with it, and no printed figure changed.
+//! replay's estimator time fell from 0.64 to 0.55 s with it, and its ATE mean moved by 0.7 mm.
 
 pub mod arrow;
 mod assemble;
