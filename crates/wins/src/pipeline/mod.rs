@@ -405,6 +405,8 @@ impl Pipeline {
         };
         row.aoa_deg = Some(peak.aoa_deg());
         row.tof_ns = Some(peak.tof_s * 1e9);
+        row.residual = Some(peak.residual);
+        row.candidates = Some(result.candidates);
         if (peak.aoa_rad - predicted).abs() > self.config.track_gate_deg.to_radians() {
             row.status = PacketStatus::OffTrack;
             if self.tracks[ap].off_track(self.config.max_off_track_in_row) {

@@ -45,6 +45,10 @@ pub struct PacketLog {
     pub aoa_deg: Option<f64>,
     /// Its ToF after sanitization, ns.
     pub tof_ns: Option<f64>,
+    /// Its MUSIC residual (0 a perfect path, 1 noise; see [`crate::aoa::Peak::residual`]).
+    pub residual: Option<f64>,
+    /// Credible peaks in the PAoA window (the direct path is the lowest-ToF one).
+    pub candidates: Option<usize>,
     /// The side given to the estimator.
     #[serde(serialize_with = "side_name")]
     pub side: Option<Side>,
@@ -73,6 +77,8 @@ impl PacketLog {
             predicted_aoa_deg: None,
             aoa_deg: None,
             tof_ns: None,
+            residual: None,
+            candidates: None,
             side: None,
             side_from_state: false,
             converged,

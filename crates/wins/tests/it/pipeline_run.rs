@@ -51,6 +51,14 @@ fn check_accounting(run: &RunOutput) {
     for f in &run.frames {
         assert!(f.p_b_in_w.iter().all(|x| x.is_finite()), "NaN at {:?}", f.t);
     }
+    // Every fed packet says how good its peak was.
+    for r in run.packets.iter().filter(|r| r.status == PacketStatus::Fed) {
+        assert!(
+            r.residual.is_some_and(|v| (0.0..=1.0).contains(&v)),
+            "{r:?}"
+        );
+        assert!(r.candidates.is_some_and(|c| c >= 1), "{r:?}");
+    }
 }
 
 fn print(label: &str, run: &RunOutput, m: &Metrics) {
