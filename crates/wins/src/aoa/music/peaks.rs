@@ -121,6 +121,11 @@ fn grid_minima(s: &Spectrum, window: AoaWindow, max_residual: f64) -> Vec<(usize
     let at = |ia: usize, it: usize| s.residual[it * na + ia];
     let mut out = Vec::new();
     for it in 1..nt - 1 {
+        // Most rows hold no point below the bound: one vectorizable pass skips them.
+        let row = &s.residual[it * na..(it + 1) * na];
+        if row.iter().fold(f64::INFINITY, |m, &v| m.min(v)) > max_residual {
+            continue;
+        }
         for ia in 0..na {
             if (ia == 0 && !first_ok) || (ia == na - 1 && !last_ok) {
                 continue;
