@@ -105,10 +105,26 @@ fn main() -> ExitCode {
         // A closed pipe (`wins csi export … | head`) is the reader's choice, not a failure.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes, `: `-separated, each cause once: many library errors already show
+/// their source in their own text, which `{:#}` would print twice.
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.is_empty() {
+            out = text;
+        } else if !out.contains(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
@@ -247,4 +263,36 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::message;
+
+    /// An error that shows its source in its own text, as many of the library's do.
+    #[derive(Debug)]
+    struct Shows {
+        source: std::io::Error,
+    }
+
+    impl std::fmt::Display for Shows {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "bad.csv: {}", self.source)
+        }
+    }
+
+    impl std::error::Error for Shows {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.source)
+        }
+    }
+
+    #[test]
+    fn each_cause_is_printed_once() {
+        let io = || std::io::Error::other("line 5: not a number");
+        let e = anyhow::Error::new(Shows { source: io() }).context("loading DIR");
+        assert_eq!(message(&e), "loading DIR: bad.csv: line 5: not a number");
+        let plain = anyhow::Error::new(io()).context("loading DIR");
+        assert_eq!(message(&plain), "loading DIR: line 5: not a number");
+    }
 }
