@@ -177,6 +177,14 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
             s.skipped,
             s.track_losses
         )?;
+        if s.log_skips > 0 {
+            writeln!(
+                out,
+                "{}: the log reader skipped {} stretches ({} bytes): corrupt, truncated or \
+                 non-CSI records",
+                s.name, s.log_skips, s.log_skipped_bytes
+            )?;
+        }
     }
     Ok(())
 }

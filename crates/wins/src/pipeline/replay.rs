@@ -153,7 +153,14 @@ pub fn replay(
         packets,
         aps,
         converged_at: wins.converged_at(),
-        stats: pipeline.stats().clone(),
+        stats: {
+            let mut stats = pipeline.stats().clone();
+            for (s, ap) in stats.per_ap.iter_mut().zip(&dataset.aps) {
+                s.log_skips = ap.skips.len() as u64;
+                s.log_skipped_bytes = ap.skips.iter().map(|k| k.len).sum();
+            }
+            stats
+        },
         wins: wins.stats(),
         timing: pipeline.timing(),
         wall_s: started.elapsed().as_secs_f64(),

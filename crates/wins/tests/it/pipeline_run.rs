@@ -226,5 +226,17 @@ fn bad_input_is_counted() {
         .filter(|r| r.status == PacketStatus::Skipped)
         .collect();
     assert!(skipped.iter().all(|r| !r.reason.is_empty()));
+    assert_eq!(run.stats.per_ap[0].log_skips, 0);
+
+    // A log cut in the middle of a record: the reader's skip reaches the run's statistics.
+    let log = dir.join(format!("{}.dat", data.aps[0].name));
+    let bytes = std::fs::read(&log).unwrap();
+    std::fs::write(&log, &bytes[..bytes.len() / 2 + 7]).unwrap();
+    let cut = Dataset::load(&dir).unwrap();
+    let cut_run = self::run(&cut);
+    check_accounting(&cut_run);
+    let s = &cut_run.stats.per_ap[0];
+    assert!(s.log_skips >= 1 && s.log_skipped_bytes > 0, "{s:?}");
+    assert!(s.packets < data.aps[0].packets.len() as u64, "{s:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
