@@ -1,18 +1,11 @@
 //! Tests of heat map rendering (PNG files and RGB buffers).
 
-use std::path::PathBuf;
-
 use super::*;
+use crate::png_check::{take_png, temp_png};
 use crate::{MIN_IMAGE_HEIGHT, MIN_IMAGE_WIDTH, Marker, ShapeProblem};
 
-const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A];
 const W: u32 = 480;
 const H: u32 = 320;
-
-/// A path under the temp dir unique to this process and test.
-fn temp_png(name: &str) -> PathBuf {
-    std::env::temp_dir().join(format!("wins-plot-{}-{name}.png", std::process::id()))
-}
 
 fn map<'a>(
     x: &'a [f64],
@@ -69,16 +62,9 @@ fn renders_a_png_file() {
             style: MarkerStyle::Circle,
         },
     ];
-    let path = temp_png("renders_a_png_file");
+    let path = temp_png("heat", "renders_a_png_file");
     heat_map_png(&path, &map(&x, &y, &values, &markers), 640, 400).unwrap();
-    let bytes = std::fs::read(&path).unwrap();
-    std::fs::remove_file(&path).unwrap();
-    assert!(bytes.len() > 1024, "PNG only {} bytes", bytes.len());
-    assert_eq!(bytes[..8], PNG_SIGNATURE);
-    // The IHDR chunk comes first: length, "IHDR", width and height big-endian.
-    assert_eq!(&bytes[12..16], b"IHDR");
-    assert_eq!(bytes[16..20], 640u32.to_be_bytes());
-    assert_eq!(bytes[20..24], 400u32.to_be_bytes());
+    take_png(&path, 640, 400);
 }
 
 #[test]
@@ -169,7 +155,7 @@ fn awkward_ranges_render() {
 
 #[test]
 fn bad_input_is_an_error_and_writes_nothing() {
-    let path = temp_png("bad_input");
+    let path = temp_png("heat", "bad_input");
     let (x, y) = ([0.0, 1.0], [0.0, 1.0]);
     let r = heat_map_png(&path, &map(&x, &y, &[0.0; 3], &[]), W, H);
     let expected = ShapeProblem::LengthMismatch {

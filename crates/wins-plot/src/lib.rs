@@ -56,6 +56,8 @@
 
 mod colormap;
 mod heat_map;
+#[cfg(test)]
+mod png_check;
 mod style;
 mod ticks;
 mod validate;

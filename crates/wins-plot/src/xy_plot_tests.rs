@@ -1,18 +1,11 @@
 //! Tests of line and scatter plot rendering (PNG files and RGB buffers).
 
-use std::path::PathBuf;
-
 use super::*;
+use crate::png_check::{take_png, temp_png};
 use crate::{MIN_IMAGE_HEIGHT, MIN_IMAGE_WIDTH, Marker, Series, ShapeProblem, VerticalLine};
 
-const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A];
 const W: u32 = 480;
 const H: u32 = 320;
-
-/// A path under the temp dir unique to this process and test.
-fn temp_png(name: &str) -> PathBuf {
-    std::env::temp_dir().join(format!("wins-plot-xy-{}-{name}.png", std::process::id()))
-}
 
 fn plot<'a>(series: &'a [Series<'a>], markers: &'a [Marker<'a>]) -> XyPlot<'a> {
     XyPlot {
@@ -66,16 +59,9 @@ fn extent(rgb: &[u8], colour: RGBColor) -> (i32, i32) {
 fn writes_a_png_of_the_requested_size() {
     let pts = [(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)];
     let s = [series("estimate", &pts, SeriesStyle::Line)];
-    let path = temp_png("writes_a_png");
+    let path = temp_png("xy", "writes_a_png");
     xy_plot_png(&path, &plot(&s, &[]), 640, 400).unwrap();
-    let bytes = std::fs::read(&path).unwrap();
-    std::fs::remove_file(&path).unwrap();
-    assert!(bytes.len() > 1024, "PNG only {} bytes", bytes.len());
-    assert_eq!(bytes[..8], PNG_SIGNATURE);
-    // The IHDR chunk comes first: length, "IHDR", width and height big-endian.
-    assert_eq!(&bytes[12..16], b"IHDR");
-    assert_eq!(bytes[16..20], 640u32.to_be_bytes());
-    assert_eq!(bytes[20..24], 400u32.to_be_bytes());
+    take_png(&path, 640, 400);
 }
 
 #[test]
@@ -243,7 +229,7 @@ fn vertical_lines_and_markers_are_drawn() {
 
 #[test]
 fn bad_input_is_an_error_and_writes_nothing() {
-    let path = temp_png("bad_input");
+    let path = temp_png("xy", "bad_input");
     let shape = |r: Result<(), PlotError>| match r {
         Err(PlotError::Shape { field, problem }) => (field, problem),
         other => panic!("expected a shape error, got {other:?}"),
