@@ -1,14 +1,16 @@
 //! The `wins` binary end to end: exit codes and what it prints.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
+mod common;
+
+/// Runs `wins` at the repository root (the paths below are relative to it).
 fn wins(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wins"))
-        .args(args)
-        .current_dir(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.."))
-        .output()
-        .expect("wins runs")
+    common::wins_in(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.."),
+        args,
+    )
 }
 
 const MIXED: &str = "data/intel5300/csikit_log.all_csi.6.7.6.dat";

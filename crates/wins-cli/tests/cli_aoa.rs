@@ -2,21 +2,12 @@
 
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use wins::aoa::ChainCalibration;
 use wins::dataset::truth::Truth;
 
-fn wins(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wins"))
-        .args(args)
-        .output()
-        .expect("wins runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+mod common;
+use common::{s, stderr, wins};
 
 /// A fresh directory holding a 4 s paper-circle dataset in `ds/`.
 fn flight(name: &str) -> PathBuf {
@@ -34,10 +25,6 @@ fn flight(name: &str) -> PathBuf {
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
     dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -1,24 +1,11 @@
 //! `wins eval` end to end: a truth and a rigidly moved, noisy, subsampled estimate on disk.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::PathBuf;
 
 use wins::dataset::truth::Truth;
 
-fn wins(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wins"))
-        .args(args)
-        .output()
-        .expect("wins runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+mod common;
+use common::{s, stderr, wins};
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("wins-cli-eval-{}-{name}", std::process::id()));

@@ -1,0 +1,30 @@
+//! Helpers shared by the CLI's end-to-end tests (each test file is its own binary and uses a
+//! part of them).
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// Runs the `wins` binary with `args` in the current directory.
+pub fn wins(args: &[&str]) -> Output {
+    wins_in(Path::new("."), args)
+}
+
+/// Runs the `wins` binary with `args` in `dir`.
+pub fn wins_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wins"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("wins runs")
+}
+
+/// What the run printed on stderr.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A path as an argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
