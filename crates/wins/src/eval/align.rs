@@ -137,6 +137,14 @@ mod tests {
             .collect()
     }
 
+    /// `points` moved by `t`.
+    fn moved(t: &Isometry3<f64>, points: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+        points
+            .iter()
+            .map(|p| t.transform_point(&(*p).into()).coords)
+            .collect()
+    }
+
     fn random_transform(rng: &mut ChaCha8Rng) -> Isometry3<f64> {
         let axis_angle = Vector3::new(rng.random(), rng.random(), rng.random()) * 2.0;
         let t = Vector3::new(rng.random(), rng.random(), rng.random()) * 20.0;
@@ -149,10 +157,7 @@ mod tests {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             let est = random_points(&mut rng, 3 + seed as usize);
             let truth_from_est = random_transform(&mut rng);
-            let truth: Vec<_> = est
-                .iter()
-                .map(|p| truth_from_est.transform_point(&(*p).into()).coords)
-                .collect();
+            let truth = moved(&truth_from_est, &est);
             let found = umeyama(&est, &truth).expect("aligned").isometry();
             let dr = found.rotation.angle_to(&truth_from_est.rotation);
             let dt = (found.translation.vector - truth_from_est.translation.vector).norm();
@@ -171,10 +176,7 @@ mod tests {
                 .map(|p| Vector3::new(p.x, p.y, 1.5))
                 .collect();
             let truth_from_est = random_transform(&mut rng);
-            let truth: Vec<_> = est
-                .iter()
-                .map(|p| truth_from_est.transform_point(&(*p).into()).coords)
-                .collect();
+            let truth = moved(&truth_from_est, &est);
             let found = umeyama(&est, &truth).expect("aligned").isometry();
             let dr = found.rotation.angle_to(&truth_from_est.rotation);
             assert!(dr < 1e-12, "seed {seed}: {dr} rad");

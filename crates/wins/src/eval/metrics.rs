@@ -212,16 +212,8 @@ pub(crate) fn max_speed(truth: &[Pose]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::time::Timestamp;
-    use nalgebra::{UnitQuaternion, Vector3};
-
-    fn pose(t_ms: i64, p: Vector3<f64>, yaw: f64) -> Pose {
-        Pose {
-            t: Timestamp(t_ms * 1_000_000),
-            p_b_in_w: p,
-            world_from_body: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
-        }
-    }
+    use crate::eval::test_pose as pose;
+    use nalgebra::Vector3;
 
     #[test]
     fn statistics_match_numpy() {

@@ -177,6 +177,20 @@ pub enum EvalError {
     },
 }
 
+/// A pose at `t_ms` ms, position `p`, heading `yaw` rad (for the evaluation's tests).
+#[cfg(test)]
+pub(crate) fn test_pose(
+    t_ms: i64,
+    p: nalgebra::Vector3<f64>,
+    yaw: f64,
+) -> crate::dataset::truth::Pose {
+    crate::dataset::truth::Pose {
+        t: crate::time::Timestamp(t_ms * 1_000_000),
+        p_b_in_w: p,
+        world_from_body: nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -56,15 +56,8 @@ pub fn relative_pose_errors(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{UnitQuaternion, Vector3};
-
-    fn pose(t_ms: i64, p: Vector3<f64>, yaw: f64) -> Pose {
-        Pose {
-            t: Timestamp(t_ms * 1_000_000),
-            p_b_in_w: p,
-            world_from_body: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
-        }
-    }
+    use crate::eval::test_pose as pose;
+    use nalgebra::Vector3;
 
     #[test]
     fn rpe_of_a_known_drift() {
