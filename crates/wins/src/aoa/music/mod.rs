@@ -114,6 +114,11 @@ pub struct Music {
     /// Per ToF grid point, the window's subcarrier phasors `b_w` (Nτ × W).
     tof_s: Vec<f64>,
     tof_table: Vec<Complex64>,
+    /// The same phasors transposed and split (W × Nτ, real and imaginary parts), for
+    /// [`Music::grams_on_grid`].
+    tof_table_re: Vec<f64>,
+    /// See `tof_table_re`.
+    tof_table_im: Vec<f64>,
     geometry: ArrayGeometry,
     center_freq_hz: f64,
 }
@@ -215,6 +220,8 @@ impl Music {
             aoa_cross: Vec::new(),
             tof_s,
             tof_table: Vec::new(),
+            tof_table_re: Vec::new(),
+            tof_table_im: Vec::new(),
             geometry,
             center_freq_hz,
         };
@@ -239,6 +246,14 @@ impl Music {
             .iter()
             .flat_map(|&t| music.tof_phasors(t))
             .collect();
+        let (w_len, n_tof) = (music.layout.subcarriers_per_window(), music.tof_s.len());
+        let transposed = |part: fn(&Complex64) -> f64| {
+            (0..w_len * n_tof)
+                .map(|i| part(&music.tof_table[(i % n_tof) * w_len + i / n_tof]))
+                .collect::<Vec<f64>>()
+        };
+        music.tof_table_re = transposed(|c| c.re);
+        music.tof_table_im = transposed(|c| c.im);
         Ok(music)
     }
 
@@ -345,6 +360,53 @@ impl Music {
         }
     }
 
+    /// `G(τ)` at every ToF grid point (Nτ blocks of M_s², row-major), the same as
+    /// [`Music::gram_from`] per point but with the ToF axis innermost (split real and imaginary
+    /// parts, so the loops vectorize): `c_lm(τ) = Σ_w conj(E[m·W + w, l])·b_w(τ)`, then
+    /// `G_ij(τ) = Σ_l conj(c_li(τ))·c_lj(τ)`.
+    fn grams_on_grid(&self, basis: &DMatrix<Complex64>) -> Vec<Complex64> {
+        let (ms, w_len, nt) = (
+            self.layout.antennas_per_window(),
+            self.layout.subcarriers_per_window(),
+            self.tof_s.len(),
+        );
+        let paths = basis.ncols();
+        let mut c_re = vec![0.0; paths * ms * nt];
+        let mut c_im = vec![0.0; paths * ms * nt];
+        for l in 0..paths {
+            let col = basis.column(l);
+            for m in 0..ms {
+                let o = (l * ms + m) * nt;
+                let (cr, ci) = (&mut c_re[o..o + nt], &mut c_im[o..o + nt]);
+                for w in 0..w_len {
+                    let e = col[m * w_len + w];
+                    let tr = &self.tof_table_re[w * nt..(w + 1) * nt];
+                    let ti = &self.tof_table_im[w * nt..(w + 1) * nt];
+                    for (((cr, ci), tr), ti) in cr.iter_mut().zip(ci.iter_mut()).zip(tr).zip(ti) {
+                        *cr += e.re * tr + e.im * ti;
+                        *ci += e.re * ti - e.im * tr;
+                    }
+                }
+            }
+        }
+        let mut g = vec![Complex64::new(0.0, 0.0); nt * ms * ms];
+        for l in 0..paths {
+            for i in 0..ms {
+                let oi = (l * ms + i) * nt;
+                for j in 0..ms {
+                    let oj = (l * ms + j) * nt;
+                    for it in 0..nt {
+                        let (ar, ai) = (c_re[oi + it], c_im[oi + it]);
+                        let (br, bi) = (c_re[oj + it], c_im[oj + it]);
+                        g[it * ms * ms + i * ms + j] +=
+                            Complex64::new(ar * br + ai * bi, ar * bi - ai * br);
+                    }
+                }
+            }
+        }
+        g
+    }
+
     /// `aᴴ·G·a` for the window's antenna phasors `a`.
     fn form(&self, g: &[Complex64], a: &[Complex64]) -> f64 {
         let ms = a.len();
@@ -387,17 +449,11 @@ impl Music {
     /// The spectrum over the ToF grid and the AoA grid points inside `window`.
     pub fn spectrum(&self, subspace: &Subspace, window: AoaWindow) -> Spectrum {
         let ms = self.layout.antennas_per_window();
-        let w_len = self.layout.subcarriers_per_window();
         let range = self.aoa_range(window);
         let n_aoa = range.len();
         let mut residual = Vec::with_capacity(n_aoa * self.tof_s.len());
-        let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
-        for it in 0..self.tof_s.len() {
-            self.gram_from(
-                &subspace.basis,
-                &self.tof_table[it * w_len..][..w_len],
-                &mut g,
-            );
+        let grams = self.grams_on_grid(&subspace.basis);
+        for g in grams.chunks_exact(ms * ms) {
             if ms == 2 {
                 // aᴴGa = G00 + G11 + 2·Re(G01·conj(a0)·a1): one complex product per point.
                 let (diag, g01) = (g[0].re + g[3].re, g[1]);
@@ -408,7 +464,7 @@ impl Music {
                 }));
             } else {
                 for ia in range.clone() {
-                    let q = self.form(&g, &self.aoa_table[ia * ms..][..ms]);
+                    let q = self.form(g, &self.aoa_table[ia * ms..][..ms]);
                     residual.push(self.residual_of(q));
                 }
             }

@@ -166,6 +166,51 @@ fn grid_minima(s: &Spectrum, window: AoaWindow, max_residual: f64) -> Vec<(usize
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aoa::music::MusicConfig;
+    use crate::aoa::steering::{ArrayGeometry, CHANNEL_64_HZ};
+    use crate::csi::Bandwidth;
+    use nalgebra::DMatrix;
+    use num_complex::Complex64;
+
+    #[test]
+    fn grams_on_the_grid_equal_the_per_point_gram() {
+        for antennas_per_window in [2, 3] {
+            let config = MusicConfig {
+                antennas_per_window,
+                ..MusicConfig::default()
+            };
+            let offsets = Bandwidth::Ht20.subcarrier_offsets_hz();
+            let music = Music::new(
+                &config,
+                ArrayGeometry::default(),
+                CHANNEL_64_HZ,
+                &offsets,
+                15,
+            )
+            .unwrap();
+            let rows = music.layout().rows();
+            // Any three columns will do (the gram does not need them orthonormal).
+            let basis = DMatrix::from_fn(rows, 3, |r, c| {
+                Complex64::new(
+                    (r as f64 * 0.7 + c as f64).sin(),
+                    (r as f64 * 1.3 - c as f64).cos(),
+                )
+            });
+            let grams = music.grams_on_grid(&basis);
+            let ms = antennas_per_window;
+            assert_eq!(grams.len(), music.tof_grid().len() * ms * ms);
+            let mut g = vec![Complex64::new(0.0, 0.0); ms * ms];
+            for (it, &tof) in music.tof_grid().iter().enumerate() {
+                music.gram_at(&basis, tof, &mut g);
+                for (a, b) in grams[it * ms * ms..][..ms * ms].iter().zip(&g) {
+                    assert!(
+                        (a - b).norm() < 1e-9 * (1.0 + b.norm()),
+                        "τ {tof}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn parabolic_step_finds_the_vertex() {

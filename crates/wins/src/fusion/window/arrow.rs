@@ -25,7 +25,7 @@ pub type Block = SMatrix<f64, FRAME_DIM, FRAME_DIM>;
 pub type Vec9 = SVector<f64, FRAME_DIM>;
 
 /// A border block transposed: frame rows × border columns.
-type BorderT = OMatrix<f64, Const<FRAME_DIM>, Dyn>;
+pub type BorderT = OMatrix<f64, Const<FRAME_DIM>, Dyn>;
 
 /// Information matrix and vector of the window, in arrow form.
 #[derive(Clone, Debug)]
@@ -34,8 +34,9 @@ pub struct ArrowSystem {
     pub diag: Vec<Block>,
     /// `H_{k+1,k}` per consecutive pair (length `n − 1`).
     pub lower: Vec<Block>,
-    /// `H_{B,k}` per frame (border rows × 9).
-    pub border: Vec<DMatrix<f64>>,
+    /// `H_{k,B}` per frame (9 × border columns; `H_{B,k}` transposed, the layout the
+    /// factorization works in).
+    pub frame_border: Vec<BorderT>,
     /// `H_BB`.
     pub corner: DMatrix<f64>,
     /// Information vector of the frames.
@@ -61,7 +62,7 @@ impl ArrowSystem {
         Self {
             diag: vec![Block::zeros(); n],
             lower: vec![Block::zeros(); n.saturating_sub(1)],
-            border: vec![DMatrix::zeros(m, FRAME_DIM); n],
+            frame_border: vec![BorderT::zeros_generic(Const::<FRAME_DIM>, Dyn(m)); n],
             corner: DMatrix::zeros(m, m),
             rhs_frames: vec![Vec9::zeros(); n],
             rhs_border: DVector::zeros(m),
@@ -83,7 +84,6 @@ impl ArrowSystem {
     /// condition number reaches 1/ε). `None` when `H` is not positive definite (it always is with
     /// the estimator's priors unless the input is degenerate).
     pub fn solve(&self) -> Option<ArrowSolution> {
-        let n = self.frames();
         let inv_sqrt = |d: f64| {
             if d > 0.0 && d.is_finite() {
                 1.0 / d.sqrt()
@@ -98,31 +98,8 @@ impl ArrowSystem {
             .collect();
         let s_border = DVector::from_fn(self.border_dim(), |i, _| inv_sqrt(self.corner[(i, i)]));
         // D H D with D diagonal: every entry (i, j) times s_i s_j.
-        let scale_block =
-            |m: &Block, si: &Vec9, sj: &Vec9| Block::from_fn(|i, j| m[(i, j)] * si[i] * sj[j]);
-        let sb = DMatrix::from_diagonal(&s_border);
-        let scaled = ArrowSystem {
-            diag: (0..n)
-                .map(|k| scale_block(&self.diag[k], &s_frames[k], &s_frames[k]))
-                .collect(),
-            lower: (0..n.saturating_sub(1))
-                .map(|k| scale_block(&self.lower[k], &s_frames[k + 1], &s_frames[k]))
-                .collect(),
-            border: (0..n)
-                .map(|k| {
-                    DMatrix::from_fn(self.border_dim(), FRAME_DIM, |r, c| {
-                        self.border[k][(r, c)] * s_border[r] * s_frames[k][c]
-                    })
-                })
-                .collect(),
-            corner: DMatrix::from_fn(self.border_dim(), self.border_dim(), |i, j| {
-                self.corner[(i, j)] * s_border[i] * s_border[j]
-            }),
-            rhs_frames: (0..n)
-                .map(|k| self.rhs_frames[k].component_mul(&s_frames[k]))
-                .collect(),
-            rhs_border: self.rhs_border.component_mul(&s_border),
-        };
+        let mut scaled = self.clone();
+        scaled.scale(&s_frames, &s_border);
         // Directions the data barely constrain (scale and tilt before the flight has excited them)
         // can sit below ε relative to the stiff IMU chain; then a tiny damping of the scaled
         // system keeps the solve finite and leaves those directions to the priors.
@@ -140,8 +117,44 @@ impl ArrowSystem {
             *x = x.component_mul(s);
         }
         sol.border = sol.border.component_mul(&s_border);
-        sol.border_covariance = &sb * &sol.border_covariance * &sb;
+        let m = self.border_dim();
+        for c in 0..m {
+            for r in 0..m {
+                sol.border_covariance[(r, c)] *= s_border[r] * s_border[c];
+            }
+        }
         Some(sol)
+    }
+
+    /// `D H D` and `D b` in place, `D` = diag(`s_frames`, `s_border`).
+    fn scale(&mut self, s_frames: &[Vec9], s_border: &DVector<f64>) {
+        let scale_block = |m: &mut Block, si: &Vec9, sj: &Vec9| {
+            for j in 0..FRAME_DIM {
+                for i in 0..FRAME_DIM {
+                    m[(i, j)] *= si[i] * sj[j];
+                }
+            }
+        };
+        let m = self.border_dim();
+        for (k, s) in s_frames.iter().enumerate() {
+            scale_block(&mut self.diag[k], s, s);
+            if let Some(next) = s_frames.get(k + 1) {
+                scale_block(&mut self.lower[k], next, s);
+            }
+            let b = &mut self.frame_border[k];
+            for c in 0..m {
+                for r in 0..FRAME_DIM {
+                    b[(r, c)] *= s[r] * s_border[c];
+                }
+            }
+            self.rhs_frames[k].component_mul_assign(s);
+        }
+        for c in 0..m {
+            for r in 0..m {
+                self.corner[(r, c)] *= s_border[r] * s_border[c];
+            }
+        }
+        self.rhs_border.component_mul_assign(s_border);
     }
 
     /// The block Cholesky solve without scaling.
@@ -158,29 +171,36 @@ impl ArrowSystem {
         let mut y_border_acc = self.rhs_border.clone();
         for k in 0..n {
             let mut a = self.diag[k];
-            let mut bt =
-                BorderT::from_fn_generic(Const::<FRAME_DIM>, Dyn(m), |r, c| self.border[k][(c, r)]);
+            let mut bt = self.frame_border[k].clone();
             let mut rhs = self.rhs_frames[k];
             if k > 0 {
                 let lk = &l_lower[k - 1];
                 a -= lk * lk.transpose();
-                bt.gemm(-1.0, lk, &l_border_t[k - 1], 1.0);
+                for (col, prev) in bt
+                    .as_mut_slice()
+                    .chunks_exact_mut(FRAME_DIM)
+                    .zip(l_border_t[k - 1].as_slice().chunks_exact(FRAME_DIM))
+                {
+                    let d = lk * Vec9::from_column_slice(prev);
+                    col.iter_mut().zip(d.iter()).for_each(|(c, d)| *c -= d);
+                }
                 rhs -= lk * y_frames[k - 1];
             }
             let l = Cholesky::new(a)?.unpack();
-            if !l.solve_lower_triangular_mut(&mut bt) || !l.solve_lower_triangular_mut(&mut rhs) {
-                return None;
-            }
+            forward_substitute(&l, bt.as_mut_slice());
+            forward_substitute(&l, rhs.as_mut_slice());
             if k + 1 < n {
-                let lo_t: Block = l.solve_lower_triangular(&self.lower[k].transpose())?;
+                let mut lo_t: Block = self.lower[k].transpose();
+                forward_substitute(&l, lo_t.as_mut_slice());
                 l_lower.push(lo_t.transpose());
             }
-            schur.gemm_tr(-1.0, &bt, &bt, 1.0);
+            subtract_gram_lower(&mut schur, &bt);
             y_border_acc.gemv_tr(-1.0, &bt, &rhs, 1.0);
             l_border_t.push(bt);
             y_frames.push(rhs);
             l_diag.push(l);
         }
+        schur.fill_upper_triangle_with_lower_triangle();
         let (border, border_covariance) = if m > 0 {
             let chol_b = Cholesky::<f64, Dyn>::new(schur)?;
             let l_bb = chol_b.l();
@@ -197,8 +217,12 @@ impl ArrowSystem {
             if k + 1 < n {
                 r -= l_lower[k].transpose() * frames[k + 1];
             }
-            if m > 0 {
-                r.gemv(-1.0, &l_border_t[k], &border, 1.0);
+            for (col, x) in l_border_t[k]
+                .as_slice()
+                .chunks_exact(FRAME_DIM)
+                .zip(border.iter())
+            {
+                r.iter_mut().zip(col).for_each(|(r, c)| *r -= c * x);
             }
             if !l_diag[k].tr_solve_lower_triangular_mut(&mut r) {
                 return None;
@@ -233,9 +257,9 @@ impl ArrowSystem {
             }
             if m > 0 {
                 h.view_mut((bo, o), (m, FRAME_DIM))
-                    .copy_from(&self.border[k]);
+                    .copy_from(&self.frame_border[k].transpose());
                 h.view_mut((o, bo), (FRAME_DIM, m))
-                    .copy_from(&self.border[k].transpose());
+                    .copy_from(&self.frame_border[k]);
             }
         }
         if m > 0 {
@@ -243,6 +267,32 @@ impl ArrowSystem {
             b.rows_mut(bo, m).copy_from(&self.rhs_border);
         }
         (h, b)
+    }
+}
+
+/// `X ← L⁻¹ X` for a lower-triangular `l` with a positive diagonal (a Cholesky factor), `X`
+/// given as consecutive 9-element columns (column-major storage).
+fn forward_substitute(l: &Block, columns: &mut [f64]) {
+    let inv_diag = Vec9::from_fn(|i, _| 1.0 / l[(i, i)]);
+    for col in columns.chunks_exact_mut(FRAME_DIM) {
+        for i in 0..FRAME_DIM {
+            let mut v = col[i];
+            for j in 0..i {
+                v -= l[(i, j)] * col[j];
+            }
+            col[i] = v * inv_diag[i];
+        }
+    }
+}
+
+/// `S ← S − Bᵀ B` on the lower triangle of `S` only (`B` is 9 × m; the caller mirrors it).
+fn subtract_gram_lower(s: &mut DMatrix<f64>, b: &BorderT) {
+    let cols: Vec<&[f64]> = b.as_slice().chunks_exact(FRAME_DIM).collect();
+    for (j, cj) in cols.iter().enumerate() {
+        for (i, ci) in cols.iter().enumerate().skip(j) {
+            let dot: f64 = ci.iter().zip(cj.iter()).map(|(a, b)| a * b).sum();
+            s[(i, j)] -= dot;
+        }
     }
 }
 
@@ -273,8 +323,8 @@ mod tests {
                         _ => {}
                     }
                 }
-                let bb = jt_j.view((2 * FRAME_DIM, a * FRAME_DIM), (m, FRAME_DIM));
-                s.border[k + a] += bb;
+                let bb = jt_j.view((a * FRAME_DIM, 2 * FRAME_DIM), (FRAME_DIM, m));
+                s.frame_border[k + a] += bb;
             }
             s.corner += jt_j.view((2 * FRAME_DIM, 2 * FRAME_DIM), (m, m));
             s.diag[k] += Block::identity() * 0.1;

@@ -1,6 +1,7 @@
 //! Assembling the window's normal equations from its prior and factors, once for the solve and
 //! once (restricted to the oldest frame's factors) for marginalization.
 
+use std::cell::Ref;
 use std::ops::AddAssign;
 
 use nalgebra::Vector3;
@@ -72,7 +73,9 @@ impl SlidingWindow {
         }
     }
 
-    pub(super) fn imu_factor(&self, k: usize) -> Option<ImuInfo> {
+    /// Frame `k`'s IMU factor to frame `k + 1`, from the frame's cache when its linearization
+    /// point has hardly moved (borrowed, not copied: it is several kB).
+    pub(super) fn imu_factor(&self, k: usize) -> Option<Ref<'_, ImuInfo>> {
         let (a, b) = (&self.frames[k], &self.frames[k + 1]);
         let pre = b.from_prev.as_ref()?;
         let adaptive = self.solved_once && self.config.adaptive_weights;
@@ -97,23 +100,25 @@ impl SlidingWindow {
             gyro_bias_rad_s: self.gyro_bias_rad_s,
             gyro_active: self.gyro_active(),
         };
-        if let Some((at, info)) = b.imu_cache.borrow().as_ref()
-            && at.close_to(&point)
-        {
-            return Some(info.clone());
+        let fresh = b
+            .imu_cache
+            .borrow()
+            .as_ref()
+            .is_some_and(|(at, _)| at.close_to(&point));
+        if !fresh {
+            let info = imu_info(&ImuFactorInput {
+                pre,
+                b0_from_bk: &a.b0_from_bk,
+                gyro_bias_rad_s: self.gyro_bias_rad_s,
+                psi_k: point.gyro_active.then_some((a.psi, a.gyro_lin)),
+                v_next,
+                g_next,
+                step_in_b0,
+                attitude_sigma_rad: self.config.attitude_sigma_rad,
+            })?;
+            *b.imu_cache.borrow_mut() = Some((point, info));
         }
-        let info = imu_info(&ImuFactorInput {
-            pre,
-            b0_from_bk: &a.b0_from_bk,
-            gyro_bias_rad_s: self.gyro_bias_rad_s,
-            psi_k: point.gyro_active.then_some((a.psi, a.gyro_lin)),
-            v_next,
-            g_next,
-            step_in_b0,
-            attitude_sigma_rad: self.config.attitude_sigma_rad,
-        })?;
-        *b.imu_cache.borrow_mut() = Some((point, info.clone()));
-        Some(info)
+        Ref::filter_map(b.imu_cache.borrow(), |c| c.as_ref().map(|(_, info)| info)).ok()
     }
 
     /// The AoA rows' σ besides the bearings' own, and their model.
@@ -158,9 +163,9 @@ impl SlidingWindow {
         }
         let pb = self.prior_h.nrows() - FRAME_DIM;
         sys.diag[0] += self.prior_h.fixed_view::<FRAME_DIM, FRAME_DIM>(0, 0);
-        sys.border[0]
-            .view_mut((0, 0), (pb, FRAME_DIM))
-            .add_assign(&self.prior_h.view((FRAME_DIM, 0), (pb, FRAME_DIM)));
+        sys.frame_border[0]
+            .view_mut((0, 0), (FRAME_DIM, pb))
+            .add_assign(&self.prior_h.view((0, FRAME_DIM), (FRAME_DIM, pb)));
         sys.corner
             .view_mut((0, 0), (pb, pb))
             .add_assign(&self.prior_h.view((FRAME_DIM, FRAME_DIM), (pb, pb)));
@@ -187,12 +192,12 @@ fn add_imu(sys: &mut ArrowSystem, k: usize, info: &ImuInfo) {
     sys.diag[k] += info.h_kk;
     sys.diag[k + 1] += info.h_ll;
     sys.lower[k] += info.h_lk;
-    sys.border[k]
-        .view_mut((0, 0), (BIAS_DIM, FRAME_DIM))
-        .add_assign(&info.h_kb.transpose());
-    sys.border[k + 1]
-        .view_mut((0, 0), (BIAS_DIM, FRAME_DIM))
-        .add_assign(&info.h_lb.transpose());
+    sys.frame_border[k]
+        .fixed_view_mut::<FRAME_DIM, BIAS_DIM>(0, 0)
+        .add_assign(&info.h_kb);
+    sys.frame_border[k + 1]
+        .fixed_view_mut::<FRAME_DIM, BIAS_DIM>(0, 0)
+        .add_assign(&info.h_lb);
     sys.corner
         .view_mut((0, 0), (BIAS_DIM, BIAS_DIM))
         .add_assign(&info.h_bb);
@@ -204,17 +209,17 @@ fn add_imu(sys: &mut ArrowSystem, k: usize, info: &ImuInfo) {
 fn add_aoa(sys: &mut ArrowSystem, k: usize, o: usize, info: &AoaInfo) {
     sys.diag[k].fixed_view_mut::<3, 3>(0, 0).add_assign(&info.n);
     sys.corner.fixed_view_mut::<3, 3>(o, o).add_assign(&info.n);
-    sys.border[k]
-        .fixed_view_mut::<3, 3>(o, 0)
-        .add_assign(&(-info.n));
+    sys.frame_border[k]
+        .fixed_view_mut::<3, 3>(0, o)
+        .add_assign(&(-info.n.transpose()));
     sys.rhs_frames[k]
         .fixed_rows_mut::<3>(0)
         .add_assign(&(-info.b_c));
     sys.rhs_border.fixed_rows_mut::<3>(o).add_assign(&info.b_c);
     // The gyro-bias coupling (zero unless the bias is estimated).
-    sys.border[k]
-        .fixed_view_mut::<3, 3>(GYRO, 0)
-        .add_assign(&(-info.n_cg.transpose()));
+    sys.frame_border[k]
+        .fixed_view_mut::<3, 3>(0, GYRO)
+        .add_assign(&(-info.n_cg));
     sys.corner
         .fixed_view_mut::<3, 3>(o, GYRO)
         .add_assign(&info.n_cg);
