@@ -199,6 +199,37 @@ fn paper_circle_with_two_degree_bearings() {
     assert!((est / truth - 1.0).abs() < 0.05);
 }
 
+/// What limits [`paper_circle_with_two_degree_bearings`]: the same flights with the gyro's
+/// turn-on bias known (removed from the simulated MicroStrain, every other noise kept) meet
+/// issue 5's accuracy aims on the median of three noise seeds, with the attitude error falling
+/// from 0.55–1.35° to ~0.05°. One AP observes a ±0.08 °/s turn-on bias only slowly; the first
+/// seconds after convergence carry metre errors while it settles.
+#[test]
+fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
+    let mut sc = scenario("paper-circle", 40.0);
+    let mut noise = sc.imu.model.noise();
+    noise.gyro_turn_on_bias_rad_s = 0.0;
+    sc.imu.model = wins::sim::imu::ImuModel::Custom(noise);
+    let mut position = Vec::new();
+    for seed in [11, 12, 13] {
+        let r = run(&sc, 2.0, seed, true, |_| true);
+        let converged_s = r.errors(0.0).converged_s;
+        let e = r.errors(converged_s.unwrap_or(0.0));
+        eprintln!(
+            "seed {seed}, gyro turn-on bias known: converged at {converged_s:?} s; position {:.3} m, AP {:.3} m, attitude {:.3}°",
+            e.position_mean_m, e.ap_m[0], e.attitude_mean_deg
+        );
+        // Convergence: 11.5 s (the aim of 10 s is not met; see the README).
+        assert!(converged_s.is_some_and(|t| t <= 12.0), "{converged_s:?}");
+        assert!(e.position_mean_m <= 0.25, "{}", e.position_mean_m);
+        assert!(e.ap_m[0] <= 0.2, "{}", e.ap_m[0]);
+        assert!(e.attitude_mean_deg <= 0.1, "{}", e.attitude_mean_deg);
+        position.push(e.position_mean_m);
+    }
+    position.sort_by(f64::total_cmp);
+    assert!(position[1] <= 0.15, "median {}", position[1]);
+}
+
 #[test]
 fn the_joint_gyro_bias_and_yaw_drift() {
     // The attitude with and without the window's gyro-bias estimate: on the MicroStrain (turn-on
