@@ -189,7 +189,6 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
     Ok(())
 }
 
-/// (x, y) points of one series.
 /// The three figures of `wins::pipeline::figures`: trajectory from above, position error over
 /// time, AoA per packet.
 fn draw(

@@ -205,13 +205,10 @@ impl Truth {
             let path = dir.join(name);
             std::fs::read(&path).map_err(|source| TruthError::Io { path, source })
         };
-
         let parse_err = |name: &str, reason: String| TruthError::Parse {
             path: dir.join(name),
             reason,
         };
-        // Only the poses are required (a motion-capture truth has nothing else); a file that is
-        // there must parse.
         let info: Option<TruthInfo> = read_optional(&dir, "truth.toml")?
             .map(|b| toml::from_str(&String::from_utf8_lossy(&b)))
             .transpose()

@@ -98,11 +98,6 @@ impl Track {
     /// The Algorithm-1 prediction before convergence: the previous angle turned by the array's
     /// rotation since (no translation part: the range is not known yet). `None` while acquiring.
     pub fn predict_by_rotation(&self, now: Option<&ArrayPose>) -> Option<AoaPrediction> {
-        self.predict_on(self.side, now)
-    }
-
-    /// [`Self::predict_by_rotation`] for the AP on `side`.
-    pub fn predict_on(&self, side: Side, now: Option<&ArrayPose>) -> Option<AoaPrediction> {
         let TrackState::Tracking { aoa_rad, pose, .. } = &self.state else {
             return None;
         };
@@ -112,7 +107,7 @@ impl Track {
         };
         Some(AoaPrediction::from_motion(
             *aoa_rad,
-            side == Side::Front,
+            self.side == Side::Front,
             &aj_from_ai,
             &Vector3::zeros(),
             f64::INFINITY,

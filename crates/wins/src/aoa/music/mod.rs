@@ -111,11 +111,10 @@ pub struct Music {
     aoa_table: Vec<Complex64>,
     /// Per AoA grid point, `conj(a_0)·a_1` (used when `M_s = 2`).
     aoa_cross: Vec<Complex64>,
-    /// Per ToF grid point, the window's subcarrier phasors `b_w` (Nτ × W).
+    /// The ToF grid, s.
     tof_s: Vec<f64>,
-    tof_table: Vec<Complex64>,
-    /// The same phasors transposed and split (W × Nτ, real and imaginary parts), for
-    /// [`Music::grams_on_grid`].
+    /// Per subcarrier of the window and ToF grid point, the phasor `b_w(τ)` (W × Nτ, ToF
+    /// innermost), real parts (imaginary parts in `tof_table_im`), for [`Music::grams_on_grid`].
     tof_table_re: Vec<f64>,
     /// See `tof_table_re`.
     tof_table_im: Vec<f64>,
@@ -219,7 +218,6 @@ impl Music {
             aoa_table: Vec::new(),
             aoa_cross: Vec::new(),
             tof_s,
-            tof_table: Vec::new(),
             tof_table_re: Vec::new(),
             tof_table_im: Vec::new(),
             geometry,
@@ -241,15 +239,16 @@ impl Music {
                 }
             })
             .collect();
-        music.tof_table = music
+        // Per ToF point its W phasors, stored subcarrier-major (ToF innermost).
+        let (w_len, n_tof) = (music.layout.subcarriers_per_window(), music.tof_s.len());
+        let per_tof: Vec<Complex64> = music
             .tof_s
             .iter()
             .flat_map(|&t| music.tof_phasors(t))
             .collect();
-        let (w_len, n_tof) = (music.layout.subcarriers_per_window(), music.tof_s.len());
         let transposed = |part: fn(&Complex64) -> f64| {
             (0..w_len * n_tof)
-                .map(|i| part(&music.tof_table[(i % n_tof) * w_len + i / n_tof]))
+                .map(|i| part(&per_tof[(i % n_tof) * w_len + i / n_tof]))
                 .collect::<Vec<f64>>()
         };
         music.tof_table_re = transposed(|c| c.re);

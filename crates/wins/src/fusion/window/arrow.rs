@@ -117,12 +117,7 @@ impl ArrowSystem {
             *x = x.component_mul(s);
         }
         sol.border = sol.border.component_mul(&s_border);
-        let m = self.border_dim();
-        for c in 0..m {
-            for r in 0..m {
-                sol.border_covariance[(r, c)] *= s_border[r] * s_border[c];
-            }
-        }
+        scale_both_sides(&mut sol.border_covariance, &s_border);
         Some(sol)
     }
 
@@ -149,11 +144,7 @@ impl ArrowSystem {
             }
             self.rhs_frames[k].component_mul_assign(s);
         }
-        for c in 0..m {
-            for r in 0..m {
-                self.corner[(r, c)] *= s_border[r] * s_border[c];
-            }
-        }
+        scale_both_sides(&mut self.corner, s_border);
         self.rhs_border.component_mul_assign(s_border);
     }
 
@@ -267,6 +258,15 @@ impl ArrowSystem {
             b.rows_mut(bo, m).copy_from(&self.rhs_border);
         }
         (h, b)
+    }
+}
+
+/// `M ← D M D` for `D` = diag(`s`).
+fn scale_both_sides(m: &mut DMatrix<f64>, s: &DVector<f64>) {
+    for c in 0..m.ncols() {
+        for r in 0..m.nrows() {
+            m[(r, c)] *= s[r] * s[c];
+        }
     }
 }
 
