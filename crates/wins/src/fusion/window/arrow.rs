@@ -84,6 +84,12 @@ impl ArrowSystem {
     /// condition number reaches 1/ε). `None` when `H` is not positive definite (it always is with
     /// the estimator's priors unless the input is degenerate).
     pub fn solve(&self) -> Option<ArrowSolution> {
+        self.clone().into_solution()
+    }
+
+    /// [`ArrowSystem::solve`] on a system that is not needed afterwards (scaled in place, no
+    /// copy).
+    pub fn into_solution(mut self) -> Option<ArrowSolution> {
         let inv_sqrt = |d: f64| {
             if d > 0.0 && d.is_finite() {
                 1.0 / d.sqrt()
@@ -98,8 +104,8 @@ impl ArrowSystem {
             .collect();
         let s_border = DVector::from_fn(self.border_dim(), |i, _| inv_sqrt(self.corner[(i, i)]));
         // D H D with D diagonal: every entry (i, j) times s_i s_j.
-        let mut scaled = self.clone();
-        scaled.scale(&s_frames, &s_border);
+        self.scale(&s_frames, &s_border);
+        let scaled = self;
         // Directions the data barely constrain (scale and tilt before the flight has excited them)
         // can sit below ε relative to the stiff IMU chain; then a tiny damping of the scaled
         // system keeps the solve finite and leaves those directions to the priors.
@@ -215,9 +221,7 @@ impl ArrowSystem {
             {
                 r.iter_mut().zip(col).for_each(|(r, c)| *r -= c * x);
             }
-            if !l_diag[k].tr_solve_lower_triangular_mut(&mut r) {
-                return None;
-            }
+            back_substitute(&l_diag[k], &mut r);
             frames[k] = r;
         }
         Some(ArrowSolution {
@@ -285,13 +289,31 @@ fn forward_substitute(l: &Block, columns: &mut [f64]) {
     }
 }
 
+/// `x ← L⁻ᵀ x` for a lower-triangular `l` with a positive diagonal (a Cholesky factor).
+fn back_substitute(l: &Block, x: &mut Vec9) {
+    for i in (0..FRAME_DIM).rev() {
+        let mut v = x[i];
+        for j in i + 1..FRAME_DIM {
+            v -= l[(j, i)] * x[j];
+        }
+        x[i] = v / l[(i, i)];
+    }
+}
+
 /// `S ← S − Bᵀ B` on the lower triangle of `S` only (`B` is 9 × m; the caller mirrors it).
+/// Columns as `[f64; 9]` so the dot products unroll.
 fn subtract_gram_lower(s: &mut DMatrix<f64>, b: &BorderT) {
-    let cols: Vec<&[f64]> = b.as_slice().chunks_exact(FRAME_DIM).collect();
+    let m = s.nrows();
+    let (cols, _) = b.as_slice().as_chunks::<FRAME_DIM>();
+    let s = s.as_mut_slice();
     for (j, cj) in cols.iter().enumerate() {
+        let s_col = &mut s[j * m..(j + 1) * m];
         for (i, ci) in cols.iter().enumerate().skip(j) {
-            let dot: f64 = ci.iter().zip(cj.iter()).map(|(a, b)| a * b).sum();
-            s[(i, j)] -= dot;
+            let mut dot = 0.0;
+            for r in 0..FRAME_DIM {
+                dot += ci[r] * cj[r];
+            }
+            s_col[i] -= dot;
         }
     }
 }

@@ -425,7 +425,9 @@ impl SlidingWindow {
     fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {
         for _ in 0..iterations {
             let sys = self.build();
-            let sol = sys.solve().ok_or(WindowError::NotPositiveDefinite)?;
+            let sol = sys
+                .into_solution()
+                .ok_or(WindowError::NotPositiveDefinite)?;
             for (f, x) in self.frames.iter_mut().zip(sol.frames) {
                 f.x = x;
             }
