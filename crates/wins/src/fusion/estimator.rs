@@ -18,6 +18,7 @@ use std::collections::VecDeque;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 use super::bearing::Bearing;
+use super::window::arrow::Vec9;
 use super::window::{FrameEstimate, SlidingWindow, WindowConfig, WindowError};
 use crate::imu::{ImuBiases, ImuNoise, ImuSample, PreintegrationError, Preintegrator};
 use crate::time::Timestamp;
@@ -159,6 +160,17 @@ impl Wins {
     /// When the estimate first converged (a restart does not reset it), if it has.
     pub fn converged_at(&self) -> Option<Timestamp> {
         self.first_converged_at
+    }
+
+    /// Starts the converged estimate from a state given from outside (see
+    /// [`SlidingWindow::converge_from`]); the poses follow from the next frame on.
+    pub fn converge_from(
+        &mut self,
+        state_of: &dyn Fn(Timestamp) -> Vec9,
+        aps_in_b0: &[Vector3<f64>],
+        iterations: usize,
+    ) -> Result<(), WindowError> {
+        self.window.converge_from(state_of, aps_in_b0, iterations)
     }
 
     /// The window (for AP positions, covariances, convergence).

@@ -8,6 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use wins::fusion::bearing::{Bearing, Side};
 use wins::fusion::estimator::{PoseEstimate, Wins, WinsConfig};
+use wins::fusion::window::arrow::Vec9;
 use wins::sim::motion::{BodyState, sample};
 use wins::sim::run::{SimOutput, simulate};
 use wins::sim::scenario::Scenario;
@@ -30,7 +31,23 @@ fn run(
     estimate_gyro_bias: bool,
     keep: impl Fn(f64) -> bool,
 ) -> Run {
-    run_with_offset(scenario, sigma_deg, seed, estimate_gyro_bias, keep, |_| 0.0)
+    run_with_offset(
+        scenario,
+        sigma_deg,
+        seed,
+        estimate_gyro_bias,
+        keep,
+        |_| 0.0,
+        None,
+    )
+}
+
+/// The converged estimate started at the truth once the window holds `after_s` of frames, the
+/// window `max_frames` long and never declared lost (see `the_information_floor`).
+#[derive(Clone, Copy)]
+struct TruthStart {
+    after_s: f64,
+    max_frames: usize,
 }
 
 /// [`run`] with `offset_deg(t_s)` added to every bearing (a broken AoA stage).
@@ -41,6 +58,7 @@ fn run_with_offset(
     estimate_gyro_bias: bool,
     keep: impl Fn(f64) -> bool,
     offset_deg: impl Fn(f64) -> f64,
+    truth_start: Option<TruthStart>,
 ) -> Run {
     let out: SimOutput = simulate(scenario, &mut |_| {}).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -74,7 +92,21 @@ fn run_with_offset(
     let mut config = WinsConfig::new(scenario.imu.model.noise());
     config.window.body_from_array = scenario.body_from_array();
     config.window.estimate_gyro_bias = estimate_gyro_bias;
+    if let Some(start) = truth_start {
+        config.window.max_frames = start.max_frames;
+        config.window.lost_residual_rms = f64::INFINITY;
+    }
     let mut wins = Wins::new(config);
+    let traj = scenario.build_trajectory();
+    let yaw = scenario.yaw.clone();
+    let g = scenario.gravity_m_s2;
+    let truth_at = Box::new(move |t_s: f64| sample(&traj, &yaw, g, t_s));
+    let aps_w: Vec<Vector3<f64>> = scenario
+        .aps
+        .iter()
+        .map(|a| Vector3::from(a.position_m))
+        .collect();
+    let mut pending_start = truth_start;
     let mut poses = Vec::new();
     let mut next = 0;
     for s in &out.imu {
@@ -88,23 +120,51 @@ fn run_with_offset(
             assert!(p.p_b_in_w.iter().all(|x| x.is_finite()), "NaN at {:?}", p.t);
         }
         poses.extend(step.frames);
+        let first = wins.window().frames().next().map(|f| f.t);
+        if let (Some(start), Some(t0)) = (pending_start, first)
+            && s.t.as_secs_f64() - t0.as_secs_f64() >= start.after_s
+        {
+            pending_start = None;
+            start_at_truth(&mut wins, &truth_at, t0, &aps_w, g);
+        }
     }
-    let traj = scenario.build_trajectory();
-    let yaw = scenario.yaw.clone();
-    let g = scenario.gravity_m_s2;
-    let truth_at = Box::new(move |t_s: f64| sample(&traj, &yaw, g, t_s));
     let b0 = truth_at(poses[0].t.as_secs_f64());
     Run {
         poses,
         wins,
         truth_at,
         b0,
-        aps_w: scenario
-            .aps
-            .iter()
-            .map(|a| Vector3::from(a.position_m))
-            .collect(),
+        aps_w,
     }
+}
+
+/// [`Wins::converge_from`] the true state: `b0` is the body at the window's first frame `t0`.
+fn start_at_truth(
+    wins: &mut Wins,
+    truth_at: &dyn Fn(f64) -> BodyState,
+    t0: Timestamp,
+    aps_w: &[Vector3<f64>],
+    g: f64,
+) {
+    let b0 = truth_at(t0.as_secs_f64());
+    let b0_from_w = b0.world_from_body.inverse();
+    let state_of = |t: Timestamp| {
+        let s = truth_at(t.as_secs_f64());
+        let bk_from_w = s.world_from_body.inverse();
+        let mut x = Vec9::zeros();
+        x.fixed_rows_mut::<3>(0)
+            .copy_from(&(b0_from_w * (s.p_b_in_w - b0.p_b_in_w)));
+        x.fixed_rows_mut::<3>(3)
+            .copy_from(&(bk_from_w * s.v_b_in_w));
+        x.fixed_rows_mut::<3>(6)
+            .copy_from(&(bk_from_w * Vector3::new(0.0, 0.0, g)));
+        x
+    };
+    let aps_in_b0: Vec<Vector3<f64>> = aps_w
+        .iter()
+        .map(|a| b0_from_w * (a - b0.p_b_in_w))
+        .collect();
+    wins.converge_from(&state_of, &aps_in_b0, 10).unwrap();
 }
 
 struct Errors {
@@ -124,13 +184,19 @@ impl Run {
 
     /// Errors in `b0` over the frames after `from_s` (seconds since the first frame).
     fn errors(&self, from_s: f64) -> Errors {
+        self.errors_between(from_s, f64::INFINITY)
+    }
+
+    /// Errors in `b0` over the frames from `from_s` to before `to_s` (seconds since the first
+    /// frame).
+    fn errors_between(&self, from_s: f64, to_s: f64) -> Errors {
         let t0 = self.poses[0].t.as_secs_f64();
         let (mut sum_p, mut max_p, mut sum_r, mut sum_y, mut n) = (0.0, 0.0f64, 0.0, 0.0, 0);
         let up_in_b0 = self.b0.world_from_body.inverse() * Vector3::z();
         for p in self
             .poses
             .iter()
-            .filter(|p| p.t.as_secs_f64() - t0 >= from_s)
+            .filter(|p| (from_s..to_s).contains(&(p.t.as_secs_f64() - t0)))
         {
             let s = (self.truth_at)(p.t.as_secs_f64());
             let e = (p.p_b_in_b0 - self.to_b0(&s.p_b_in_w)).norm();
@@ -228,6 +294,47 @@ fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
     }
     position.sort_by(f64::total_cmp);
     assert!(position[1] <= 0.15, "median {}", position[1]);
+}
+
+/// Issue 5's aims against what the data hold: the estimate started at the TRUE state at 10 s
+/// (every frame, the AP; [`Wins::converge_from`]), re-linearized every frame, the window 10 s
+/// long and never declared lost, is the best an estimator converging at 10 s can do on this
+/// flight. With the MicroStrain's turn-on gyro bias unknown its mean position error over
+/// 10–40 s is 0.23–0.33 m on seeds 11–13 (0.33–0.68 m over 10–15 s): the 0.15 m aim with a
+/// 10 s convergence is beyond the information in the data, for any estimator. (With the bias
+/// removed from the simulated IMU, a temporary change: 0.12–0.21 m, median 0.15.)
+#[test]
+fn the_information_floor() {
+    let sc = scenario("paper-circle", 40.0);
+    let start = TruthStart {
+        after_s: 10.0,
+        max_frames: 500,
+    };
+    let mut position = Vec::new();
+    for seed in [11, 12, 13] {
+        let r = run_with_offset(&sc, 2.0, seed, true, |_| true, |_| 0.0, Some(start));
+        let e = r.errors(10.0);
+        let early = r.errors_between(10.0, 15.0);
+        // The start took (the window's own convergence comes at 11.5 s on these seeds).
+        assert!(
+            r.errors(0.0).converged_s.is_some_and(|t| t <= 10.1),
+            "{:?}",
+            r.errors(0.0).converged_s
+        );
+        eprintln!(
+            "seed {seed}, started at the truth at 10 s: position {:.3} m (10–15 s: {:.3} m), AP {:.3} m, attitude {:.3}°",
+            e.position_mean_m, early.position_mean_m, e.ap_m[0], e.attitude_mean_deg
+        );
+        // Started at the truth, it stays near it: settled after 20 s, the AP within 0.25 m.
+        let late = r.errors(20.0).position_mean_m;
+        assert!(late <= 0.3, "{late}");
+        assert!(e.ap_m[0] <= 0.25, "{}", e.ap_m[0]);
+        position.push(e.position_mean_m);
+    }
+    position.sort_by(f64::total_cmp);
+    // The floor: well above the 0.15 m aim on the median seed. If a better model of the data
+    // lowers it, this fails, and the aim may be within reach again.
+    assert!(position[1] > 0.2, "median {}", position[1]);
 }
 
 #[test]
@@ -338,6 +445,7 @@ fn a_lost_estimate_restarts_where_it_was() {
                 0.0
             }
         },
+        None,
     );
     let stats = r.wins.stats();
     assert!(stats.restarts >= 1, "{stats:?}");
