@@ -1,11 +1,40 @@
 //! Is the window's estimate believable? The convergence test's second stage (a candidate is
-//! re-linearized and kept only if plausible) and the lost test after convergence.
+//! re-linearized and kept only if plausible), a convergence declared from outside
+//! ([`SlidingWindow::converge_from`]) and the lost test after convergence.
 
+use nalgebra::Vector3;
+
+use super::arrow::Vec9;
+use super::assemble::ap_offset;
 use super::factors::{AoaFactorInput, AoaPoint, aoa_rows};
 use super::{SlidingWindow, WindowError};
 use crate::time::Timestamp;
 
 impl SlidingWindow {
+    /// Declares the window converged at a state given from outside (surveyed AP positions and a
+    /// motion-capture fix, or the truth of a simulation) instead of its own startup: every
+    /// frame's `[p in b0, v in b_k, upward g in b_k]` from `state_of(t)`, the first
+    /// `aps_in_b0.len()` APs (at most [`Self::num_aps`]) as given, biases kept; then the rows are
+    /// re-linearized as after a convergence of its own and `iterations` Gauss–Newton steps taken.
+    /// The window's priors are weak (zero-centred), so the result is the estimate the data
+    /// support near that state: started at the truth, it measures what the data can give.
+    pub fn converge_from(
+        &mut self,
+        state_of: &dyn Fn(Timestamp) -> Vec9,
+        aps_in_b0: &[Vector3<f64>],
+        iterations: usize,
+    ) -> Result<(), WindowError> {
+        for f in self.frames.iter_mut() {
+            f.x = state_of(f.t);
+        }
+        for (l, a) in aps_in_b0.iter().enumerate().take(self.num_aps) {
+            self.border.fixed_rows_mut::<3>(ap_offset(l)).copy_from(a);
+        }
+        self.solved_once = true;
+        self.converged_at = self.frames.back().map(|f| f.t);
+        self.iterate(iterations.max(1))
+    }
+
     /// A candidate convergence: re-linearizes every frame kept since the start at the solution
     /// (angle rows, gyro bias) and keeps it only if the result is plausible
     /// ([`Self::plausible`]); else restores the startup solution and retries after

@@ -377,32 +377,6 @@ impl SlidingWindow {
             .resize_vertically(ap_offset(self.num_aps), 0.0);
     }
 
-    /// Declares the window converged at a state given from outside (surveyed AP positions and a
-    /// motion-capture fix, or the truth of a simulation) instead of its own startup: every
-    /// frame's `[p in b0, v in b_k, upward g in b_k]` from `state_of(t)`, the first
-    /// `aps_in_b0.len()` APs (at most [`Self::num_aps`]) as given, biases kept; then the rows are
-    /// re-linearized as after a convergence of its own and `iterations` Gauss–Newton steps taken.
-    /// The window's priors are weak (zero-centred), so the result is the estimate the data
-    /// support near that state: started at the truth, it measures what the data can give.
-    pub fn converge_from(
-        &mut self,
-        state_of: &dyn Fn(Timestamp) -> Vec9,
-        aps_in_b0: &[Vector3<f64>],
-        iterations: usize,
-    ) -> Result<(), WindowError> {
-        for f in self.frames.iter_mut() {
-            f.x = state_of(f.t);
-        }
-        for (l, a) in aps_in_b0.iter().enumerate().take(self.num_aps) {
-            self.border
-                .fixed_rows_mut::<3>(assemble::ap_offset(l))
-                .copy_from(a);
-        }
-        self.solved_once = true;
-        self.converged_at = self.frames.back().map(|f| f.t);
-        self.iterate(iterations.max(1))
-    }
-
     /// Solves the window, then marginalizes frames beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), WindowError> {
         let was_converged = self.converged_at.is_some();
