@@ -335,6 +335,50 @@ fn the_information_floor() {
     assert!(position[1] > 0.2, "median {}", position[1]);
 }
 
+/// Issue 6's three-AP aim (≤ 0.15 m) against the paper's 5-DoF model: its AoA rows take each AP
+/// at the array's height, which `paper-circle-3ap` breaks on purpose (APs 0.7 m above and 0.5 m
+/// below the flight). With true bearings plus 2° noise, started at the TRUE state at 10 s (the
+/// floor, as in [`the_information_floor`]), the off-plane APs stay ~0.6 m off and the position
+/// above 0.2 m; the same flight with all three APs at the flight's height, started from zeros,
+/// meets the aim. So on this flight the aim needs the APs' heights, which a linear array sees only
+/// through the MAV's small tilts (the exact cone row, `cone_rows`, is unusable from zeros: README).
+#[test]
+fn three_aps_off_the_flight_plane() {
+    let off_plane = scenario("paper-circle-3ap", 40.0);
+    // `ap0` is at the flight's height (1.5 m); the others are moved to it.
+    let mut in_plane = off_plane.clone();
+    let height_m = off_plane.aps[0].position_m[2];
+    for ap in &mut in_plane.aps {
+        ap.position_m[2] = height_m;
+    }
+    let start = TruthStart {
+        after_s: 10.0,
+        max_frames: 500,
+    };
+    let floor = run_with_offset(&off_plane, 2.0, 11, true, |_| true, |_| 0.0, Some(start));
+    let f = floor.errors(10.0);
+    let flat = run(&in_plane, 2.0, 11, true, |_| true);
+    let converged_s = flat.errors(0.0).converged_s;
+    let e = flat.errors(converged_s.unwrap_or(f64::INFINITY));
+    eprintln!(
+        "paper-circle-3ap 40 s, 2° AoA: started at the truth at 10 s, position {:.3} m, APs {:.2?} m, attitude {:.2}°; APs at the flight's height, from zeros: converged at {converged_s:?} s, position {:.3} m, APs {:.2?} m, attitude {:.2}°",
+        f.position_mean_m,
+        f.ap_m,
+        f.attitude_mean_deg,
+        e.position_mean_m,
+        e.ap_m,
+        e.attitude_mean_deg
+    );
+    // The AP on the flight's height is found; the two off it are not, even from the truth.
+    assert!(f.ap_m[0] < 0.2, "{:?}", f.ap_m);
+    assert!(f.ap_m[1] > 0.4 && f.ap_m[2] > 0.4, "{:?}", f.ap_m);
+    assert!(f.position_mean_m > 0.2, "{}", f.position_mean_m);
+    // In the plane the window's own estimate meets the aim.
+    assert!(converged_s.is_some_and(|t| t <= 10.0), "{converged_s:?}");
+    assert!(e.position_mean_m <= 0.15, "{}", e.position_mean_m);
+    assert!(e.ap_m.iter().all(|&a| a <= 0.15), "{:?}", e.ap_m);
+}
+
 #[test]
 fn the_joint_gyro_bias_and_yaw_drift() {
     // The attitude with and without the window's gyro-bias estimate: on the MicroStrain (turn-on

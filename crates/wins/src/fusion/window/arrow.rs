@@ -276,7 +276,7 @@ fn scale_both_sides(m: &mut DMatrix<f64>, s: &DVector<f64>) {
 
 /// `X ← L⁻¹ X` for a lower-triangular `l` with a positive diagonal (a Cholesky factor), `X`
 /// given as consecutive 9-element columns (column-major storage).
-fn forward_substitute(l: &Block, columns: &mut [f64]) {
+pub(super) fn forward_substitute(l: &Block, columns: &mut [f64]) {
     let inv_diag = Vec9::from_fn(|i, _| 1.0 / l[(i, i)]);
     for col in columns.chunks_exact_mut(FRAME_DIM) {
         for i in 0..FRAME_DIM {

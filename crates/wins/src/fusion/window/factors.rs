@@ -29,7 +29,7 @@ use nalgebra::{Isometry3, Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use std::ops::AddAssign;
 
-use super::arrow::{Block, FRAME_DIM, Vec9};
+use super::arrow::{Block, FRAME_DIM, Vec9, forward_substitute};
 use crate::fusion::bearing::{Bearing, Side};
 use crate::imu::{ImuBiases, Preintegrated};
 
@@ -108,28 +108,29 @@ pub struct ImuRows {
 /// Linearizes one IMU factor (module doc) into information form.
 pub fn imu_info(inp: &ImuFactorInput) -> Option<ImuInfo> {
     let ImuRows {
-        a_k,
-        a_l,
-        a_b,
-        z,
+        mut a_k,
+        mut a_l,
+        mut a_b,
+        mut z,
         cov,
     } = imu_rows(inp);
-    let w = cov.try_inverse()?;
-    let w = (w + w.transpose()) * 0.5;
-    let wa_k = w * a_k;
-    let wa_l = w * a_l;
-    let wa_b = w * a_b;
-    let wz = w * z;
+    // Whitened by the Cholesky factor of the covariance (`Σ = L Lᵀ`, `A' = L⁻¹ A`), so that
+    // `Aᵀ Σ⁻¹ A = A'ᵀ A'` without forming the inverse.
+    let l = nalgebra::Cholesky::new(cov)?.unpack();
+    forward_substitute(&l, a_k.as_mut_slice());
+    forward_substitute(&l, a_l.as_mut_slice());
+    forward_substitute(&l, a_b.as_mut_slice());
+    forward_substitute(&l, z.as_mut_slice());
     Some(ImuInfo {
-        h_kk: a_k.transpose() * wa_k,
-        h_ll: a_l.transpose() * wa_l,
-        h_lk: a_l.transpose() * wa_k,
-        h_kb: a_k.transpose() * wa_b,
-        h_lb: a_l.transpose() * wa_b,
-        h_bb: a_b.transpose() * wa_b,
-        b_k: a_k.transpose() * wz,
-        b_l: a_l.transpose() * wz,
-        b_b: a_b.transpose() * wz,
+        h_kk: a_k.tr_mul(&a_k),
+        h_ll: a_l.tr_mul(&a_l),
+        h_lk: a_l.tr_mul(&a_k),
+        h_kb: a_k.tr_mul(&a_b),
+        h_lb: a_l.tr_mul(&a_b),
+        h_bb: a_b.tr_mul(&a_b),
+        b_k: a_k.tr_mul(&z),
+        b_l: a_l.tr_mul(&z),
+        b_b: a_b.tr_mul(&z),
     })
 }
 
