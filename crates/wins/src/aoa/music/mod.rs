@@ -109,8 +109,11 @@ pub struct Music {
     /// Per AoA grid point, the window's antenna phasors `a_m` (Nθ × M_s).
     aoa_rad: Vec<f64>,
     aoa_table: Vec<Complex64>,
-    /// Per AoA grid point, `conj(a_0)·a_1` (used when `M_s = 2`).
-    aoa_cross: Vec<Complex64>,
+    /// Per AoA grid point, `conj(a_0)·a_1` (used when `M_s = 2`), real parts (imaginary parts in
+    /// `aoa_cross_im`: split, so the spectrum's loop vectorizes).
+    aoa_cross_re: Vec<f64>,
+    /// See `aoa_cross_re`.
+    aoa_cross_im: Vec<f64>,
     /// The ToF grid, s.
     tof_s: Vec<f64>,
     /// Per subcarrier of the window and ToF grid point, the phasor `b_w(τ)` (W × Nτ, ToF
@@ -216,7 +219,8 @@ impl Music {
             layout,
             aoa_rad,
             aoa_table: Vec::new(),
-            aoa_cross: Vec::new(),
+            aoa_cross_re: Vec::new(),
+            aoa_cross_im: Vec::new(),
             tof_s,
             tof_table_re: Vec::new(),
             tof_table_im: Vec::new(),
@@ -228,7 +232,7 @@ impl Music {
             .iter()
             .flat_map(|&t| music.aoa_phasors(t))
             .collect();
-        music.aoa_cross = music
+        let cross: Vec<Complex64> = music
             .aoa_table
             .chunks(music.layout.antennas_per_window())
             .map(|a| {
@@ -239,6 +243,8 @@ impl Music {
                 }
             })
             .collect();
+        music.aoa_cross_re = cross.iter().map(|c| c.re).collect();
+        music.aoa_cross_im = cross.iter().map(|c| c.im).collect();
         // Per ToF point its W phasors, stored subcarrier-major (ToF innermost).
         let (w_len, n_tof) = (music.layout.subcarriers_per_window(), music.tof_s.len());
         let per_tof: Vec<Complex64> = music
@@ -332,6 +338,16 @@ impl Music {
 
     /// The residual for an off-grid AoA given `G(τ)`, without allocating.
     pub(crate) fn residual_with(&self, g: &[Complex64], aoa_rad: f64) -> f64 {
+        if let [g00, g01, _, g11] = g {
+            // `M_s = 2`: only `conj(a₀)·a₁` enters the form, one `sincos` instead of two.
+            let s = aoa_rad.sin();
+            let cross = Complex64::from_polar(
+                1.0,
+                self.geometry.antenna_phase_rad(1, self.center_freq_hz, s)
+                    - self.geometry.antenna_phase_rad(0, self.center_freq_hz, s),
+            );
+            return self.residual_of(g00.re + g11.re + 2.0 * (g01 * cross).re);
+        }
         let mut a = [Complex64::new(0.0, 0.0); MAX_WINDOW_ANTENNAS];
         let a = &mut a[..self.layout.antennas_per_window()];
         self.aoa_phasors_into(aoa_rad, a);
@@ -459,13 +475,20 @@ impl Music {
         let grams = self.grams_on_grid(&subspace.basis);
         for g in grams.chunks_exact(ms * ms) {
             if ms == 2 {
-                // aᴴGa = G00 + G11 + 2·Re(G01·conj(a0)·a1): one complex product per point.
-                let (diag, g01) = (g[0].re + g[3].re, g[1]);
+                // aᴴGa = G00 + G11 + 2·Re(G01·conj(a0)·a1): one complex product per point,
+                // folded into `ρ = c + c_re·x_re + c_im·x_im`.
                 let scale = 1.0 / self.layout.rows() as f64;
-                residual.extend(self.aoa_cross[range.clone()].iter().map(|x| {
-                    let q = diag + 2.0 * (g01.re * x.re - g01.im * x.im);
-                    (1.0 - q * scale).clamp(1e-12, 1.0)
-                }));
+                let c = 1.0 - (g[0].re + g[3].re) * scale;
+                let (c_re, c_im) = (-2.0 * scale * g[1].re, 2.0 * scale * g[1].im);
+                let (x_re, x_im) = (
+                    &self.aoa_cross_re[range.clone()],
+                    &self.aoa_cross_im[range.clone()],
+                );
+                residual.extend(
+                    x_re.iter()
+                        .zip(x_im)
+                        .map(|(xr, xi)| (c + c_re * xr + c_im * xi).clamp(1e-12, 1.0)),
+                );
             } else {
                 for ia in range.clone() {
                     let q = self.form(g, &self.aoa_table[ia * ms..][..ms]);

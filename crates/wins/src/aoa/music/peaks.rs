@@ -75,10 +75,12 @@ impl Music {
             self.gram_at(&subspace.basis, tau, g);
             let along_theta =
                 |t: f64| self.residual_with(g, t.clamp(window.min_rad, window.max_rad));
-            theta = (theta + parabolic_step(along_theta, theta, h_theta))
+            theta = (theta + parabolic_step(along_theta, theta, along_theta(theta), h_theta))
                 .clamp(window.min_rad, window.max_rad);
+            // At `tau` itself the gram is the one just computed.
+            let at_tau = self.residual_with(g, theta);
             let along_tau = |t: f64| self.residual_at(subspace, theta, t.clamp(t_lo, t_hi));
-            tau = (tau + parabolic_step(along_tau, tau, h_tau)).clamp(t_lo, t_hi);
+            tau = (tau + parabolic_step(along_tau, tau, at_tau, h_tau)).clamp(t_lo, t_hi);
             h_theta *= 0.5;
             h_tau *= 0.5;
         }
@@ -90,10 +92,10 @@ impl Music {
     }
 }
 
-/// The step toward the minimum of the parabola through `f(x − h), f(x), f(x + h)`, limited to ±h
-/// (a full step toward the lower side when the three points are not convex).
-fn parabolic_step(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
-    let (fm, f0, fp) = (f(x - h), f(x), f(x + h));
+/// The step toward the minimum of the parabola through `f(x − h), f(x) = f0, f(x + h)`, limited
+/// to ±h (a full step toward the lower side when the three points are not convex).
+fn parabolic_step(f: impl Fn(f64) -> f64, x: f64, f0: f64, h: f64) -> f64 {
+    let (fm, fp) = (f(x - h), f(x + h));
     let curvature = fm - 2.0 * f0 + fp;
     if curvature > 0.0 {
         (0.5 * h * (fm - fp) / curvature).clamp(-h, h)
@@ -112,52 +114,60 @@ fn parabolic_step(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
 /// search window.
 fn grid_minima(s: &Spectrum, window: AoaWindow, max_residual: f64) -> Vec<(usize, usize)> {
     let (na, nt) = (s.aoa_rad.len(), s.tof_s.len());
-    if na == 0 || nt < 3 {
+    if na == 0 || nt < 3 || s.residual.len() != na * nt {
         return Vec::new();
     }
     let half_pi = std::f64::consts::FRAC_PI_2 - 1e-9;
     let first_ok = s.aoa_rad[0] <= -half_pi && window.min_rad <= -half_pi;
     let last_ok = s.aoa_rad[na - 1] >= half_pi && window.max_rad >= half_pi;
-    let at = |ia: usize, it: usize| s.residual[it * na + ia];
+    // Strict against earlier neighbours (the row above, the point to the left), non-strict
+    // against later ones: one point per plateau. A missing neighbour (the AoA edges) passes.
+    let below_row = |row: &[f64], ia: usize, v: f64, strict: bool| {
+        let lo = ia.saturating_sub(1);
+        let hi = (ia + 1).min(na - 1);
+        row[lo..=hi]
+            .iter()
+            .all(|&u| if strict { v < u } else { v <= u })
+    };
     let mut out = Vec::new();
     for it in 1..nt - 1 {
-        // Most rows hold no point below the bound: one vectorizable pass skips them.
         let row = &s.residual[it * na..(it + 1) * na];
-        if row.iter().fold(f64::INFINITY, |m, &v| m.min(v)) > max_residual {
+        // Most rows hold no point below the bound: one vectorizable pass skips them.
+        if row
+            .iter()
+            .fold(f64::INFINITY, |m, &v| if v < m { v } else { m })
+            > max_residual
+        {
             continue;
         }
-        for ia in 0..na {
-            if (ia == 0 && !first_ok) || (ia == na - 1 && !last_ok) {
-                continue;
-            }
-            let v = at(ia, it);
-            // Most of the grid is far above any credible peak: skip the neighbour test there.
-            if v > max_residual {
-                continue;
-            }
-            let mut is_min = true;
-            'n: for dt in [-1i64, 0, 1] {
-                for da in [-1i64, 0, 1] {
-                    if dt == 0 && da == 0 {
-                        continue;
-                    }
-                    let (ja, jt) = (ia as i64 + da, it as i64 + dt);
-                    if ja < 0 || ja >= na as i64 {
-                        continue;
-                    }
-                    let u = at(ja as usize, jt as usize);
-                    // Strict against earlier neighbours, non-strict against later: one point per
-                    // plateau.
-                    let earlier = dt < 0 || (dt == 0 && da < 0);
-                    if (earlier && u <= v) || (!earlier && u < v) {
-                        is_min = false;
-                        break 'n;
-                    }
-                }
-            }
-            if is_min {
+        let (above, below) = (
+            &s.residual[(it - 1) * na..it * na],
+            &s.residual[(it + 1) * na..(it + 2) * na],
+        );
+        let mut consider = |ia: usize| {
+            let v = row[ia];
+            if below_row(above, ia, v, true) && below_row(below, ia, v, false) {
                 out.push((ia, it));
             }
+        };
+        if na == 1 {
+            if first_ok && last_ok && row[0] <= max_residual {
+                consider(0);
+            }
+            continue;
+        }
+        if first_ok && row[0] <= max_residual && row[0] <= row[1] {
+            consider(0);
+        }
+        // Along the row first, without branches (most points fail), then the rows around.
+        for (i, w) in row.windows(3).enumerate() {
+            let v = w[1];
+            if (v <= max_residual) & (v < w[0]) & (v <= w[2]) {
+                consider(i + 1);
+            }
+        }
+        if last_ok && row[na - 1] <= max_residual && row[na - 1] < row[na - 2] {
+            consider(na - 1);
         }
     }
     out
@@ -215,10 +225,82 @@ mod tests {
     #[test]
     fn parabolic_step_finds_the_vertex() {
         let f = |x: f64| (x - 0.3).powi(2);
-        assert!((parabolic_step(f, 0.0, 1.0) - 0.3).abs() < 1e-12);
-        assert_eq!(parabolic_step(f, 0.0, 0.1), 0.1);
+        assert!((parabolic_step(f, 0.0, f(0.0), 1.0) - 0.3).abs() < 1e-12);
+        assert_eq!(parabolic_step(f, 0.0, f(0.0), 0.1), 0.1);
         // At a maximum either side is downhill: a full step.
-        assert_eq!(parabolic_step(|x: f64| -x * x, 0.0, 0.1).abs(), 0.1);
+        assert_eq!(parabolic_step(|x: f64| -x * x, 0.0, 0.0, 0.1).abs(), 0.1);
+    }
+
+    /// The 8-neighbour test written out point by point.
+    fn minima_by_definition(s: &Spectrum, window: AoaWindow, bound: f64) -> Vec<(usize, usize)> {
+        let (na, nt) = (s.aoa_rad.len() as i64, s.tof_s.len() as i64);
+        let half_pi = std::f64::consts::FRAC_PI_2 - 1e-9;
+        let edge_ok = |ia: i64| {
+            (ia > 0 || (s.aoa_rad[0] <= -half_pi && window.min_rad <= -half_pi))
+                && (ia < na - 1
+                    || (s.aoa_rad[na as usize - 1] >= half_pi && window.max_rad >= half_pi))
+        };
+        let at = |ia: i64, it: i64| s.residual[(it * na + ia) as usize];
+        let mut out = Vec::new();
+        for it in 1..nt - 1 {
+            for ia in 0..na {
+                let v = at(ia, it);
+                if v > bound || !edge_ok(ia) {
+                    continue;
+                }
+                let mut is_min = true;
+                for dt in -1..=1 {
+                    for da in -1..=1 {
+                        let ja = ia + da;
+                        if (dt, da) == (0, 0) || ja < 0 || ja >= na {
+                            continue;
+                        }
+                        let u = at(ja, it + dt);
+                        let earlier = dt < 0 || (dt == 0 && da < 0);
+                        is_min &= if earlier { v < u } else { v <= u };
+                    }
+                }
+                if is_min {
+                    out.push((ia as usize, it as usize));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn grid_minima_follow_the_definition_on_rough_spectra() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut found = 0;
+        for (na, nt) in [(1, 3), (2, 4), (5, 3), (41, 20), (181, 7)] {
+            let aoa_rad: Vec<f64> = (0..na)
+                .map(|i| (-90.0 + 180.0 * i as f64 / (na.max(2) - 1) as f64).to_radians())
+                .collect();
+            for _ in 0..20 {
+                // Few levels, so plateaus (equal neighbours) are common.
+                let residual = (0..na * nt)
+                    .map(|_| f64::from(rng.random_range(0..6u8)) / 5.0)
+                    .collect();
+                let s = Spectrum {
+                    aoa_rad: aoa_rad.clone(),
+                    tof_s: (0..nt).map(|i| i as f64).collect(),
+                    residual,
+                };
+                for window in [
+                    AoaWindow::FULL,
+                    AoaWindow {
+                        min_rad: -0.5,
+                        max_rad: 1.0,
+                    },
+                ] {
+                    let want = minima_by_definition(&s, window, 0.5);
+                    assert_eq!(grid_minima(&s, window, 0.5), want, "{na} × {nt}");
+                    found += want.len();
+                }
+            }
+        }
+        assert!(found > 100, "the cases hold minima: {found}");
     }
 
     #[test]
