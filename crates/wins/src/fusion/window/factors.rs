@@ -347,19 +347,17 @@ impl AoaRows {
 /// horizontal model.
 pub fn aoa_rows(inp: &AoaFactorInput) -> Option<AoaRows> {
     let AoaFactorInput {
-        bearing,
         b0_from_bj,
-        up_in_bj,
         body_from_array,
         point,
         gyro,
-        sigmas,
+        ..
     } = *inp;
     let t_ba = body_from_array.translation.vector;
     let offset = b0_from_bj * t_ba;
     let r_j = b0_from_bj.to_rotation_matrix().into_inner();
     // The row `dir_bᵀ R_jᵀ x / |x| = target` (or `… / λ` without a point) in `b_j`.
-    let row = |dir_b: Vector3<f64>, target: f64, var: f64| {
+    let row = |&RowModel { dir_b, target, var }: &RowModel| {
         let dir = b0_from_bj * dir_b;
         let (j, r0, unit) = match point {
             AoaPoint::Range(range_m) => (dir / range_m, 0.0, None),
@@ -381,28 +379,70 @@ pub fn aoa_rows(inp: &AoaFactorInput) -> Option<AoaRows> {
         }
         AoaRow { j, g, y, var }
     };
+    let (models, len) = row_models(inp)?;
+    Some(AoaRows {
+        rows: [row(&models[0]), row(&models[1])],
+        len,
+    })
+}
+
+/// The residuals of [`aoa_rows`] at their own point, as `(dir · x/|x| − target, variance)` per
+/// row (the row's `J x = 0` there, so the residual is the model's angle error itself, without
+/// the Jacobians). `None` without a point (`AoaPoint::Range`) or where [`aoa_rows`] is `None`.
+pub fn aoa_residuals(inp: &AoaFactorInput) -> Option<([(f64, f64); 2], usize)> {
+    let AoaPoint::At(x) = inp.point else {
+        return None;
+    };
+    let unit = x.try_normalize(0.0)?;
+    let (models, len) = row_models(inp)?;
+    let residual = |m: &RowModel| ((inp.b0_from_bj * m.dir_b).dot(&unit) - m.target, m.var);
+    Some(([residual(&models[0]), residual(&models[1])], len))
+}
+
+/// One AoA row before linearization: `dir_bᵀ R_jᵀ x / |x| = target` with variance `var`.
+#[derive(Clone, Copy, Debug)]
+struct RowModel {
+    dir_b: Vector3<f64>,
+    target: f64,
+    var: f64,
+}
+
+/// The rows' models of [`aoa_rows`] (the cone, or the horizontal model's two) and how many.
+fn row_models(inp: &AoaFactorInput) -> Option<([RowModel; 2], usize)> {
+    let AoaFactorInput {
+        bearing,
+        up_in_bj,
+        body_from_array,
+        point,
+        sigmas,
+        ..
+    } = *inp;
     if sigmas.cone && matches!(point, AoaPoint::At(_)) {
         // δ sin θ = cos θ δθ; the attitude turns the axis by the same angle.
         let cos2 = bearing.aoa_rad.cos().max(COS_FLOOR).powi(2);
-        let var = cos2 * (bearing.sigma_rad.powi(2) + sigmas.attitude_rad.powi(2));
-        let axis = body_from_array.rotation * Vector3::y();
-        let cone = row(axis, bearing.aoa_rad.sin(), var);
-        return Some(AoaRows {
-            rows: [cone, cone],
-            len: 1,
-        });
+        let cone = RowModel {
+            dir_b: body_from_array.rotation * Vector3::y(),
+            target: bearing.aoa_rad.sin(),
+            var: cos2 * (bearing.sigma_rad.powi(2) + sigmas.attitude_rad.powi(2)),
+        };
+        return Some(([cone, cone], 1));
     }
     let (u, up, s, sin_b) = horizontal_direction(bearing, up_in_bj, body_from_array)?;
     // δθ cos θ = −s sin β δβ.
     let sigma_beta = bearing.sigma_rad * bearing.aoa_rad.cos() / (s * sin_b.abs()).max(0.1);
-    let sigma_theta2 = sigma_beta.powi(2) + sigmas.attitude_rad.powi(2);
-    Some(AoaRows {
-        rows: [
-            row(up.cross(&u), 0.0, sigma_theta2),
-            row(up, 0.0, sigmas.elevation_rad.powi(2)),
-        ],
-        len: 2,
-    })
+    let models = [
+        RowModel {
+            dir_b: up.cross(&u),
+            target: 0.0,
+            var: sigma_beta.powi(2) + sigmas.attitude_rad.powi(2),
+        },
+        RowModel {
+            dir_b: up,
+            target: 0.0,
+            var: sigmas.elevation_rad.powi(2),
+        },
+    ];
+    Some((models, 2))
 }
 
 /// `cos θ` floor of the cone row's variance (θ near ±90° would make it vanish).

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 
 use super::arrow::Vec9;
 use super::assemble::ap_offset;
-use super::factors::{AoaFactorInput, AoaPoint, aoa_rows};
+use super::factors::{AoaFactorInput, AoaPoint, aoa_residuals};
 use super::{SlidingWindow, WindowError};
 use crate::time::Timestamp;
 
@@ -157,7 +157,7 @@ impl SlidingWindow {
                 if x.norm() < c.range_limits_m.0 {
                     continue;
                 }
-                let Some(rows) = aoa_rows(&AoaFactorInput {
+                let Some((rows, len)) = aoa_residuals(&AoaFactorInput {
                     bearing: b,
                     b0_from_bj: &r,
                     up_in_bj: &up,
@@ -168,9 +168,8 @@ impl SlidingWindow {
                 }) else {
                     continue;
                 };
-                for row in rows.as_slice() {
-                    let e = row.j.dot(&(ap - p)) - row.y;
-                    sum += e * e / row.var;
+                for (e, var) in &rows[..len] {
+                    sum += e * e / var;
                     n += 1;
                 }
             }

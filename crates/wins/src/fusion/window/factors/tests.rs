@@ -73,6 +73,20 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
             let x = c - p - r * t;
             (r * dirs[i].0).dot(&x) / x.norm() - dirs[i].1
         };
+        // The residuals alone (the lost test's) are the angles at the point, with the rows' σ.
+        let (residuals, len) = aoa_residuals(&AoaFactorInput {
+            sigmas: AoaSigmas { cone, ..sigmas },
+            ..input
+        })
+        .unwrap();
+        assert_eq!(len, dirs.len());
+        for (i, ((e, var), row)) in residuals.iter().zip(rows.as_slice()).enumerate() {
+            assert!(
+                (e - angle(i, c, p, b_hat)).abs() < 1e-12,
+                "cone {cone} row {i}"
+            );
+            assert_eq!(*var, row.var);
+        }
         for (i, row) in rows.as_slice().iter().enumerate() {
             let lin = |c: Vector3<f64>, p: Vector3<f64>, b: Vector3<f64>| {
                 row.j.dot(&(c - p)) + row.g.dot(&b) - row.y
@@ -104,6 +118,11 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
     })
     .unwrap();
     assert_eq!(algebraic.as_slice()[0].g, Vector3::zeros());
+    let no_point = AoaFactorInput {
+        point: AoaPoint::Range(5.0),
+        ..input
+    };
+    assert!(aoa_residuals(&no_point).is_none());
     assert!((algebraic.as_slice()[0].j - r_hat * dirs_b[0] / 5.0).norm() < 1e-15);
 }
 
