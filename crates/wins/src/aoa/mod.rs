@@ -18,6 +18,7 @@ pub mod smoothing;
 pub mod spotfi;
 pub mod steering;
 pub mod subspace;
+mod top_eigen;
 
 pub use calibrate::{CalibrateError, CalibrateReport, calibrate, calibrate_with};
 pub use calibration::ChainCalibration;

@@ -16,6 +16,7 @@ use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
 use super::music::error::MusicError;
+use super::top_eigen::Tridiagonal;
 
 /// How many eigenvectors count as paths.
 ///
@@ -97,32 +98,40 @@ pub fn signal_subspace(
         return Err(MusicError::NonFinite);
     }
     let scale = 1.0 / snapshots as f64;
-    let (values, vectors, rank) = if forward_backward {
+    if forward_backward {
         let y = unitary_adjoint_times(x);
         let (yr, yi) = (y.map(|v| v.re), y.map(|v| v.im));
         let t = (&yr * yr.transpose() + &yi * yi.transpose()) * scale;
-        let eig = SymmetricEigen::new(t);
-        let order = descending(eig.eigenvalues.as_slice());
-        let values: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
-        let real_vectors = DMatrix::from_fn(n, n, |r, c| eig.eigenvectors[(r, order[c])]);
-        (values, unitary_times(&real_vectors), (2 * snapshots).min(n))
-    } else {
-        let r = x * x.adjoint() * Complex64::new(scale, 0.0);
-        let eig = SymmetricEigen::new(r);
-        let order = descending(eig.eigenvalues.as_slice());
-        let values: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
-        let vectors = DMatrix::from_fn(n, n, |r, c| eig.eigenvectors[(r, order[c])]);
-        (values, vectors, snapshots.min(n))
-    };
-    if values.iter().any(|v| !v.is_finite()) || values[0] <= 0.0 {
-        return Err(MusicError::NoSignal);
+        let tri = Tridiagonal::new(&t)?;
+        let values = tri.eigenvalues()?;
+        check_signal(&values)?;
+        let (paths, noise_floor) = count.judge(&values, (2 * snapshots).min(n));
+        let real_vectors = tri.eigenvectors(&values[..paths])?;
+        return Ok(Subspace {
+            basis: unitary_times(&real_vectors),
+            eigenvalues: values,
+            noise_floor,
+        });
     }
-    let (paths, noise_floor) = count.judge(&values, rank);
+    let r = x * x.adjoint() * Complex64::new(scale, 0.0);
+    let eig = SymmetricEigen::new(r);
+    let order = descending(eig.eigenvalues.as_slice());
+    let values: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
+    check_signal(&values)?;
+    let (paths, noise_floor) = count.judge(&values, snapshots.min(n));
     Ok(Subspace {
-        basis: vectors.columns(0, paths).into_owned(),
+        basis: DMatrix::from_fn(n, paths, |r, c| eig.eigenvectors[(r, order[c])]),
         eigenvalues: values,
         noise_floor,
     })
+}
+
+/// Eigenvalues (largest first) with a positive largest one, or [`MusicError::NoSignal`].
+fn check_signal(values: &[f64]) -> Result<(), MusicError> {
+    match values.first() {
+        Some(&largest) if largest > 0.0 && values.iter().all(|v| v.is_finite()) => Ok(()),
+        _ => Err(MusicError::NoSignal),
+    }
 }
 
 /// Indices sorting `v` largest first.

@@ -20,6 +20,14 @@ pub enum MusicError {
     /// The CSI is all zeros (or the covariance has no positive eigenvalue).
     #[error("CSI has no signal (zero covariance)")]
     NoSignal,
+    /// The eigensolver gave up (an iteration cap; never reached on finite input so far).
+    #[error("eigensolver: {stage} did not converge in {iterations} iterations")]
+    NoConvergence {
+        /// Which part of the eigensolver.
+        stage: &'static str,
+        /// Iterations spent.
+        iterations: usize,
+    },
     /// A configuration value is out of range.
     #[error("music.{field}: {reason}")]
     Config {
