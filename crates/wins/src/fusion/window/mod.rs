@@ -119,6 +119,9 @@ pub struct WindowConfig {
     /// at every frame costs O(n²) over the startup, and its poses are not usable before
     /// convergence anyway. Convergence is noticed up to that many frames late.
     pub startup_solve_every: usize,
+    /// After convergence, solve only every this many frames (≥ 1); the frames between keep the
+    /// IMU's prediction from the last solve, are still marginalized and checked by the lost test.
+    pub converged_solve_every: usize,
 }
 
 impl Default for WindowConfig {
@@ -153,6 +156,7 @@ impl Default for WindowConfig {
             iterations: 1,
             iterations_at_convergence: 10,
             startup_solve_every: 10,
+            converged_solve_every: 1,
         }
     }
 }
@@ -389,6 +393,13 @@ impl SlidingWindow {
             .max(1);
         self.unsolved_frames += 1;
         if !was_converged && self.solved_once && self.unsolved_frames < every {
+            return Ok(());
+        }
+        if was_converged && self.unsolved_frames < self.config.converged_solve_every {
+            self.check_fit();
+            while self.frames.len() > self.config.max_frames.max(2) {
+                self.marginalize_oldest();
+            }
             return Ok(());
         }
         self.unsolved_frames = 0;

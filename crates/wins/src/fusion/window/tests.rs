@@ -154,6 +154,29 @@ fn noise_free_bearings_recover_the_trajectory_and_the_ap_from_zero() {
 }
 
 #[test]
+fn solving_every_other_frame_after_convergence_keeps_the_estimate() {
+    let ap = Vector3::new(1.0, 4.0, 1.58);
+    let f = flight(12.0, &[ap], 0.0, 1);
+    let every = |n| WindowConfig {
+        converged_solve_every: n,
+        ..config(f.body_from_array)
+    };
+    let (one, two) = (run(&f, every(1)), run(&f, every(2)));
+    assert_eq!(one.converged_at(), two.converged_at());
+    // The skipped frames are still marginalized: the window keeps its length.
+    assert_eq!(two.len(), 30);
+    let k = f.truth.len() - 1;
+    let (a, b) = (one.latest().unwrap(), two.latest().unwrap());
+    let e_p = (b.p_in_b0 - truth_in_b0(&f, k)).norm();
+    let e_c = (two.ap_in_b0(0).unwrap() - f.aps_in_b0[0]).norm();
+    let d = (a.p_in_b0 - b.p_in_b0).norm();
+    eprintln!("every 2nd frame: |δp| {e_p:.2e} m, |δc| {e_c:.2e} m, {d:.2e} m from every frame");
+    assert!(e_p < 0.015 && e_c < 0.03, "{e_p} {e_c}");
+    // Not because it solved every frame anyway.
+    assert!(d > 1e-9, "{d}");
+}
+
+#[test]
 fn marginalization_reproduces_the_batch_solution() {
     let aps = [Vector3::new(1.0, 4.0, 1.5), Vector3::new(0.5, 1.0, 2.2)];
     let f = flight(4.0, &aps, 2f64.to_radians(), 2);
