@@ -25,7 +25,7 @@ use super::music::error::MusicError;
 
 mod tridiagonal;
 
-use tridiagonal::{ShiftedLu, inverse_iteration, tridiagonal_eigenvalues};
+use tridiagonal::{ShiftedLu, dot, inverse_iteration, tridiagonal_eigenvalues};
 
 /// QR steps allowed per eigenvalue (a handful are needed; the cap only stops a hang).
 const QR_STEPS_PER_VALUE: usize = 30;
@@ -189,26 +189,6 @@ impl Tridiagonal {
             tail.iter_mut().zip(v).for_each(|(t, a)| *t -= s * a);
         }
     }
-}
-
-/// `aᵀb` over the shorter of the two, with four partial sums (a quarter of the dependency chain
-/// of one running sum; these short dot products are latency-bound).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let m = a.len().min(b.len());
-    let (ca, cb) = (a[..m].chunks_exact(4), b[..m].chunks_exact(4));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    let mut acc = [0.0; 4];
-    for (x, y) in ca.zip(cb) {
-        for k in 0..4 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! `e`, `e[i]` coupling `i` and `i + 1`): root-free QR for the values, inverse iteration for the
 //! few wanted vectors (steps 2 and 3 of [`super`]).
 
-use super::{MusicError, dot};
+use crate::aoa::music::error::MusicError;
 
 /// Inverse iterations allowed per eigenvector (two are normal: converge, then refine once).
 const MAX_INVERSE_ITERATIONS: usize = 8;
@@ -267,6 +267,26 @@ fn normalize(x: &mut [f64]) -> f64 {
         x.iter_mut().for_each(|v| *v *= inv);
     }
     norm
+}
+
+/// `aᵀb` over the shorter of the two, with four partial sums (a quarter of the dependency chain
+/// of one running sum; these short dot products are latency-bound).
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let m = a.len().min(b.len());
+    let (ca, cb) = (a[..m].chunks_exact(4), b[..m].chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    let mut acc = [0.0; 4];
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 #[cfg(test)]

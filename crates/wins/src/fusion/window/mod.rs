@@ -381,7 +381,9 @@ impl SlidingWindow {
             .resize_vertically(ap_offset(self.num_aps), 0.0);
     }
 
-    /// Solves the window, then marginalizes frames beyond [`WindowConfig::max_frames`].
+    /// Solves the window (at the cadence of [`WindowConfig::startup_solve_every`] before
+    /// convergence and [`WindowConfig::converged_solve_every`] after), then marginalizes frames
+    /// beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), WindowError> {
         let was_converged = self.converged_at.is_some();
         // Every `startup_solve_every` frames, and at most once per 2 % of the window's length
@@ -397,9 +399,7 @@ impl SlidingWindow {
         }
         if was_converged && self.unsolved_frames < self.config.converged_solve_every {
             self.check_fit();
-            while self.frames.len() > self.config.max_frames.max(2) {
-                self.marginalize_oldest();
-            }
+            self.trim();
             return Ok(());
         }
         self.unsolved_frames = 0;
@@ -422,6 +422,13 @@ impl SlidingWindow {
             result = self.try_converge();
         }
         // The window stays bounded even when a solve failed (the previous estimate is kept).
+        self.trim();
+        result
+    }
+
+    /// Marginalizes the oldest frames beyond the window's length (the startup's while not
+    /// converged).
+    fn trim(&mut self) {
         let keep = if self.converged_at.is_some() {
             self.config.max_frames
         } else {
@@ -430,7 +437,6 @@ impl SlidingWindow {
         while self.frames.len() > keep.max(2) {
             self.marginalize_oldest();
         }
-        result
     }
 
     fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {
