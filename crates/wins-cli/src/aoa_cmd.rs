@@ -6,14 +6,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
-use wins::aoa::steering::{CHANNEL_64_HZ, half_wavelength_m};
-use wins::aoa::{
-    AoaConfig, AoaEstimator, AoaMode, AoaWindow, ArrayGeometry, ChainCalibration, calibrate,
-    calibrate_with, estimate_log, read_aoa_config, truth_pairs,
-};
+use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
 use wins::csi::intel5300::{CsiLog, CsiRecord, SkipReason, read_log};
 use wins::dataset::Dataset;
 use wins::dataset::truth::Truth;
+use wins::pipeline::aoa_log::{AoaMode, estimate_log, read_aoa_config, truth_pairs};
+use wins::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
+use wins::rig::{ArrayGeometry, ChainCalibration};
 use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
 
 /// Plot size, pixels.

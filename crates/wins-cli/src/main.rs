@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
+use wins::pipeline::config::DEFAULT_TOML;
 use wins::sim::{self, Scenario};
 
 mod aoa_cmd;
@@ -42,6 +43,15 @@ enum Command {
     Run(run_cmd::RunArgs),
     /// Simulate the paper's flight, run WINS on it, print the report and draw the figures.
     Demo(run_cmd::DemoArgs),
+    /// Print the default settings as TOML (the `--config` file of `wins run`), or check a file.
+    Config(ConfigArgs),
+}
+
+#[derive(clap::Args)]
+struct ConfigArgs {
+    /// Check this settings file and list every problem in it, instead of printing the defaults.
+    #[arg(long, value_name = "FILE")]
+    check: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -145,7 +155,20 @@ fn run(cli: Cli) -> Result<()> {
         Command::Eval(args) => eval_cmd::eval(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Demo(args) => run_cmd::demo(args),
+        Command::Config(args) => config(args),
     }
+}
+
+fn config(args: ConfigArgs) -> Result<()> {
+    let mut out = io::stdout().lock();
+    match &args.check {
+        Some(path) => {
+            run_cmd::load_config(Some(path))?;
+            writeln!(out, "{}: every setting is usable", path.display())?;
+        }
+        None => write!(out, "{DEFAULT_TOML}")?,
+    }
+    Ok(())
 }
 
 fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {

@@ -5,14 +5,10 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use wins::aoa::ChainCalibration;
-use wins::dataset::Dataset;
-use wins::dataset::truth::{TRUTH_DIR, Truth};
-use wins::eval::{EvalOptions, Metrics};
-use wins::pipeline::PipelineConfig;
-use wins::pipeline::output::write_run;
-use wins::pipeline::replay::{RunOutput, replay, rig_of};
+use wins::pipeline::figures::RunFigures;
+use wins::rig::ChainCalibration;
 use wins::sim::{self, Scenario};
+use wins::{Config, RunOptions, RunOutput, run_dataset_with};
 use wins_plot::{Marker, MarkerStyle, Series, SeriesStyle, VerticalLine, XyPlot, xy_plot_png};
 
 /// Arguments of `wins run`.
@@ -23,7 +19,8 @@ pub struct RunArgs {
     /// Output directory (created; files in it are replaced).
     #[arg(long, short)]
     out: PathBuf,
-    /// Pipeline settings (TOML, the fields of `wins::pipeline::PipelineConfig`).
+    /// Settings (TOML: `[aoa]`, `[pipeline]`, `[window]`, `[eval]`; missing keys take the
+    /// defaults, see `wins config`).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Chain calibration to use instead of the dataset's.
@@ -49,24 +46,22 @@ pub struct DemoArgs {
     /// Where the dataset and the run go.
     #[arg(long, short, default_value = "target/demo")]
     out: PathBuf,
+    /// Settings (TOML, as for `wins run`).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let config = match &args.config {
-        Some(path) => PipelineConfig::from_toml_file(path)?,
-        None => PipelineConfig::default(),
-    };
+    let config = load_config(args.config.as_deref())?;
     let calibration = match &args.calibration {
         Some(p) => Some(ChainCalibration::load(p)?),
         None => None,
     };
-    process(
-        &args.dataset,
-        &args.out,
-        config,
+    let options = RunOptions {
         calibration,
-        !args.no_plots,
-    )
+        imu_noise: None,
+    };
+    process(&args.dataset, &args.out, &config, &options, !args.no_plots)
 }
 
 pub fn demo(args: DemoArgs) -> Result<()> {
@@ -87,56 +82,45 @@ pub fn demo(args: DemoArgs) -> Result<()> {
         scenario.duration_s,
         data_dir.display()
     );
+    let config = load_config(args.config.as_deref())?;
     process(
         &data_dir,
         &args.out.join("run"),
-        PipelineConfig::default(),
-        None,
+        &config,
+        &RunOptions::default(),
         true,
     )
+}
+
+/// `--config FILE`, or the defaults.
+pub fn load_config(path: Option<&Path>) -> Result<Config> {
+    Ok(match path {
+        Some(p) => Config::from_toml_file(p)?,
+        None => Config::default(),
+    })
 }
 
 fn process(
     dataset: &Path,
     out: &Path,
-    config: PipelineConfig,
-    calibration: Option<ChainCalibration>,
+    config: &Config,
+    options: &RunOptions,
     plots: bool,
 ) -> Result<()> {
-    let data = Dataset::load(dataset).with_context(|| format!("loading {}", dataset.display()))?;
-    if data.calibration.is_none() && calibration.is_none() {
-        eprintln!(
-            "warning: no chain calibration (dataset.toml names none, no --calibration): \
-             AoA will be wrong by tens of degrees"
-        );
+    let run = run_dataset_with(dataset, config, options)?;
+    for w in &run.warnings {
+        eprintln!("warning: {w}");
     }
-    let rig = rig_of(&data, None, calibration)?;
-    let run = replay(&data, rig, config)?;
-    let truth = if dataset.join(TRUTH_DIR).is_dir() {
-        Some(Truth::load(dataset)?)
-    } else {
-        None
-    };
-    let options = EvalOptions::default();
-    let metrics = match &truth {
-        Some(t) => match run.score(t, &options) {
-            Ok(m) => Some(m),
-            Err(e) => {
-                eprintln!("warning: cannot score the run: {e}");
-                None
-            }
-        },
-        None => None,
-    };
-    let written = write_run(out, &run, metrics.as_ref())
+    let written = run
+        .write(out)
         .with_context(|| format!("writing {}", out.display()))?;
     let mut stdout = std::io::stdout().lock();
     summary(&mut stdout, &run)?;
-    if let Some(m) = &metrics {
+    if let Some(m) = &run.metrics {
         write!(stdout, "{}", m.report())?;
     }
-    if plots && let (Some(t), Some(m)) = (&truth, &metrics) {
-        for p in draw(out, &run, t, m, &options)? {
+    if plots && let Some(fig) = &run.figures {
+        for p in draw(out, fig)? {
             writeln!(stdout, "wrote {}", p.display())?;
         }
     }
@@ -186,19 +170,20 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
             )?;
         }
     }
+    let e = &run.wins;
+    if e.frames_refused + e.frames_late + e.solve_failures + run.imu_refused > 0 {
+        writeln!(
+            out,
+            "estimator: {} frames refused, {} late, {} failed solves, {} IMU samples refused",
+            e.frames_refused, e.frames_late, e.solve_failures, run.imu_refused
+        )?;
+    }
     Ok(())
 }
 
 /// The three figures of `wins::pipeline::figures`: trajectory from above, position error over
 /// time, AoA per packet.
-fn draw(
-    out: &Path,
-    run: &RunOutput,
-    truth: &Truth,
-    m: &Metrics,
-    options: &EvalOptions,
-) -> Result<Vec<PathBuf>> {
-    let fig = run.figures(truth, m, options)?;
+fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
     let marker = |label, style| move |&(x, y): &(f64, f64)| Marker { x, y, label, style };
     let markers: Vec<Marker> = fig
         .truth_aps_xy

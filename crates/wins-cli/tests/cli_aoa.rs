@@ -3,8 +3,8 @@
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
-use wins::aoa::ChainCalibration;
 use wins::dataset::truth::Truth;
+use wins::rig::ChainCalibration;
 
 mod common;
 use common::{s, stderr, wins};

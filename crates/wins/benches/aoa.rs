@@ -16,11 +16,10 @@ use std::sync::LazyLock;
 use divan::{Bencher, black_box};
 use num_complex::Complex64;
 use wins::aoa::reference::reference_spectrum;
-use wins::aoa::{
-    AoaConfig, AoaEstimator, AoaPrediction, AoaWindow, ArrayGeometry, ChainCalibration,
-};
+use wins::aoa::{AoaConfig, AoaEstimator, AoaPrediction, AoaWindow};
 use wins::csi::Bandwidth;
 use wins::csi::intel5300::CsiRecord;
+use wins::rig::{ArrayGeometry, ChainCalibration};
 use wins::sim::{Scenario, simulate};
 
 fn main() {

@@ -1,4 +1,4 @@
-//! Replay speed of the whole pipeline (issue 6: ≥ 100× real time on a 60 s, 3-AP flight, one
+//! Replay speed of the whole pipeline (target: ≥ 100× real time on a 60 s, 3-AP flight, one
 //! core): `paper-circle-3ap` simulated once, written as a dataset and loaded, then replayed from
 //! memory (PAoA per packet, the sliding window per frame, the pose at every IMU sample). The
 //! real-time factor is 60 s ÷ the median. Reference in the same run, so the ratio is comparable
@@ -10,8 +10,8 @@ use std::sync::LazyLock;
 
 use divan::counter::ItemsCount;
 use divan::{Bencher, black_box};
+use wins::Config;
 use wins::dataset::Dataset;
-use wins::pipeline::PipelineConfig;
 use wins::pipeline::replay::{replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
@@ -43,8 +43,7 @@ fn replay_60s_3ap(b: Bencher) {
     let data = &*DATASET;
     let rig = rig_of(data, None, None).expect("the dataset has its IMU noise");
     b.counter(ItemsCount::new(packets())).bench(|| {
-        let run =
-            replay(black_box(data), rig.clone(), PipelineConfig::default()).expect("replayable");
+        let run = replay(black_box(data), rig.clone(), &Config::default()).expect("replayable");
         assert!(run.converged_at.is_some(), "the bench flight must converge");
         run
     });

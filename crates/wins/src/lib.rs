@@ -5,22 +5,55 @@
 //! unknown positions, with no cameras and no set-up in the building.
 //!
 //! ```text
-//!  CSI packets (per AP) ──► sanitize ─► AoA/ToF MUSIC ──► PAoA (per packet) ──┐
-//!                               ▲ predicted AoA ± 20°                         │
-//!  IMU 200 Hz ──► preintegrate ─┴─► attitude (rotation averaging) ────────────┤
-//!                                                                             ▼
-//!                                         linear sliding-window estimator (30 frames)
-//!                                         states: p, v, g per frame + AP positions
-//!                                                                             │
-//!                                      pose at PAoA rate, propagated at IMU rate ◄┘
+//!  CSI packets (per AP) ─► chain calibration, sanitize ─► MUSIC (AoA, ToF) ─► PAoA per packet ─┐
+//!                                       ▲ predicted AoA ± 20° (previous angle turned by gyro) │
+//!  IMU 200 Hz ─► preintegration ────────┴─────────────────────────────────────────────────────┤
+//!                                                                                             ▼
+//!                    sliding-window estimator: p, v, g per frame, IMU biases, AP positions
+//!                    (initialization-free startup, then 30 frames with marginalization)
+//!                                                                                             │
+//!                                pose per frame, propagated at IMU rate ◄─────────────────────┘
 //! ```
 //!
-//! Built so far: [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and writer),
-//! [`sim`] (flights, IMU and multipath Intel 5300 CSI, written as datasets), [`dataset`] (the
-//! on-disk layout shared by real and simulated recordings), [`aoa`] (chain calibration, MUSIC over
-//! AoA and ToF, SpotFi's direct path, the IMU-guided per-packet PAoA; [`aoa::steering`] is the one
-//! steering vector), [`eval`] (trajectory and AP errors, evo-compatible), [`imu`] and [`time`].
-//! The fusion stages arrive with later work.
+//! ## Using it
+//!
+//! The front door is [`run_dataset`]: a dataset folder (the layout of [`dataset`], written by a
+//! real rig or by the simulator) and a [`Config`] in, a [`RunOutput`] out: the trajectory, the
+//! APs, one row per packet, counters, and with a `truth/` folder the metrics. Live drivers push
+//! samples and packets into a [`Pipeline`] instead. [`prelude`] brings the names below.
+//!
+//! ```
+//! use wins::prelude::*;
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // A 20 s simulated flight of the paper's set-up, written as a dataset folder.
+//! let mut scenario = Scenario::built_in("paper-circle")?;
+//! scenario.duration_s = 20.0;
+//! let dir = std::env::temp_dir().join(format!("wins-doc-{}", std::process::id()));
+//! let flight = simulate(&scenario, &mut |_| {})?;
+//! write_dataset(&dir, &scenario, &flight)?;
+//!
+//! // WINS on it, from the files, as on a real recording.
+//! let run = run_dataset(&dir, &Config::default())?;
+//! let stats = &run.stats.per_ap[0];
+//! assert_eq!(stats.packets, stats.fed + stats.acquisition + stats.dropped());
+//! if let Some(metrics) = &run.metrics {
+//!     print!("{}", metrics.report());
+//! }
+//! run.write(&dir.join("run"))?;
+//! assert!(dir.join("run/trajectory.tum").is_file());
+//! # std::fs::remove_dir_all(&dir)?;
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! The stages, bottom up: [`time`], [`so3`], [`check`] (settings' problems); [`rig`] (what
+//! describes the hardware), [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and
+//! writer), [`imu`] (preintegration); [`dataset`] (the on-disk layout); [`aoa`] (sanitization,
+//! MUSIC over AoA and ToF, SpotFi, the IMU-guided PAoA; [`aoa::steering`] is the one steering
+//! vector), [`eval`] (trajectory and AP errors, evo-compatible); [`fusion`] (the sliding-window
+//! estimator, an EKF baseline); [`sim`] (flights, IMU and multipath CSI written as datasets);
+//! [`pipeline`] (WINS end to end, its configuration and the front door).
 //!
 //! ## Conventions (stated once, used everywhere)
 //!
@@ -49,12 +82,31 @@
 #![warn(missing_docs)]
 
 pub mod aoa;
+pub mod check;
 pub mod csi;
 pub mod dataset;
 pub mod eval;
 pub mod fusion;
 pub mod imu;
 pub mod pipeline;
+pub mod rig;
 pub mod sim;
 pub mod so3;
 pub mod time;
+
+pub use pipeline::config::{Config, ConfigError};
+pub use pipeline::replay::RunOutput;
+pub use pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_with};
+pub use pipeline::{Pipeline, PipelineError};
+
+/// The names most programs need: `use wins::prelude::*;`.
+pub mod prelude {
+    pub use crate::dataset::Dataset;
+    pub use crate::eval::Metrics;
+    pub use crate::pipeline::Pipeline;
+    pub use crate::pipeline::config::Config;
+    pub use crate::pipeline::replay::RunOutput;
+    pub use crate::pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_with};
+    pub use crate::rig::Rig;
+    pub use crate::sim::{Scenario, simulate, write_dataset};
+}

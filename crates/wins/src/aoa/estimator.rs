@@ -5,15 +5,16 @@
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
-use super::calibration::{CalibrationError, ChainCalibration};
 use super::music::{AoaWindow, Music, MusicConfig, MusicError};
 use super::peak::Peak;
 use super::spotfi::SpotfiConfig;
-use super::steering::ArrayGeometry;
 use super::subspace::Subspace;
+use crate::check::Problems;
 use crate::csi::intel5300::{CsiRecord, Perm};
 use crate::csi::sanitize::{SanitizeError, sanitize};
 use crate::csi::{Bandwidth, NUM_SUBCARRIERS};
+use crate::rig::ArrayGeometry;
+use crate::rig::{CalibrationError, ChainCalibration};
 
 /// Settings of the AoA stage (the `[aoa]` table of a configuration).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -27,6 +28,35 @@ pub struct AoaConfig {
     pub spotfi: SpotfiConfig,
     /// Transmit stream whose CSI is used (0-based).
     pub tx: usize,
+}
+
+impl AoaConfig {
+    /// Every setting of the stage in its range, under `prefix` (`music`, `spotfi` below it).
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let sub = |key: &str| {
+            if prefix.is_empty() {
+                key.to_string()
+            } else {
+                format!("{prefix}.{key}")
+            }
+        };
+        let mut p = self.music.problems(&sub("music"));
+        p.extend(self.spotfi.problems(&sub("spotfi")));
+        let w = self.paoa_half_width_deg;
+        p.require(
+            w.is_finite() && w > 0.0 && w <= 90.0,
+            prefix,
+            "paoa_half_width_deg",
+            format!("{w} is not in (0, 90]"),
+        );
+        p.require(
+            self.tx <= 2,
+            prefix,
+            "tx",
+            format!("{} is not a stream 0–2", self.tx),
+        );
+        p
+    }
 }
 
 impl Default for AoaConfig {
@@ -101,13 +131,10 @@ impl AoaEstimator {
             }
             .into());
         }
-        if !(config.paoa_half_width_deg > 0.0 && config.paoa_half_width_deg <= 90.0) {
-            return Err(MusicError::Config {
-                field: "paoa_half_width_deg",
-                reason: "must be in (0, 90]".into(),
-            }
-            .into());
-        }
+        config
+            .problems("aoa")
+            .into_result()
+            .map_err(MusicError::Config)?;
         let music = |bw: Bandwidth, w| {
             Music::new(
                 &config.music,

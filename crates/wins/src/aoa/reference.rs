@@ -68,8 +68,9 @@ pub fn reference_spectrum(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::aoa::{AoaConfig, AoaEstimator, ArrayGeometry, ChainCalibration};
+    use crate::aoa::{AoaConfig, AoaEstimator};
     use crate::csi::Bandwidth;
+    use crate::rig::{ArrayGeometry, ChainCalibration};
     use crate::sim::{Scenario, simulate};
 
     /// The Kronecker spectrum equals the n × n quadratic form on simulated multipath packets,

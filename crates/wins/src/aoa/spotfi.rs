@@ -11,6 +11,10 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::peak::Peak;
+use crate::check::Problems;
+
+/// Smallest SpotFi group: the clusters of a single packet say nothing about the direct path.
+pub const MIN_GROUP_SIZE: usize = 2;
 
 /// Default AoA linking tolerance, degrees.
 const DEFAULT_AOA_TOLERANCE_DEG: f64 = 5.0;
@@ -38,6 +42,33 @@ pub struct SpotfiConfig {
     /// Clusters seen by fewer than this fraction of the group's packets are not eligible, in
     /// [0, 1]. Default 0.3; too high for groups where the direct path is often missed.
     pub min_cluster_fraction: f64,
+}
+
+impl SpotfiConfig {
+    /// Tolerances and scale finite and > 0, weights finite, the fraction in [0, 1]; every
+    /// problem under `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.positive(prefix, "aoa_tolerance_rad", self.aoa_tolerance_rad);
+        p.positive(prefix, "tof_tolerance_s", self.tof_tolerance_s);
+        p.positive(prefix, "tof_scale_s", self.tof_scale_s);
+        for (key, w) in [
+            ("w_count", self.w_count),
+            ("w_aoa_spread", self.w_aoa_spread),
+            ("w_tof_spread", self.w_tof_spread),
+            ("w_tof", self.w_tof),
+        ] {
+            p.require(w.is_finite(), prefix, key, format!("{w} is not finite"));
+        }
+        p.in_range(
+            prefix,
+            "min_cluster_fraction",
+            self.min_cluster_fraction,
+            0.0,
+            1.0,
+        );
+        p
+    }
 }
 
 impl Default for SpotfiConfig {
@@ -76,14 +107,9 @@ pub enum SpotfiError {
         peak: usize,
     },
     /// A tolerance or `tof_scale_s` is not positive, a weight is not finite, or
-    /// `min_cluster_fraction` is outside [0, 1].
-    #[error("config {name} = {value} is out of range")]
-    InvalidConfig {
-        /// Name of the config field.
-        name: &'static str,
-        /// Its value.
-        value: f64,
-    },
+    /// A setting is out of range (every such setting listed).
+    #[error("{0}")]
+    InvalidConfig(Problems),
     /// Every cluster is seen by fewer than `min_cluster_fraction` of the packets.
     #[error("the largest cluster has {best} of {packets} packets, below the minimum fraction")]
     NoEligibleCluster {
@@ -238,28 +264,11 @@ pub fn direct_path(group: &[Vec<Peak>], config: &SpotfiConfig) -> Result<DirectP
     })
 }
 
-/// Checks tolerances and scale (positive), weights (finite) and fraction (in [0, 1]).
+/// Checks the settings ([`SpotfiConfig::problems`]).
 fn validate(c: &SpotfiConfig) -> Result<(), SpotfiError> {
-    let scales = [
-        ("aoa_tolerance_rad", c.aoa_tolerance_rad),
-        ("tof_tolerance_s", c.tof_tolerance_s),
-        ("tof_scale_s", c.tof_scale_s),
-    ];
-    let weights = [
-        ("w_count", c.w_count),
-        ("w_aoa_spread", c.w_aoa_spread),
-        ("w_tof_spread", c.w_tof_spread),
-        ("w_tof", c.w_tof),
-    ];
-    let fraction = ("min_cluster_fraction", c.min_cluster_fraction);
-    let positive = |(_, v): &(&str, f64)| v.is_finite() && *v > 0.0;
-    let bad = scales.into_iter().find(|s| !positive(s));
-    let bad = bad.or_else(|| weights.into_iter().find(|(_, v)| !v.is_finite()));
-    let bad = bad.or(Some(fraction).filter(|(_, v)| !(0.0..=1.0).contains(v)));
-    match bad {
-        Some((name, value)) => Err(SpotfiError::InvalidConfig { name, value }),
-        None => Ok(()),
-    }
+    c.problems("")
+        .into_result()
+        .map_err(SpotfiError::InvalidConfig)
 }
 
 /// Union-find root with path halving.
@@ -438,8 +447,8 @@ mod tests {
             assert_eq!(direct_path(&group, &cfg), Err(err));
         }
         let name_of = |config: SpotfiConfig| match direct_path(&good, &config) {
-            Err(SpotfiError::InvalidConfig { name, .. }) => name,
-            other => panic!("expected InvalidConfig, got {other:?}"),
+            Err(SpotfiError::InvalidConfig(p)) if p.0.len() == 1 => p.0[0].key.clone(),
+            other => panic!("expected one InvalidConfig problem, got {other:?}"),
         };
         for bad in [0.0, -1e-9, nan] {
             let tof_tol = config_with(|c| c.tof_tolerance_s = bad);

@@ -10,48 +10,13 @@
 //! same steering vector. In particular a source behind the array (`û · x̂_a < 0`) looks like its
 //! mirror image in front.
 
+use crate::rig::array::{ArrayGeometry, SPEED_OF_LIGHT_M_S};
 use nalgebra::Vector3;
 use num_complex::Complex64;
-use serde::{Deserialize, Serialize};
 
-/// Speed of light in vacuum, m/s (the simulator propagates in air at this speed too).
-pub const SPEED_OF_LIGHT_M_S: f64 = 299_792_458.0;
-
-/// A uniform linear array along `a_y`, centred on the frame origin.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ArrayGeometry {
-    /// Number of antennas M (the Intel 5300 has 3).
-    pub num_antennas: usize,
-    /// Spacing d between neighbouring antennas, metres. Must be ≤ λ/2 (2.82 cm at 5.32 GHz) or
-    /// MUSIC shows grating lobes.
-    pub spacing_m: f64,
-}
-
-impl Default for ArrayGeometry {
-    /// Three antennas at half a wavelength of Wi-Fi channel 64 (5.32 GHz): 2.818 cm.
-    fn default() -> Self {
-        Self {
-            num_antennas: 3,
-            spacing_m: half_wavelength_m(CHANNEL_64_HZ),
-        }
-    }
-}
-
-/// Centre frequency of 5 GHz Wi-Fi channel 64, the paper's channel.
-pub const CHANNEL_64_HZ: f64 = 5.32e9;
-
-/// Half the free-space wavelength at `freq_hz`.
-pub fn half_wavelength_m(freq_hz: f64) -> f64 {
-    0.5 * SPEED_OF_LIGHT_M_S / freq_hz
-}
-
+/// The steering vector of the array (an inherent impl here so that the one definition of the AoA
+/// sign lives beside its doc above).
 impl ArrayGeometry {
-    /// Position of antenna `m` on `a_y`, metres: `y_m = (m − (M−1)/2)·d`.
-    pub fn antenna_y_m(&self, m: usize) -> f64 {
-        (m as f64 - (self.num_antennas as f64 - 1.0) / 2.0) * self.spacing_m
-    }
-
     /// Phase (radians) of antenna `m` relative to the array centre for a plane wave of frequency
     /// `freq_hz` arriving at angle θ given as `sin_theta`: `+2π·f·y_m·sin θ / c`.
     pub fn antenna_phase_rad(&self, m: usize, freq_hz: f64, sin_theta: f64) -> f64 {
@@ -100,15 +65,7 @@ pub fn aoa_rad(toward_source_in_a: &Vector3<f64>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn default_spacing_is_half_wavelength_at_channel_64() {
-        let g = ArrayGeometry::default();
-        assert!((g.spacing_m - 0.028_176).abs() < 1e-6, "{}", g.spacing_m);
-        assert_eq!(g.antenna_y_m(0), -g.spacing_m);
-        assert_eq!(g.antenna_y_m(1), 0.0);
-        assert_eq!(g.antenna_y_m(2), g.spacing_m);
-    }
+    use crate::rig::array::CHANNEL_64_HZ;
 
     #[test]
     fn neighbouring_antennas_differ_by_two_pi_d_sin_theta_over_lambda() {

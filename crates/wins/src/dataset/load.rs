@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 
 use super::imu_csv::{self, ImuCsvError};
 use super::manifest::{FORMAT, Manifest, VERSION};
-use crate::aoa::calibration::{CalibrationError, ChainCalibration};
 use crate::csi::intel5300::{CsiRecord, ReadError, Skip, read_log};
 use crate::imu::ImuSample;
+use crate::rig::{CalibrationError, ChainCalibration};
 use crate::time::{NANOS_PER_MICRO, Timestamp};
 
 /// The manifest's file name inside a dataset directory.
@@ -181,11 +181,12 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
             return Err(invalid(format!("AP name {:?} appears twice", ap.name)));
         }
     }
-    let g = &manifest.array.geometry;
-    if !((1..=3).contains(&g.num_antennas) && g.spacing_m.is_finite() && g.spacing_m > 0.0) {
-        return Err(invalid(format!(
-            "array geometry {g:?} is not a 1–3 antenna array"
-        )));
+    if let Err(e) = manifest
+        .array
+        .geometry
+        .validate(manifest.channel.center_freq_hz)
+    {
+        return Err(invalid(format!("array and channel: {e}")));
     }
     let q = manifest.array.rotation_xyzw;
     let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();

@@ -3,9 +3,9 @@
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::aoa::steering::ArrayGeometry;
 use crate::csi::Bandwidth;
-use crate::imu::ImuNoise;
+use crate::rig::ArrayGeometry;
+use crate::rig::ImuNoise;
 
 /// The format name written in every manifest.
 pub const FORMAT: &str = "wins-dataset";
@@ -57,7 +57,7 @@ pub struct ArrayEntry {
     pub translation_m: [f64; 3],
     /// Rotation `body_from_array` as a Hamilton quaternion `[x, y, z, w]`.
     pub rotation_xyzw: [f64; 4],
-    /// The NIC's receive-chain calibration ([`crate::aoa::ChainCalibration`] TOML), relative to
+    /// The NIC's receive-chain calibration ([`crate::rig::ChainCalibration`] TOML), relative to
     /// the dataset directory. Absent: uncalibrated chains (AoA wrong by tens of degrees).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<String>,

@@ -26,6 +26,7 @@ pub use evaluate::{evaluate, position_error_series};
 pub use metrics::Metrics;
 pub use rpe::{RelativePoseError, relative_pose_errors};
 
+use crate::check::Problems;
 use crate::time::NANOS_PER_SEC;
 
 /// Default association tolerance, s (evo's `--t_max_diff` default).
@@ -54,21 +55,19 @@ impl Default for EvalOptions {
 }
 
 impl EvalOptions {
-    /// Checks the ranges.
+    /// Every setting in its range, under `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.in_range(prefix, "max_time_diff_s", self.max_time_diff_s, 0.0, 3600.0);
+        p.at_least(prefix, "rpe_delta_frames", self.rpe_delta_frames, 1);
+        p
+    }
+
+    /// Checks the ranges ([`EvalOptions::problems`]).
     pub fn validate(&self) -> Result<(), EvalError> {
-        if !(self.max_time_diff_s.is_finite() && self.max_time_diff_s >= 0.0) {
-            return Err(EvalError::InvalidOption {
-                option: "max_time_diff_s",
-                reason: format!("{} is not a finite time ≥ 0", self.max_time_diff_s),
-            });
-        }
-        if self.rpe_delta_frames == 0 {
-            return Err(EvalError::InvalidOption {
-                option: "rpe_delta_frames",
-                reason: "must be at least 1".into(),
-            });
-        }
-        Ok(())
+        self.problems("")
+            .into_result()
+            .map_err(EvalError::InvalidOption)
     }
 
     pub(crate) fn max_time_diff_ns(&self) -> i64 {
@@ -167,14 +166,9 @@ pub enum EvalError {
         /// What is wrong.
         reason: String,
     },
-    /// An option out of range.
-    #[error("invalid {option}: {reason}")]
-    InvalidOption {
-        /// The option.
-        option: &'static str,
-        /// What is wrong.
-        reason: String,
-    },
+    /// Options out of range (every one listed).
+    #[error("invalid evaluation options: {0}")]
+    InvalidOption(Problems),
 }
 
 /// A pose at `t_ms` ms, position `p`, heading `yaw` rad (for the evaluation's tests).
@@ -278,7 +272,7 @@ mod tests {
         for options in bad {
             assert!(matches!(
                 options.validate(),
-                Err(EvalError::InvalidOption { .. })
+                Err(EvalError::InvalidOption(_))
             ));
         }
         let parsed: EvalOptions = toml::from_str("rpe_delta_frames = 10").expect("toml");

@@ -20,7 +20,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use super::bearing::Bearing;
 use super::window::arrow::Vec9;
 use super::window::{FrameEstimate, SlidingWindow, WindowConfig, WindowError};
-use crate::imu::{ImuBiases, ImuNoise, ImuSample, PreintegrationError, Preintegrator};
+use crate::imu::{ImuBiases, ImuSample, PreintegrationError, Preintegrator};
+use crate::rig::ImuNoise;
 use crate::time::Timestamp;
 
 /// Settings of the estimator.
@@ -33,13 +34,23 @@ pub struct WinsConfig {
 }
 
 impl WinsConfig {
-    /// Defaults with the given IMU noise.
+    /// Default window settings with the given IMU noise and the array on the body's origin.
     pub fn new(imu_noise: ImuNoise) -> Self {
-        // The biases' priors from the IMU's turn-on spread (floored: an ideal IMU has none).
+        Self::for_rig(WindowConfig::default(), imu_noise, Isometry3::identity())
+    }
+
+    /// `window` completed with what the rig says: the array's mounting, and the biases' priors
+    /// from the IMU's turn-on spreads (floored: an ideal IMU has none).
+    pub fn for_rig(
+        window: WindowConfig,
+        imu_noise: ImuNoise,
+        body_from_array: Isometry3<f64>,
+    ) -> Self {
         let window = WindowConfig {
             prior_gyro_bias_sigma_rad_s: imu_noise.gyro_turn_on_bias_rad_s.max(1e-4),
             prior_accel_bias_sigma_m_s2: imu_noise.accel_turn_on_bias_m_s2.max(1e-3),
-            ..WindowConfig::default()
+            body_from_array,
+            ..window
         };
         Self { window, imu_noise }
     }
@@ -77,6 +88,9 @@ pub struct WinsStats {
     pub bearings: u64,
     /// Frames dropped because they were older than the IMU stream or came before any IMU.
     pub frames_late: u64,
+    /// Frames the window refused (their IMU interval did not join the previous frame); each is
+    /// also in [`Step::refused`] with the reason.
+    pub frames_refused: u64,
     /// Window solves that failed (the frame stays, the previous estimate is kept).
     pub solve_failures: u64,
     /// Times the converged estimate was lost and the window started over (a new `b0`).
@@ -111,6 +125,8 @@ pub struct Step {
     pub frames: Vec<PoseEstimate>,
     /// The pose propagated to this IMU sample (once a frame exists).
     pub imu_pose: Option<PoseEstimate>,
+    /// Frames the window refused in this push, and why (counted in `frames_refused`).
+    pub refused: Vec<WindowError>,
 }
 
 /// The estimator (module doc).
@@ -213,8 +229,10 @@ impl Wins {
                 continue;
             }
             let interval = self.pre.cut(t, s)?;
-            if let Some(pose) = self.add_frame(t, interval, bearings) {
-                step.frames.push(pose);
+            match self.add_frame(t, interval, bearings) {
+                Ok(Some(pose)) => step.frames.push(pose),
+                Ok(None) => {}
+                Err(e) => step.refused.push(e),
             }
         }
         self.pre.push(s)?;
@@ -228,7 +246,7 @@ impl Wins {
         t: Timestamp,
         interval: crate::imu::Preintegrated,
         bearings: Vec<Bearing>,
-    ) -> Option<PoseEstimate> {
+    ) -> Result<Option<PoseEstimate>, WindowError> {
         let n_bearings = bearings.len() as u64;
         let result = match self.window.latest() {
             None => self
@@ -240,9 +258,9 @@ impl Wins {
                     .add_frame(t, prev.b0_from_bk * d_r, Some(interval), bearings)
             }
         };
-        if result.is_err() {
-            self.stats.frames_late += 1;
-            return None;
+        if let Err(e) = result {
+            self.stats.frames_refused += 1;
+            return Err(e);
         }
         self.stats.bearings += n_bearings;
         if self.window.solve().is_err() {
@@ -269,7 +287,7 @@ impl Wins {
                 );
             }
         }
-        pose
+        Ok(pose)
     }
 
     /// The gyro bias estimate with a zero accelerometer bias (the window corrects ΔR with it; the

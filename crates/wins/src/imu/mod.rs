@@ -1,11 +1,11 @@
 //! Inertial measurements: the sample type, noise densities and biases, and preintegration between
 //! PAoA frames (paper `eqn:alpha`, `eqn:beta`, `eqn:rotation`).
 
-pub mod noise;
+pub mod biases;
 pub mod preintegration;
 pub mod sample;
 
-pub use noise::{ImuBiases, ImuNoise};
+pub use biases::ImuBiases;
 pub use preintegration::{Preintegrated, PreintegrationError, Preintegrator};
 pub use sample::ImuSample;
 

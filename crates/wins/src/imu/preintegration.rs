@@ -42,7 +42,8 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::{ImuBiases, ImuNoise, ImuSample};
+use super::{ImuBiases, ImuSample};
+use crate::rig::ImuNoise;
 use crate::so3::{exp, right_jacobian};
 use crate::time::Timestamp;
 

@@ -15,9 +15,12 @@
 //! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed
 //! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
 
+pub mod aoa_log;
+pub mod config;
 pub mod figures;
 pub mod output;
 pub mod replay;
+pub mod run;
 pub mod slot;
 pub mod stats;
 pub mod track;
@@ -25,113 +28,19 @@ pub mod track;
 use std::collections::VecDeque;
 use std::time::Instant;
 
-use nalgebra::Isometry3;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
+pub use self::config::{Config, ConfigError, PipelineConfig};
 use self::slot::{FrameSlot, PendingBearing, grid_time, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
 use self::track::{ArrayPose, Track, TrackState};
-use crate::aoa::{AoaConfig, AoaError, AoaEstimator, ArrayGeometry, ChainCalibration};
+use crate::aoa::{AoaError, AoaEstimator};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::estimator::{PoseEstimate, Step, Wins, WinsConfig, WinsError};
-use crate::imu::{ImuNoise, ImuSample};
+use crate::imu::ImuSample;
+use crate::rig::{Rig, RigError};
 use crate::time::Timestamp;
-
-/// Settings of the pipeline (the estimator's own come from [`WinsConfig::new`]).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct PipelineConfig {
-    /// The AoA stage (MUSIC grid, PAoA half-width, SpotFi clustering).
-    pub aoa: AoaConfig,
-    /// Packets of an AP whose SpotFi direct path starts its track (paper: 10).
-    pub init_packets: usize,
-    /// Standard deviation given to every accepted bearing, degrees. PAoA's errors on the
-    /// simulated multipath are heavy-tailed (median 1.7°, 90th percentile 5.5°): 2° made the
-    /// window declare convergence too early and diverge; 3° does not.
-    pub bearing_sigma_deg: f64,
-    /// Frame grid, ms: bearings are grouped into frames this far apart (0: every packet is a
-    /// frame). 20 ms keeps one AP's 50 packets/s one per frame.
-    pub frame_period_ms: f64,
-    /// Consecutive packets without a credible peak after which an AP's track starts over.
-    pub max_misses: usize,
-    /// After convergence, bearings further than this from the state's prediction are dropped,
-    /// degrees.
-    pub gate_deg: f64,
-    /// After this many gated packets in a row of one AP the next is fed anyway (the state, not
-    /// the AoA, is then the suspect).
-    pub max_gated_in_row: usize,
-    /// Packets further than this from the track's own prediction (the last track angle turned
-    /// by the gyro) are dropped as jumps to another path, degrees.
-    pub track_gate_deg: f64,
-    /// After this many packets off the track in a row, the track starts over from SpotFi.
-    pub max_off_track_in_row: usize,
-    /// How far the track follows each accepted angle (1: to the raw angle, the paper's
-    /// Algorithm 1; smaller: a first-order filter against multipath jitter).
-    pub track_gain: f64,
-    /// The estimator's exact cone AoA rows instead of the AP-at-array-height model (see
-    /// `WindowConfig::cone_rows`). Off by default: on the built-in flights it is worse (README).
-    pub cone_rows: bool,
-    /// After convergence the window is solved every this many frames (≥ 1; see
-    /// `WindowConfig::converged_solve_every`); the poses between come from the IMU. 2 (a solve
-    /// every 40 ms at the default frame grid) keeps the replay above 100× real time on three APs;
-    /// 1 is ~1–3 % more accurate and ~15 % slower (README).
-    pub converged_solve_every: usize,
-    /// Before convergence the state cannot tell front from back: assume front (the paper's
-    /// set-up), flagged in the packet log. `false` drops bearings until convergence, which
-    /// never comes with one AP.
-    pub assume_front_until_converged: bool,
-}
-
-impl Default for PipelineConfig {
-    fn default() -> Self {
-        Self {
-            aoa: AoaConfig::default(),
-            init_packets: 10,
-            bearing_sigma_deg: 3.0,
-            frame_period_ms: 20.0,
-            max_misses: 25,
-            gate_deg: 5.0,
-            max_gated_in_row: 10,
-            track_gate_deg: 10.0,
-            max_off_track_in_row: 10,
-            track_gain: 0.3,
-            cone_rows: false,
-            converged_solve_every: 2,
-            assume_front_until_converged: true,
-        }
-    }
-}
-
-impl PipelineConfig {
-    /// Reads the settings from a TOML file (missing fields take their defaults, unknown ones are
-    /// errors; values are checked by [`Pipeline::new`]).
-    pub fn from_toml_file(path: &std::path::Path) -> Result<Self, PipelineError> {
-        let error = |reason: String| PipelineError::ConfigFile {
-            path: path.display().to_string(),
-            reason,
-        };
-        let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
-        toml::from_str(&text).map_err(|e| error(e.to_string()))
-    }
-}
-
-/// The rig: what the pipeline needs to know about the hardware.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Rig {
-    /// Antenna count and spacing.
-    pub geometry: ArrayGeometry,
-    /// `body_from_array`.
-    pub body_from_array: Isometry3<f64>,
-    /// Carrier frequency, Hz.
-    pub center_freq_hz: f64,
-    /// The NIC's chain calibration (`None`: uncalibrated, AoA wrong by tens of degrees).
-    pub calibration: Option<ChainCalibration>,
-    /// IMU noise densities.
-    pub imu_noise: ImuNoise,
-    /// AP names, in the order of the AP indices pushed.
-    pub ap_names: Vec<String>,
-}
 
 /// Why the pipeline cannot be built or an input was refused.
 #[derive(Debug, thiserror::Error)]
@@ -139,22 +48,12 @@ pub enum PipelineError {
     /// The AoA stage cannot be set up.
     #[error("AoA stage: {0}")]
     Aoa(#[from] AoaError),
-    /// A setting is out of range.
-    #[error("pipeline setting {field}: {reason}")]
-    Config {
-        /// The field.
-        field: &'static str,
-        /// Why.
-        reason: &'static str,
-    },
-    /// A settings file cannot be read or parsed.
-    #[error("{path}: {reason}")]
-    ConfigFile {
-        /// The file.
-        path: String,
-        /// What went wrong.
-        reason: String,
-    },
+    /// Settings that cannot be used (every one listed).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The rig cannot be used.
+    #[error("rig: {0}")]
+    Rig(#[from] RigError),
     /// The estimator refused an input (counted; the state is unchanged).
     #[error(transparent)]
     Wins(#[from] WinsError),
@@ -195,57 +94,26 @@ const HISTORY_MARGIN_NS: i64 = 50_000_000;
 
 impl Pipeline {
     /// A pipeline for `rig` (initialization-free: no state is needed).
-    pub fn new(config: PipelineConfig, rig: Rig) -> Result<Self, PipelineError> {
-        if config.init_packets < crate::aoa::log::MIN_GROUP_SIZE {
-            return Err(PipelineError::Config {
-                field: "init_packets",
-                reason: "SpotFi needs at least 2 packets",
-            });
-        }
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(config.bearing_sigma_deg)
-            || !positive(config.gate_deg)
-            || !positive(config.track_gate_deg)
-        {
-            return Err(PipelineError::Config {
-                field: "bearing_sigma_deg / gate_deg / track_gate_deg",
-                reason: "must be finite and > 0",
-            });
-        }
-        if !(config.track_gain > 0.0 && config.track_gain <= 1.0) {
-            return Err(PipelineError::Config {
-                field: "track_gain",
-                reason: "must be in (0, 1]",
-            });
-        }
-        if !(config.frame_period_ms.is_finite() && config.frame_period_ms >= 0.0) {
-            return Err(PipelineError::Config {
-                field: "frame_period_ms",
-                reason: "must be finite and >= 0",
-            });
-        }
-        if config.converged_solve_every == 0 {
-            return Err(PipelineError::Config {
-                field: "converged_solve_every",
-                reason: "must be >= 1",
-            });
-        }
+    pub fn new(config: &Config, rig: Rig) -> Result<Self, PipelineError> {
+        config.validate()?;
+        rig.validate()?;
         let aoa = AoaEstimator::new(
             &config.aoa,
             rig.geometry,
             rig.center_freq_hz,
             rig.calibration.clone(),
         )?;
-        let mut wins_config = WinsConfig::new(rig.imu_noise.clone());
-        wins_config.window.body_from_array = rig.body_from_array;
-        wins_config.window.cone_rows = config.cone_rows;
-        wins_config.window.converged_solve_every = config.converged_solve_every;
+        let wins_config = WinsConfig::for_rig(
+            config.window.clone(),
+            rig.imu_noise.clone(),
+            rig.body_from_array,
+        );
         Ok(Self {
             tracks: vec![Track::default(); rig.ap_names.len()],
             stats: PipelineStats::new(&rig.ap_names),
             wins: Wins::new(wins_config),
             aoa,
-            config,
+            config: config.pipeline.clone(),
             rig,
             slot: FrameSlot::default(),
             history: VecDeque::new(),

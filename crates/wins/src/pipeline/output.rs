@@ -63,6 +63,8 @@ pub struct RunStats<'a> {
     pub estimator: WinsStats,
     /// IMU samples refused.
     pub imu_refused: u64,
+    /// What limits the result, in words.
+    pub warnings: &'a [String],
 }
 
 fn pose_of(p: &PoseEstimate) -> Pose {
@@ -105,6 +107,7 @@ impl RunOutput {
             packets: &self.stats,
             estimator: self.wins,
             imu_refused: self.imu_refused,
+            warnings: &self.warnings,
         }
     }
 
@@ -149,12 +152,15 @@ impl RunOutput {
     }
 }
 
-/// Writes the run directory (created if needed); returns the files written.
-pub fn write_run(
-    dir: &Path,
-    run: &RunOutput,
-    metrics: Option<&Metrics>,
-) -> io::Result<Vec<PathBuf>> {
+impl RunOutput {
+    /// Writes the run directory (created if needed): the trajectories, APs, packet log and
+    /// statistics, and with `metrics` the metrics and the report; returns the files written.
+    pub fn write(&self, dir: &Path) -> io::Result<Vec<PathBuf>> {
+        write_run(dir, self, self.metrics.as_ref())
+    }
+}
+
+fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     let mut written = Vec::new();
     let mut put = |name: &str, f: &mut dyn FnMut(&mut BufWriter<File>) -> io::Result<()>| {

@@ -5,11 +5,15 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
-use super::{PacketLog, Pipeline, PipelineConfig, PipelineError, PipelineStats, Rig, StageTiming};
-use crate::aoa::ChainCalibration;
+use super::figures::RunFigures;
+use super::{Config, PacketLog, Pipeline, PipelineError, PipelineStats, StageTiming};
 use crate::dataset::Dataset;
+use crate::dataset::truth::Truth;
+use crate::eval::{EvalOptions, Metrics};
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
-use crate::imu::ImuNoise;
+use crate::rig::ChainCalibration;
+use crate::rig::ImuNoise;
+use crate::rig::Rig;
 use crate::time::Timestamp;
 
 /// Why a dataset cannot be replayed.
@@ -60,6 +64,13 @@ pub struct RunOutput {
     pub flight_s: f64,
     /// IMU samples the estimator refused (non-finite, out of order).
     pub imu_refused: u64,
+    /// The run scored against the dataset's truth (`None`: no truth, or it could not be scored;
+    /// then `warnings` says why).
+    pub metrics: Option<Metrics>,
+    /// The figures' data against the truth, with `metrics`.
+    pub figures: Option<RunFigures>,
+    /// What limits the result, in words (no calibration, a run that cannot be scored).
+    pub warnings: Vec<String>,
 }
 
 impl RunOutput {
@@ -71,6 +82,22 @@ impl RunOutput {
     /// Frames after convergence.
     pub fn converged_frames(&self) -> impl Iterator<Item = &PoseEstimate> {
         self.frames.iter().filter(|p| p.converged)
+    }
+
+    /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics and the
+    /// figures' data; when it cannot be scored (it never converged, say), says why in
+    /// `warnings`.
+    pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
+        let scored = self
+            .score(truth, options)
+            .and_then(|m| Ok((self.figures(truth, &m, options)?, m)));
+        match scored {
+            Ok((figures, metrics)) => {
+                self.metrics = Some(metrics);
+                self.figures = Some(figures);
+            }
+            Err(e) => self.warnings.push(format!("cannot score the run: {e}")),
+        }
     }
 }
 
@@ -94,11 +121,7 @@ pub fn rig_of(
 }
 
 /// Replays `dataset` through a pipeline for `rig`.
-pub fn replay(
-    dataset: &Dataset,
-    rig: Rig,
-    config: PipelineConfig,
-) -> Result<RunOutput, ReplayError> {
+pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput, ReplayError> {
     let (Some(first), Some(last)) = (dataset.imu.first(), dataset.imu.last()) else {
         return Err(ReplayError::NoImu);
     };
@@ -166,5 +189,8 @@ pub fn replay(
         wall_s: started.elapsed().as_secs_f64(),
         flight_s,
         imu_refused,
+        metrics: None,
+        figures: None,
+        warnings: Vec::new(),
     })
 }

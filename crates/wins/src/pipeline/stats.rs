@@ -9,6 +9,10 @@ use crate::time::Timestamp;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PacketStatus {
+    /// An angle was measured (the per-packet AoA log of [`super::aoa_log`], which does not feed
+    /// an estimator; written `ok`).
+    #[serde(rename = "ok")]
+    Measured,
     /// Its bearing went to the estimator.
     Fed,
     /// Collected for SpotFi to start (or restart) the AP's track.
@@ -167,6 +171,8 @@ impl PipelineStats {
             PacketStatus::OffTrack => s.off_track += 1,
             PacketStatus::SideUnknown => s.side_unknown += 1,
             PacketStatus::Skipped => s.skipped += 1,
+            // Not a pipeline status: the AoA log counts its own rows.
+            PacketStatus::Measured => {}
         }
     }
 

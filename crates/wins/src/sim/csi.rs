@@ -21,9 +21,11 @@ use rand_distr::{Distribution, StandardNormal};
 
 use super::radio::{RadioConfig, db_to_power, free_space_amplitude, power_to_db};
 use super::room::Path;
-use crate::aoa::steering::{ArrayGeometry, SPEED_OF_LIGHT_M_S, sin_aoa, tof_phase_rad};
+use crate::aoa::steering::{sin_aoa, tof_phase_rad};
 use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RSSI_TO_DBM_OFFSET, RateFlags};
+use crate::rig::ArrayGeometry;
+use crate::rig::array::SPEED_OF_LIGHT_M_S;
 use crate::time::Timestamp;
 
 /// Receive chains the Intel 5300 has.
@@ -279,8 +281,8 @@ fn quantize(x: f64) -> (i8, bool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::aoa::steering::CHANNEL_64_HZ;
     use crate::csi::Bandwidth;
+    use crate::rig::array::CHANNEL_64_HZ;
     use crate::sim::rng;
     use std::f64::consts::TAU;
 

@@ -11,8 +11,9 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::motion::{BodyState, specific_force_in_b};
+pub use crate::imu::ImuBiases;
 use crate::imu::ImuSample;
-pub use crate::imu::{ImuBiases, ImuNoise};
+pub use crate::rig::ImuNoise;
 use crate::time::Timestamp;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;

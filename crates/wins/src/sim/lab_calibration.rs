@@ -11,7 +11,8 @@ use super::scenario::Scenario;
 use super::trajectory::TrajectoryConfig;
 use super::yaw::{YawConfig, YawMode};
 use super::{ConfigError, simulate};
-use crate::aoa::{AoaConfig, CalibrateError, ChainCalibration, calibrate_with};
+use crate::aoa::{AoaConfig, CalibrateError, calibrate_with};
+use crate::rig::ChainCalibration;
 
 /// File name of the calibration in a simulated dataset.
 pub const CALIBRATION_FILE: &str = "calibration.toml";

@@ -3,9 +3,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
-use crate::aoa::SPEED_OF_LIGHT_M_S;
-use crate::aoa::steering::CHANNEL_64_HZ;
 use crate::csi::Bandwidth;
+use crate::rig::array::{CHANNEL_64_HZ, SPEED_OF_LIGHT_M_S};
 
 /// Thermal noise power spectral density at 290 K, dBm/Hz.
 pub const THERMAL_NOISE_DBM_HZ: f64 = -173.977;

@@ -13,7 +13,7 @@ use super::radio::RadioConfig;
 use super::room::{ObstacleConfig, RoomConfig};
 use super::trajectory::{Trajectory, TrajectoryConfig};
 use super::yaw::YawConfig;
-use crate::aoa::steering::ArrayGeometry;
+use crate::rig::ArrayGeometry;
 
 /// The built-in scenarios: (name, TOML).
 pub const BUILT_IN: &[(&str, &str)] = &[
@@ -258,20 +258,8 @@ impl Scenario {
         self.yaw.validate("yaw")?;
         self.imu.validate("imu")?;
         let g = &self.array.geometry;
-        if !(2..=3).contains(&g.num_antennas) {
-            return Err(ConfigError::new(
-                "array.geometry.num_antennas",
-                format!(
-                    "{} (the Intel 5300 has 2 or 3 receive chains)",
-                    g.num_antennas
-                ),
-            ));
-        }
-        if !(g.spacing_m.is_finite() && g.spacing_m > 0.0 && g.spacing_m <= 0.2) {
-            return Err(ConfigError::new(
-                "array.geometry.spacing_m",
-                format!("{} is not in (0, 0.2] m", g.spacing_m),
-            ));
+        if let Err(e) = g.validate(self.radio.center_freq_hz) {
+            return Err(ConfigError::new("array.geometry", e.to_string()));
         }
         let e = &self.array.body_from_array;
         if e.translation_m

@@ -1,11 +1,9 @@
 //! Issue 4: per-packet direct-path AoA against the simulator's truth.
 
 use std::f64::consts::{PI, TAU};
-use wins::aoa::steering::CHANNEL_64_HZ;
-use wins::aoa::{
-    AoaConfig, AoaEstimator, AoaPrediction, ArrayGeometry, ChainCalibration, calibrate,
-    calibrate_with,
-};
+use wins::aoa::{AoaConfig, AoaEstimator, AoaPrediction, calibrate, calibrate_with};
+use wins::rig::array::CHANNEL_64_HZ;
+use wins::rig::{ArrayGeometry, ChainCalibration};
 use wins::sim::trajectory::TrajectoryConfig;
 use wins::sim::{Scenario, SimOutput, simulate};
 

@@ -3,14 +3,15 @@
 
 use std::path::PathBuf;
 
+use wins::Config;
 use wins::csi::intel5300::CsiRecord;
 use wins::dataset::Dataset;
 use wins::dataset::truth::Truth;
 use wins::eval::{EvalOptions, Metrics};
 use wins::imu::ImuSample;
-use wins::pipeline::output::{METRICS_FILE, TRAJECTORY_FILE, write_run};
+use wins::pipeline::PacketStatus;
+use wins::pipeline::output::{METRICS_FILE, TRAJECTORY_FILE};
 use wins::pipeline::replay::{RunOutput, replay, rig_of};
-use wins::pipeline::{PacketStatus, PipelineConfig};
 use wins::sim::{Scenario, simulate, write_dataset};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -37,7 +38,7 @@ fn dataset(
 
 fn run(data: &Dataset) -> RunOutput {
     let rig = rig_of(data, None, None).unwrap();
-    replay(data, rig, PipelineConfig::default()).unwrap()
+    replay(data, rig, &Config::default()).unwrap()
 }
 
 fn check_accounting(run: &RunOutput) {
@@ -102,7 +103,9 @@ fn paper_circle_from_disk_end_to_end() {
     assert!(run.stats.fed() > 1500, "{}", run.stats.fed());
 
     let out = dir.join("run");
-    let written = write_run(&out, &run, Some(&m)).unwrap();
+    let mut run = run;
+    run.metrics = Some(m.clone());
+    let written = run.write(&out).unwrap();
     assert!(written.iter().all(|p| p.is_file()));
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join(METRICS_FILE)).unwrap()).unwrap();

@@ -1,5 +1,8 @@
 //! Why MUSIC cannot run (its own file: the smoothing and subspace stages report it too).
 
+use crate::check::Problems;
+use crate::rig::GeometryError;
+
 /// Why MUSIC cannot run on a packet or with a configuration.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MusicError {
@@ -28,12 +31,10 @@ pub enum MusicError {
         /// Iterations spent.
         iterations: usize,
     },
-    /// A configuration value is out of range.
-    #[error("music.{field}: {reason}")]
-    Config {
-        /// The offending field.
-        field: &'static str,
-        /// What is wrong.
-        reason: String,
-    },
+    /// Settings out of range (every one listed).
+    #[error("{0}")]
+    Config(Problems),
+    /// The array does not fit its carrier.
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
 }

@@ -24,14 +24,16 @@ use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
 use super::smoothing::SmoothingLayout;
-use super::steering::{ArrayGeometry, tof_phase_rad};
+use super::steering::tof_phase_rad;
 use super::subspace::{PathCount, Subspace, signal_subspace};
 use crate::csi::NUM_SUBCARRIERS;
+use crate::rig::ArrayGeometry;
 
 /// Most antennas a smoothing window may hold.
 pub const MAX_WINDOW_ANTENNAS: usize = 8;
 
 pub use self::error::MusicError;
+use crate::check::Problems;
 
 /// MUSIC settings. Defaults follow SpotFi where it is exact (see [`super::smoothing`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -60,6 +62,106 @@ pub struct MusicConfig {
     pub max_residual: f64,
     /// ... and its pseudo-spectrum within this many dB of the packet's strongest peak.
     pub max_below_strongest_db: f64,
+}
+
+/// Finest AoA grid step, degrees (3601 angles): finer only costs time, the peaks are refined off
+/// the grid.
+pub const MIN_AOA_STEP_DEG: f64 = 0.05;
+/// Finest ToF grid step, s.
+pub const MIN_TOF_STEP_S: f64 = 0.5e-9;
+/// The ToF span must stay below HT40's unambiguous span `1/Δf` (Δf = 1.25 MHz between the Intel
+/// 5300's reported HT40 subcarriers), s; HT20's is twice that.
+pub const MAX_TOF_SPAN_S: f64 = 800e-9;
+
+impl MusicConfig {
+    /// Every setting in its range, under `prefix`: the grids bounded (so a packet's spectrum is
+    /// bounded in time and memory), the ToF span below HT40's unambiguous 800 ns.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        let n = self.antennas_per_window;
+        p.require(
+            (2..=MAX_WINDOW_ANTENNAS).contains(&n),
+            prefix,
+            "antennas_per_window",
+            format!("{n} is not in [2, {MAX_WINDOW_ANTENNAS}]"),
+        );
+        for (key, w) in [
+            (
+                "subcarriers_per_window_ht20",
+                self.subcarriers_per_window_ht20,
+            ),
+            (
+                "subcarriers_per_window_ht40",
+                self.subcarriers_per_window_ht40,
+            ),
+        ] {
+            p.require(
+                (1..=NUM_SUBCARRIERS).contains(&w),
+                prefix,
+                key,
+                format!("{w} is not in [1, {NUM_SUBCARRIERS}]"),
+            );
+        }
+        p.require(
+            self.paths.max_paths >= 1,
+            prefix,
+            "paths.max_paths",
+            "must be ≥ 1",
+        );
+        p.in_range(
+            prefix,
+            "paths.floor_margin_db",
+            self.paths.floor_margin_db,
+            0.0,
+            100.0,
+        );
+        p.in_range(
+            prefix,
+            "aoa_step_deg",
+            self.aoa_step_deg,
+            MIN_AOA_STEP_DEG,
+            30.0,
+        );
+        p.in_range(
+            prefix,
+            "tof_step_s",
+            self.tof_step_s,
+            MIN_TOF_STEP_S,
+            100e-9,
+        );
+        p.in_range(
+            prefix,
+            "tof_min_s",
+            self.tof_min_s,
+            -MAX_TOF_SPAN_S,
+            MAX_TOF_SPAN_S,
+        );
+        let span = self.tof_max_s - self.tof_min_s;
+        p.require(
+            span.is_finite() && span > 0.0 && span < MAX_TOF_SPAN_S,
+            prefix,
+            "tof_max_s",
+            format!(
+                "the ToF span tof_max_s − tof_min_s = {span:e} s must be > 0 and below the \
+                 unambiguous {MAX_TOF_SPAN_S:e} s of HT40"
+            ),
+        );
+        p.in_range(
+            prefix,
+            "max_residual",
+            self.max_residual,
+            f64::MIN_POSITIVE,
+            1.0,
+        );
+        p.in_range(
+            prefix,
+            "max_below_strongest_db",
+            self.max_below_strongest_db,
+            0.0,
+            100.0,
+        );
+        p
+    }
 }
 
 impl Default for MusicConfig {
@@ -161,35 +263,11 @@ impl Music {
         offsets_hz: &[f64],
         subcarriers_per_window: usize,
     ) -> Result<Self, MusicError> {
-        let cfg = |field, reason: &str| MusicError::Config {
-            field,
-            reason: reason.to_string(),
-        };
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(config.aoa_step_deg) || config.aoa_step_deg > 30.0 {
-            return Err(cfg("aoa_step_deg", "must be in (0, 30]"));
-        }
-        if !positive(config.tof_step_s) {
-            return Err(cfg("tof_step_s", "must be positive"));
-        }
-        if !(config.tof_min_s.is_finite() && config.tof_max_s > config.tof_min_s) {
-            return Err(cfg("tof_max_s", "must be finite and above tof_min_s"));
-        }
-        if !(config.max_residual > 0.0 && config.max_residual <= 1.0) {
-            return Err(cfg("max_residual", "must be in (0, 1]"));
-        }
-        if config.max_below_strongest_db.is_nan() || config.max_below_strongest_db < 0.0 {
-            return Err(cfg("max_below_strongest_db", "must be ≥ 0"));
-        }
-        if !positive(center_freq_hz) || !positive(geometry.spacing_m) {
-            return Err(cfg(
-                "geometry",
-                "centre frequency and spacing must be positive",
-            ));
-        }
-        if config.antennas_per_window > MAX_WINDOW_ANTENNAS {
-            return Err(cfg("antennas_per_window", "at most 8"));
-        }
+        config
+            .problems("music")
+            .into_result()
+            .map_err(MusicError::Config)?;
+        geometry.validate(center_freq_hz)?;
         let layout = SmoothingLayout::new(
             offsets_hz,
             geometry.num_antennas,
@@ -197,13 +275,16 @@ impl Music {
             subcarriers_per_window,
         )?;
         if config.tof_max_s - config.tof_min_s >= 1.0 / layout.step_hz() {
-            return Err(cfg(
+            let mut p = Problems::new();
+            p.push(
+                "music",
                 "tof_max_s",
-                &format!(
-                    "the ToF span must stay below the unambiguous {:.0} ns",
+                format!(
+                    "the ToF span must stay below the unambiguous {:.0} ns of these subcarriers",
                     1e9 / layout.step_hz()
                 ),
-            ));
+            );
+            return Err(MusicError::Config(p));
         }
         let n_aoa = (180.0 / config.aoa_step_deg).round() as usize + 1;
         let aoa_rad: Vec<f64> = (0..n_aoa)

@@ -177,8 +177,9 @@ fn grid_minima(s: &Spectrum, window: AoaWindow, max_residual: f64) -> Vec<(usize
 mod tests {
     use super::*;
     use crate::aoa::music::MusicConfig;
-    use crate::aoa::steering::{ArrayGeometry, CHANNEL_64_HZ};
     use crate::csi::Bandwidth;
+    use crate::rig::ArrayGeometry;
+    use crate::rig::array::CHANNEL_64_HZ;
     use nalgebra::DMatrix;
     use num_complex::Complex64;
 

@@ -34,17 +34,22 @@ use std::cell::RefCell;
 use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
 
 use self::arrow::{ArrowSystem, FRAME_DIM, Vec9};
 use self::assemble::{ImuLinearization, ap_offset};
 use self::factors::{BIAS_DIM, ImuInfo};
+use crate::check::Problems;
 use crate::fusion::bearing::Bearing;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::so3::exp;
 use crate::time::Timestamp;
 
-/// Settings of the window.
-#[derive(Clone, Debug, PartialEq)]
+/// Settings of the window (the `[window]` table of a configuration). Three fields describe the
+/// rig rather than the estimator and are not read from a file: `body_from_array`, and the bias
+/// priors, set from the IMU's turn-on spreads.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct WindowConfig {
     /// Frames kept before the oldest is marginalized (paper: 30).
     pub max_frames: usize,
@@ -65,9 +70,11 @@ pub struct WindowConfig {
     pub prior_gravity_sigma_m_s2: f64,
     /// Prior 1σ of a new AP's position per axis, around the first frame, m.
     pub prior_ap_sigma_m: f64,
-    /// Prior 1σ of the accelerometer bias per axis, m/s².
+    /// Prior 1σ of the accelerometer bias per axis, m/s² (from the rig's IMU: its turn-on spread).
+    #[serde(skip)]
     pub prior_accel_bias_sigma_m_s2: f64,
-    /// Prior 1σ of the gyro bias per axis, rad/s.
+    /// Prior 1σ of the gyro bias per axis, rad/s (from the rig's IMU: its turn-on spread).
+    #[serde(skip)]
     pub prior_gyro_bias_sigma_rad_s: f64,
     /// Estimate the gyro bias jointly once converged (removes the attitude's gyro drift); off:
     /// the rotations are the gyro chain as given.
@@ -97,7 +104,8 @@ pub struct WindowConfig {
     /// iterates the whole startup window, so a flight that cannot converge (no excitation, a
     /// gyro bias beyond the startup's reach) must not spend its time on them.
     pub convergence_retry_max_s: f64,
-    /// Pose of the antenna array on the body.
+    /// Pose of the antenna array on the body (from the rig).
+    #[serde(skip)]
     pub body_from_array: Isometry3<f64>,
     /// Refresh the linearization from the solution (AoA ranges after convergence, the upward
     /// direction of the AoA rows, the IMU noise mapping at the previous estimate). Off: constant ranges and a nominal mapping, so the weights never
@@ -121,6 +129,8 @@ pub struct WindowConfig {
     pub startup_solve_every: usize,
     /// After convergence, solve only every this many frames (≥ 1); the frames between keep the
     /// IMU's prediction from the last solve, are still marginalized and checked by the lost test.
+    /// 2 (a solve every 40 ms on the default 20 ms frame grid) keeps a three-AP replay above
+    /// 100× real time; 1 is about 1–3 % more accurate and 15 % slower (docs/RESULTS.md).
     pub converged_solve_every: usize,
 }
 
@@ -156,10 +166,98 @@ impl Default for WindowConfig {
             iterations: 1,
             iterations_at_convergence: 10,
             startup_solve_every: 10,
-            converged_solve_every: 1,
+            converged_solve_every: 2,
         }
     }
 }
+
+impl WindowConfig {
+    /// Every setting in its range, under `prefix` (the rig's fields are not checked here).
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.at_least(prefix, "max_frames", self.max_frames, 2);
+        p.require(
+            self.max_startup_frames >= self.max_frames,
+            prefix,
+            "max_startup_frames",
+            format!(
+                "{} is below max_frames {}",
+                self.max_startup_frames, self.max_frames
+            ),
+        );
+        p.require(
+            self.max_startup_frames <= MAX_STARTUP_FRAMES,
+            prefix,
+            "max_startup_frames",
+            format!("{} is above {MAX_STARTUP_FRAMES}", self.max_startup_frames),
+        );
+        p.positive(prefix, "initial_range_m", self.initial_range_m);
+        let (lo, hi) = self.range_limits_m;
+        p.require(
+            lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi,
+            prefix,
+            "range_limits_m",
+            format!("[{lo}, {hi}] is not 0 < min < max"),
+        );
+        for (key, v) in [
+            ("elevation_sigma_rad", self.elevation_sigma_rad),
+            ("attitude_sigma_rad", self.attitude_sigma_rad),
+            ("prior_velocity_sigma_m_s", self.prior_velocity_sigma_m_s),
+            ("prior_gravity_sigma_m_s2", self.prior_gravity_sigma_m_s2),
+            ("prior_ap_sigma_m", self.prior_ap_sigma_m),
+            ("gauge_sigma_m", self.gauge_sigma_m),
+            ("converged_ap_sigma_m", self.converged_ap_sigma_m),
+            (
+                "converged_ap_sigma_after_m",
+                self.converged_ap_sigma_after_m,
+            ),
+            (
+                "converged_max_residual_rms",
+                self.converged_max_residual_rms,
+            ),
+            ("converged_min_range_m", self.converged_min_range_m),
+            ("lost_residual_rms", self.lost_residual_rms),
+            ("convergence_retry_s", self.convergence_retry_s),
+        ] {
+            p.positive(prefix, key, v);
+        }
+        p.require(
+            self.convergence_retry_max_s.is_finite()
+                && self.convergence_retry_max_s >= self.convergence_retry_s,
+            prefix,
+            "convergence_retry_max_s",
+            format!(
+                "{} is below convergence_retry_s {}",
+                self.convergence_retry_max_s, self.convergence_retry_s
+            ),
+        );
+        p.at_least(prefix, "lost_after_frames", self.lost_after_frames, 1);
+        p.at_least(prefix, "iterations", self.iterations, 1);
+        p.at_least(
+            prefix,
+            "iterations_at_convergence",
+            self.iterations_at_convergence,
+            1,
+        );
+        p.at_least(prefix, "startup_solve_every", self.startup_solve_every, 1);
+        p.at_least(
+            prefix,
+            "converged_solve_every",
+            self.converged_solve_every,
+            1,
+        );
+        p.require(
+            !self.cone_rows || self.angle_rows,
+            prefix,
+            "cone_rows",
+            "needs angle_rows = true",
+        );
+        p
+    }
+}
+
+/// Most frames a startup window may hold (its normal equations grow with it).
+pub const MAX_STARTUP_FRAMES: usize = 100_000;
 
 /// Why the window refused an input or could not solve.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

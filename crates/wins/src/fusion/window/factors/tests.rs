@@ -4,7 +4,8 @@ use nalgebra::{Isometry3, Matrix3, SVector, Translation3, UnitQuaternion, Vector
 
 use super::*;
 use crate::fusion::bearing::{Bearing, Side};
-use crate::imu::{ImuBiases, ImuNoise, ImuSample, Preintegrator};
+use crate::imu::{ImuBiases, ImuSample, Preintegrator};
+use crate::rig::ImuNoise;
 use crate::so3::exp;
 use crate::time::Timestamp;
 

@@ -9,7 +9,7 @@
 //! ```
 //!
 //! Only differences between chains matter (a common phase cancels), so offsets are reported with
-//! antenna 0 at 0. Estimating them from a capture at a known angle is [`mod@super::calibrate`].
+//! antenna 0 at 0. Estimating them from a capture at a known angle is [`crate::aoa::measure_chains`].
 
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};

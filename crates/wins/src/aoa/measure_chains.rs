@@ -16,12 +16,12 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use super::calibration::ChainCalibration;
 use super::estimator::{AoaConfig, AoaError, raw_csi};
 use super::music::{Music, MusicConfig};
-use super::steering::ArrayGeometry;
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::sanitize;
+use crate::rig::ArrayGeometry;
+use crate::rig::ChainCalibration;
 
 /// What went into a calibration.
 #[derive(Debug, Default)]

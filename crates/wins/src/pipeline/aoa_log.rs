@@ -8,32 +8,19 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::estimator::{AoaConfig, AoaEstimator};
-use super::music::AoaWindow;
-use super::peak::Peak;
-use super::spotfi::SpotfiError;
+use super::stats::PacketStatus;
+use crate::aoa::estimator::{AoaConfig, AoaEstimator};
+use crate::aoa::music::AoaWindow;
+use crate::aoa::peak::Peak;
+use crate::aoa::spotfi::MIN_GROUP_SIZE;
+use crate::aoa::spotfi::SpotfiError;
 use crate::csi::intel5300::CsiRecord;
 use crate::dataset::Dataset;
 use crate::dataset::truth::Truth;
 
-/// Smallest SpotFi group: the clusters of a single packet say nothing about the direct path.
-pub const MIN_GROUP_SIZE: usize = 2;
-
 /// Rows (or records) searched ahead for a matching `bfee_count` when the log and the truth disagree;
 /// far below the 65 536 packets after which the 16-bit count repeats.
 pub const RESYNC_WINDOW: usize = 4096;
-
-/// What a record gave.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PacketStatus {
-    /// An angle.
-    Ok,
-    /// Processed, but no peak is credible (SpotFi: none in the chosen cluster, or no cluster).
-    NoCrediblePeak,
-    /// Not processed (wrong shape, no signal, ...); the row's `reason` says why.
-    Skipped,
-}
 
 /// One record's AoA (a row of `wins aoa`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -181,9 +168,10 @@ pub fn estimate_log<'a>(
     for row in &rows {
         summary.packets += 1;
         match row.status {
-            PacketStatus::Ok => summary.with_aoa += 1,
+            PacketStatus::Measured => summary.with_aoa += 1,
             PacketStatus::NoCrediblePeak => summary.no_credible_peak += 1,
-            PacketStatus::Skipped => {
+            // Skipped (the pipeline's own statuses never occur here).
+            _ => {
                 *summary
                     .skipped_by_reason
                     .entry(row.reason.clone())
@@ -271,7 +259,7 @@ fn empty_row(index: usize, record: &CsiRecord) -> PacketAoa {
 fn set_peak(row: &mut PacketAoa, credible: usize, peak: Option<&Peak>) {
     row.peaks = credible;
     if let Some(p) = peak {
-        row.status = PacketStatus::Ok;
+        row.status = PacketStatus::Measured;
         row.aoa_deg = Some(p.aoa_deg());
         row.tof_ns = Some(p.tof_s * 1e9);
         row.spectrum_db = Some(p.spectrum_db());
@@ -361,8 +349,8 @@ pub fn truth_pairs<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::aoa::{ArrayGeometry, ChainCalibration};
     use crate::csi::intel5300::BfeeHeader;
+    use crate::rig::{ArrayGeometry, ChainCalibration};
     use crate::sim::{Scenario, SimOutput, simulate, write_dataset};
     use crate::time::Timestamp;
     use num_complex::Complex;
@@ -450,7 +438,7 @@ mod tests {
         assert_eq!(summary.groups, if last == 1 { groups - 1 } else { groups });
         assert_eq!(rows[3].status, PacketStatus::Skipped);
         assert_eq!(rows[25].group, Some(2));
-        for row in rows.iter().filter(|r| r.status == PacketStatus::Ok) {
+        for row in rows.iter().filter(|r| r.status == PacketStatus::Measured) {
             let (own, group) = (row.aoa_deg.unwrap(), row.group_aoa_deg.unwrap());
             // The packet's peak lies in the chosen cluster (linked within 5° steps).
             assert!((own - group).abs() < 20.0, "{own} {group}");

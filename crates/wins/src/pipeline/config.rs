@@ -1,0 +1,282 @@
+//! The one configuration tree: every stage's settings under one [`Config`], read from one TOML
+//! file whose tables are the stages (`[aoa]`, `[pipeline]`, `[window]`, `[eval]`). Missing keys
+//! take the defaults (shipped as `configs/default.toml`, equal to [`Config::default`]); an unknown
+//! key, a value of the wrong kind or out of its range is refused, and every such problem is listed
+//! at once. What describes the hardware is not here but in the dataset's rig
+//! ([`crate::rig::Rig`]).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::aoa::AoaConfig;
+use crate::aoa::spotfi::MIN_GROUP_SIZE;
+use crate::check::{Problems, overlay};
+use crate::eval::EvalOptions;
+use crate::fusion::window::WindowConfig;
+
+/// Every setting of a run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// The AoA stage: MUSIC grid, PAoA half-width, SpotFi clustering.
+    pub aoa: AoaConfig,
+    /// Per-AP tracking and the bearings' path into the estimator.
+    pub pipeline: PipelineConfig,
+    /// The sliding-window estimator.
+    pub window: WindowConfig,
+    /// Scoring against a truth (association, RPE).
+    pub eval: EvalOptions,
+}
+
+/// Settings of the pipeline between the AoA stage and the estimator: per-AP tracks (SpotFi start,
+/// PAoA gates) and the bearings handed to the window.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// Packets of an AP whose SpotFi direct path starts its track (paper: 10).
+    pub init_packets: usize,
+    /// Standard deviation given to every accepted bearing, degrees. PAoA's errors on the
+    /// simulated multipath are heavy-tailed (median 1.7°, 90th percentile 5.5°): 2° made the
+    /// window declare convergence too early and diverge; 3° does not.
+    pub bearing_sigma_deg: f64,
+    /// Frame grid, ms: bearings are grouped into frames this far apart (0: every packet is a
+    /// frame). 20 ms keeps one AP's 50 packets/s one per frame.
+    pub frame_period_ms: f64,
+    /// Consecutive packets without a credible peak after which an AP's track starts over.
+    pub max_misses: usize,
+    /// After convergence, bearings further than this from the state's prediction are dropped,
+    /// degrees.
+    pub gate_deg: f64,
+    /// After this many gated packets in a row of one AP the next is fed anyway (the state, not
+    /// the AoA, is then the suspect).
+    pub max_gated_in_row: usize,
+    /// Packets further than this from the track's own prediction (the last track angle turned
+    /// by the gyro) are dropped as jumps to another path, degrees.
+    pub track_gate_deg: f64,
+    /// After this many packets off the track in a row, the track starts over from SpotFi.
+    pub max_off_track_in_row: usize,
+    /// How far the track follows each accepted angle (1: to the raw angle, the paper's
+    /// Algorithm 1; smaller: a first-order filter against multipath jitter).
+    pub track_gain: f64,
+    /// Before convergence the state cannot tell front from back: assume front (the paper's
+    /// set-up), flagged in the packet log. `false` drops bearings until convergence, which
+    /// never comes with one AP.
+    pub assume_front_until_converged: bool,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            init_packets: 10,
+            bearing_sigma_deg: 3.0,
+            frame_period_ms: 20.0,
+            max_misses: 25,
+            gate_deg: 5.0,
+            max_gated_in_row: 10,
+            track_gate_deg: 10.0,
+            max_off_track_in_row: 10,
+            track_gain: 0.3,
+            assume_front_until_converged: true,
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Every setting in its range, under `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.require(
+            (MIN_GROUP_SIZE..=1000).contains(&self.init_packets),
+            prefix,
+            "init_packets",
+            format!(
+                "{} is not in [{MIN_GROUP_SIZE}, 1000] (SpotFi needs two packets)",
+                self.init_packets
+            ),
+        );
+        p.in_range(
+            prefix,
+            "bearing_sigma_deg",
+            self.bearing_sigma_deg,
+            0.01,
+            90.0,
+        );
+        p.in_range(prefix, "frame_period_ms", self.frame_period_ms, 0.0, 1000.0);
+        p.at_least(prefix, "max_misses", self.max_misses, 1);
+        p.in_range(prefix, "gate_deg", self.gate_deg, 0.01, 180.0);
+        p.in_range(prefix, "track_gate_deg", self.track_gate_deg, 0.01, 180.0);
+        p.at_least(prefix, "max_off_track_in_row", self.max_off_track_in_row, 1);
+        p.require(
+            self.track_gain > 0.0 && self.track_gain <= 1.0,
+            prefix,
+            "track_gain",
+            format!("{} is not in (0, 1]", self.track_gain),
+        );
+        p
+    }
+}
+
+/// Why a configuration cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The text is not TOML.
+    #[error("{origin}: not TOML: {reason}")]
+    Syntax {
+        /// The file (or `<string>`).
+        origin: String,
+        /// The parser's message.
+        reason: String,
+    },
+    /// Keys or values that cannot be used, every one.
+    #[error("{origin}: {} problem(s):\n{problems}", problems.0.len())]
+    Invalid {
+        /// The file (or `<string>`).
+        origin: String,
+        /// Each problem under its key.
+        problems: Problems,
+    },
+}
+
+impl Config {
+    /// Every problem of every stage, each under its dotted key.
+    pub fn problems(&self) -> Problems {
+        let mut p = self.aoa.problems("aoa");
+        p.extend(self.pipeline.problems("pipeline"));
+        p.extend(self.window.problems("window"));
+        p.extend(self.eval.problems("eval"));
+        p
+    }
+
+    /// `Ok` when every setting is usable; else every problem at once.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.problems()
+            .into_result()
+            .map_err(|problems| ConfigError::Invalid {
+                origin: "configuration".into(),
+                problems,
+            })
+    }
+
+    /// Reads a configuration from TOML text: missing keys take the defaults; unknown keys, wrong
+    /// kinds and out-of-range values are all listed in one [`ConfigError::Invalid`]. `origin`
+    /// names the text in messages.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let syntax = |reason: String| ConfigError::Syntax {
+            origin: origin.into(),
+            reason,
+        };
+        let user: toml::Table = toml::from_str(text).map_err(|e| syntax(e.to_string()))?;
+        let defaults =
+            toml::Table::try_from(Config::default()).map_err(|e| syntax(e.to_string()))?;
+        let mut problems = Problems::new();
+        let merged = overlay(&defaults, &user, "", &mut problems);
+        // Every key has a default of the same kind now, so this fails only on a value that
+        // fits its kind but not its type (a negative count).
+        let config = match toml::Value::Table(merged).try_into::<Config>() {
+            Ok(c) => c,
+            Err(e) => {
+                problems.push("", "", e.to_string().trim().to_string());
+                Config::default()
+            }
+        };
+        problems.extend(config.problems());
+        problems
+            .into_result()
+            .map(|()| config)
+            .map_err(|problems| ConfigError::Invalid {
+                origin: origin.into(),
+                problems,
+            })
+    }
+
+    /// Reads a configuration file ([`Config::from_toml_str`]).
+    pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// The configuration as TOML, every key written.
+    pub fn to_toml(&self) -> String {
+        // Every field serializes (no map keys other than strings, no values TOML lacks).
+        toml::to_string(self).unwrap_or_default()
+    }
+}
+
+/// The shipped defaults, `configs/default.toml`, as text.
+pub const DEFAULT_TOML: &str = include_str!("../../../../configs/default.toml");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_defaults_equal_the_code() {
+        let shipped = Config::from_toml_str(DEFAULT_TOML, "configs/default.toml")
+            .expect("the shipped defaults are valid");
+        assert_eq!(shipped, Config::default());
+        // Every key is written out, so the file documents the whole tree.
+        let file: toml::Table = toml::from_str(DEFAULT_TOML).unwrap();
+        let code = toml::Table::try_from(Config::default()).unwrap();
+        assert_eq!(file, code, "configs/default.toml lacks or adds keys");
+        assert_eq!(Config::default().validate().ok(), Some(()));
+    }
+
+    #[test]
+    fn every_problem_is_listed_at_once() {
+        let text = "[aoa]\npaoa_half_width_deg = 120.0\n[aoa.music]\naoa_step_deg = 1e-9\n\
+                    [pipeline]\ngate_rad = 0.1\nmax_misses = \"many\"\n[window]\n\
+                    max_frames = 0\nbody_from_array = 1\n[extra]\n";
+        let Err(ConfigError::Invalid { problems, origin }) = Config::from_toml_str(text, "t.toml")
+        else {
+            panic!("accepted");
+        };
+        assert_eq!(origin, "t.toml");
+        let keys: Vec<&str> = problems.0.iter().map(|p| p.key.as_str()).collect();
+        for want in [
+            "extra",
+            "pipeline.gate_rad",
+            "pipeline.max_misses",
+            "window.body_from_array",
+            "aoa.music.aoa_step_deg",
+            "aoa.paoa_half_width_deg",
+            "window.max_frames",
+        ] {
+            assert!(keys.contains(&want), "{want} missing from {keys:?}");
+        }
+        assert_eq!(keys.len(), 7, "{problems}");
+        assert!(
+            problems.to_string().contains("did you mean `gate_deg`"),
+            "{problems}"
+        );
+    }
+
+    #[test]
+    fn missing_keys_take_the_defaults_and_integers_pass_for_floats() {
+        let c = Config::from_toml_str("[pipeline]\ngate_deg = 7\n", "t").unwrap();
+        assert_eq!(c.pipeline.gate_deg, 7.0);
+        assert_eq!(c.window, WindowConfig::default());
+        assert!(matches!(
+            Config::from_toml_str("[pipeline", "t"),
+            Err(ConfigError::Syntax { .. })
+        ));
+        // A negative count has the right kind (integer) but not the right type.
+        let Err(ConfigError::Invalid { problems, .. }) =
+            Config::from_toml_str("[window]\nmax_frames = -3\n", "t")
+        else {
+            panic!("accepted");
+        };
+        assert_eq!(problems.0.len(), 1, "{problems}");
+    }
+}

@@ -1,0 +1,102 @@
+//! The library's front door: a dataset folder in, a scored run out ([`run_dataset`]), what
+//! `wins run` does.
+
+use std::path::Path;
+
+use super::Config;
+use super::replay::{ReplayError, RunOutput, replay, rig_of};
+use crate::dataset::truth::{TRUTH_DIR, Truth, TruthError};
+use crate::dataset::{Dataset, DatasetError};
+use crate::rig::{ChainCalibration, ImuNoise};
+
+/// What a run may take from outside the dataset.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunOptions {
+    /// A chain calibration to use instead of the dataset's.
+    pub calibration: Option<ChainCalibration>,
+    /// IMU noise densities to use instead of the dataset's.
+    pub imu_noise: Option<ImuNoise>,
+}
+
+/// Why a dataset could not be run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The settings cannot be used (every problem listed).
+    #[error(transparent)]
+    Config(#[from] super::ConfigError),
+    /// The dataset cannot be loaded.
+    #[error("loading {path}: {source}")]
+    Dataset {
+        /// The dataset folder.
+        path: String,
+        /// Why (boxed: a dataset error carries the reader's details).
+        source: Box<DatasetError>,
+    },
+    /// The dataset's `truth/` folder cannot be read.
+    #[error("reading the truth of {path}: {source}")]
+    Truth {
+        /// The dataset folder.
+        path: String,
+        /// Why.
+        source: TruthError,
+    },
+    /// The replay failed.
+    #[error(transparent)]
+    Replay(#[from] ReplayError),
+}
+
+/// Runs WINS on the dataset folder at `path` with `config` ([`run_dataset_with`] with no
+/// overrides).
+///
+/// ```no_run
+/// let run = wins::run_dataset("my_flight".as_ref(), &wins::Config::default())?;
+/// println!("converged at {:?}", run.converged_at);
+/// # Ok::<(), wins::RunError>(())
+/// ```
+pub fn run_dataset(path: &Path, config: &Config) -> Result<RunOutput, RunError> {
+    run_dataset_with(path, config, &RunOptions::default())
+}
+
+/// Loads the dataset at `path`, replays it through the [`super::Pipeline`], and when it has a
+/// `truth/` folder scores the converged trajectory against it (`metrics`, `figures`). What
+/// limits the result (no chain calibration, a run that cannot be scored) is in `warnings`.
+pub fn run_dataset_with(
+    path: &Path,
+    config: &Config,
+    options: &RunOptions,
+) -> Result<RunOutput, RunError> {
+    config.validate()?;
+    let data = Dataset::load(path).map_err(|source| RunError::Dataset {
+        path: path.display().to_string(),
+        source: Box::new(source),
+    })?;
+    let mut warnings = Vec::new();
+    if data.calibration.is_none() && options.calibration.is_none() {
+        warnings.push(
+            "no chain calibration (dataset.toml names none and none was given): AoA will be \
+             wrong by tens of degrees"
+                .to_string(),
+        );
+    }
+    // Read before the replay: a truth that cannot be read fails the run before its work.
+    let truth = if path.join(TRUTH_DIR).is_dir() {
+        let truth = Truth::load(path).map_err(|source| RunError::Truth {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Some(truth)
+    } else {
+        None
+    };
+    let rig = rig_of(
+        &data,
+        options.imu_noise.clone(),
+        options.calibration.clone(),
+    )?;
+    let mut run = replay(&data, rig, config)?;
+    run.warnings.extend(warnings);
+    if let Some(truth) = &truth {
+        run.score_against(truth, &config.eval);
+    }
+    Ok(run)
+}
