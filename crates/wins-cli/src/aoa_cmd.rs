@@ -10,7 +10,7 @@ use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
 use wins::csi::intel5300::{CsiLog, CsiRecord, SkipReason, read_log};
 use wins::dataset::Dataset;
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::{AoaMode, estimate_log, read_aoa_config, truth_pairs};
+use wins::pipeline::aoa_log::{AoaMode, estimate_log, truth_pairs};
 use wins::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
 use wins::rig::{ArrayGeometry, ChainCalibration};
 use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
@@ -34,7 +34,8 @@ pub struct InputArgs {
     /// Antenna spacing of a `.dat` log's 3-antenna array, m [default: half a wavelength].
     #[arg(long, value_name = "M")]
     spacing_m: Option<f64>,
-    /// AoA settings, TOML (fields of the library's `AoaConfig`; defaults otherwise).
+    /// Settings, TOML (the `[aoa]` table of the configuration file of `wins run`; see
+    /// `wins config`).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
 }
@@ -119,7 +120,7 @@ enum Source {
 impl Input {
     fn open(args: &InputArgs) -> Result<Self> {
         let config = match &args.config {
-            Some(path) => read_aoa_config(path)?,
+            Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
             None => AoaConfig::default(),
         };
         if !args.file.is_dir() {

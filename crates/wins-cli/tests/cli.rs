@@ -1,5 +1,14 @@
 //! The `wins` binary end to end: exit codes and what it prints.
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use std::path::PathBuf;
 use std::process::Output;
 
@@ -242,4 +251,51 @@ fn demo_and_run_write_the_run_directory() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("nonexistent-wins"));
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn config_prints_the_shipped_defaults_and_lists_every_problem_of_a_file() {
+    let out = wins(&["config"]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let shipped = std::fs::read_to_string(root.join("configs/default.toml")).expect("shipped");
+    assert_eq!(String::from_utf8(out.stdout).expect("utf-8"), shipped);
+
+    let dir = std::env::temp_dir().join(format!("wins-cli-config-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let good = dir.join("good.toml");
+    std::fs::write(&good, "[pipeline]\ngate_deg = 7\n").expect("write");
+    let out = wins(&["config", "--check", common::s(&good)]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[pipeline]\ngate_rad = 0.1\n[aoa.music]\naoa_step_deg = 1e-9\n[window]\nmax_frames = 0\n",
+    )
+    .expect("write");
+    for args in [
+        vec!["config", "--check", common::s(&bad)],
+        vec![
+            "run",
+            "data/none",
+            "--out",
+            "target/none",
+            "--config",
+            common::s(&bad),
+        ],
+    ] {
+        let out = wins(&args);
+        assert!(!out.status.success(), "{args:?} accepted a bad file");
+        let err = common::stderr(&out);
+        for key in [
+            "pipeline.gate_rad",
+            "aoa.music.aoa_step_deg",
+            "window.max_frames",
+        ] {
+            assert!(err.contains(key), "{args:?}: {key} not named in {err}");
+        }
+        assert!(err.contains("did you mean `gate_deg`"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,5 +1,14 @@
 //! `wins aoa` and `wins calibrate` end to end on a simulated paper-circle flight.
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 

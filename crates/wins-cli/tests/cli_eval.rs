@@ -1,5 +1,14 @@
 //! `wins eval` end to end: a truth and a rigidly moved, noisy, subsampled estimate on disk.
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use std::path::PathBuf;
 
 use wins::dataset::truth::Truth;

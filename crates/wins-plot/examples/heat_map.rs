@@ -1,6 +1,15 @@
 //! Renders a synthetic MUSIC-like spectrum with two peaks to the PNG given as first argument
 //! (default `heat_map.png`): `cargo run -p wins-plot --example heat_map -- /tmp/map.png`.
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use wins_plot::{HeatMap, Marker, MarkerStyle, PlotError, heat_map_png};
 
 fn main() -> Result<(), PlotError> {

@@ -11,6 +11,15 @@
 //! HT20 is the simulator's default (16 × 30 smoothed matrix); HT40 is SpotFi's 30 × 32.
 //! Run: `cargo bench -p wins --bench aoa`.
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use std::sync::LazyLock;
 
 use divan::{Bencher, black_box};

@@ -6,6 +6,15 @@
 //!
 //! Run: `cargo bench -p wins --bench simulate`.
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use std::sync::LazyLock;
 
 use divan::counter::ItemsCount;

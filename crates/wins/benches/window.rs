@@ -6,6 +6,15 @@
 //!
 //! `cargo bench -p wins --bench window`
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 use divan::Bencher;
 use nalgebra::Vector3;
 use wins::aoa::steering::aoa_rad;

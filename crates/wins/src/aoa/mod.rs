@@ -2,20 +2,20 @@
 //! over a group of packets (SpotFi clustering), and the IMU-guided per-packet PAoA of WINS.
 //!
 //! Per packet, in this order: chain calibration ([`crate::rig::ChainCalibration`]; measured by [`measure_chains`]), ToF sanitization
-//! ([`crate::csi::sanitize`]), smoothing ([`smoothing`]), signal subspace ([`subspace`]), spectrum
+//! (`crate::csi::sanitize`), smoothing (`smoothing`), signal subspace (`subspace`), spectrum
 //! and peaks ([`music`]). The steering vector is [`steering`]'s, shared with the simulator.
 
-pub mod estimator;
-pub mod group;
+pub(crate) mod estimator;
+pub(crate) mod group;
 pub mod measure_chains;
 pub mod music;
-pub mod paoa;
-pub mod peak;
+pub(crate) mod paoa;
+pub(crate) mod peak;
 pub mod reference;
-pub mod smoothing;
+pub(crate) mod smoothing;
 pub mod spotfi;
 pub mod steering;
-pub mod subspace;
+pub(crate) mod subspace;
 mod top_eigen;
 
 pub use estimator::{AoaConfig, AoaError, AoaEstimator};
@@ -24,3 +24,4 @@ pub use measure_chains::{CalibrateError, CalibrateReport, calibrate, calibrate_w
 pub use music::{AoaWindow, Music, MusicConfig, MusicError, Spectrum};
 pub use paoa::{AoaPrediction, PaoaResult};
 pub use peak::Peak;
+pub use subspace::PathCount;

@@ -3,6 +3,6 @@
 
 pub mod intel5300;
 pub mod sanitize;
-pub mod subcarriers;
+pub(crate) mod subcarriers;
 
 pub use subcarriers::{Bandwidth, NUM_SUBCARRIERS, SUBCARRIER_SPACING_HZ};

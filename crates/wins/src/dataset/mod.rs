@@ -15,9 +15,9 @@
 //!   scenario.toml      the scenario that produced the dataset
 //! ```
 
-pub mod imu_csv;
-pub mod load;
-pub mod manifest;
+pub(crate) mod imu_csv;
+pub(crate) mod load;
+pub(crate) mod manifest;
 pub mod truth;
 
 pub use load::{ApLog, CsiPacket, Dataset, DatasetError};

@@ -73,8 +73,8 @@ impl Alignment {
 /// Least-squares rigid transform taking `est[i]` onto `truth[i]` (Umeyama 1991, eqs. 34–43 with
 /// scale fixed to 1; the reflection guard of eq. 43 keeps `det R = +1`).
 ///
-/// Errors: different lengths, fewer than [`MIN_ALIGNMENT_PAIRS`] pairs, or a degenerate
-/// cross-covariance (all points on one line, or all equal: see [`MIN_RELATIVE_SINGULAR_VALUE`]).
+/// Errors: different lengths, fewer than `MIN_ALIGNMENT_PAIRS` pairs, or a degenerate
+/// cross-covariance (all points on one line, or all equal: see `MIN_RELATIVE_SINGULAR_VALUE`).
 /// Planar point sets are fine: the reflection guard fixes the third axis.
 pub fn umeyama(est: &[Vector3<f64>], truth: &[Vector3<f64>]) -> Result<Alignment, EvalError> {
     if est.len() != truth.len() {

@@ -57,7 +57,7 @@ pub struct Metrics {
     /// Time from the first to the last associated estimated pose, s.
     pub duration_s: f64,
     /// Largest truth speed over the whole truth trajectory, m/s, from finite differences of truth
-    /// positions at least [`SPEED_MIN_INTERVAL_S`] apart (0 if the truth is shorter than that).
+    /// positions at least `SPEED_MIN_INTERVAL_S` apart (0 if the truth is shorter than that).
     pub max_speed_m_s: f64,
     /// Associated pose pairs the errors are computed over.
     pub poses_evaluated: usize,

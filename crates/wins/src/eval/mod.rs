@@ -10,12 +10,12 @@
 //! `evo_ape tum TRUTH EST -a` and `rpe_*` equal `evo_rpe tum TRUTH EST --delta Δ --delta_unit f`
 //! (`scripts/evo_check.sh` checks both). The definitions are on the fields of [`Metrics`].
 
-pub mod align;
-pub mod aps;
-pub mod associate;
+pub(crate) mod align;
+pub(crate) mod aps;
+pub(crate) mod associate;
 mod evaluate;
-pub mod metrics;
-pub mod rpe;
+pub(crate) mod metrics;
+pub(crate) mod rpe;
 
 use serde::{Deserialize, Serialize};
 

@@ -7,7 +7,7 @@
 //! bias, and the [`super::window::SlidingWindow`] is solved; once it has converged the window
 //! estimates the gyro bias jointly, which is what removes the gyro drift from the attitude (the
 //! paper's relaxed rotation averaging, [`super::attitude`], fed back in the loop made it worse:
-//! see the README). Poses come out in the world frame `w`: origin and heading of `b0`, z along
+//! see docs/RESULTS.md). Poses come out in the world frame `w`: origin and heading of `b0`, z along
 //! the solved upward gravity. When a converged estimate is lost, the window starts over with a
 //! new `b0`; `w` stays the same: the new window is placed at the position and heading of the
 //! lost one's last pose whose bearings still fitted, so the output trajectory does not jump back

@@ -1,9 +1,9 @@
 //! Inertial measurements: the sample type, noise densities and biases, and preintegration between
 //! PAoA frames (paper `eqn:alpha`, `eqn:beta`, `eqn:rotation`).
 
-pub mod biases;
+pub(crate) mod biases;
 pub mod preintegration;
-pub mod sample;
+pub(crate) mod sample;
 
 pub use biases::ImuBiases;
 pub use preintegration::{Preintegrated, PreintegrationError, Preintegrator};

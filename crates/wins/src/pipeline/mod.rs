@@ -2,7 +2,7 @@
 //! feed IMU samples and CSI packets in time order, get poses. A dataset replay ([`replay`]) and a
 //! live stream are two drivers of the same [`Pipeline`].
 //!
-//! Per packet of AP `l` ([`track`]): the first angle from SpotFi over the AP's first
+//! Per packet of AP `l` (`track`): the first angle from SpotFi over the AP's first
 //! [`PipelineConfig::init_packets`] packets; then PAoA around a prediction, the previous angle
 //! turned by the gyro (not the state's direction to the AP: a wrong state would steer the window
 //! off the AP for good). The side of the linear array (front/back mirror) is resolved from the state once
@@ -10,7 +10,7 @@
 //! ([`PipelineConfig::assume_front_until_converged`], the paper's ±90° set-up) and the packet log
 //! says so. A packet whose window holds no credible peak, or (after convergence) whose angle is
 //! further than [`PipelineConfig::gate_deg`] from the state's prediction, is dropped and counted.
-//! Accepted bearings join the frame at the next grid time ([`slot`]), moved to that instant by
+//! Accepted bearings join the frame at the next grid time (`slot`), moved to that instant by
 //! the gyro (and the velocity once known); the frame is solved by [`Wins`] when the IMU stream
 //! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed
 //! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
@@ -21,9 +21,9 @@ pub mod figures;
 pub mod output;
 pub mod replay;
 pub mod run;
-pub mod slot;
+pub(crate) mod slot;
 pub mod stats;
-pub mod track;
+pub(crate) mod track;
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -196,7 +196,7 @@ impl Pipeline {
             .map(|p| ArrayPose::of_body(&p.b0_from_body, &p.p_b_in_b0, &self.rig.body_from_array));
         let started = Instant::now();
         if let TrackState::Acquiring { .. } = track.state {
-            self.acquire(ap, t, record, now.as_ref(), &mut row);
+            self.acquire(ap, record, now.as_ref(), &mut row);
         } else {
             self.follow(ap, t, record, now.as_ref(), converged, &mut row);
         }
@@ -209,7 +209,6 @@ impl Pipeline {
     fn acquire(
         &mut self,
         ap: usize,
-        t: Timestamp,
         record: &CsiRecord,
         now: Option<&ArrayPose>,
         row: &mut PacketLog,
@@ -228,7 +227,7 @@ impl Pipeline {
             Ok(direct) => {
                 row.aoa_deg = Some(direct.aoa_rad.to_degrees());
                 row.tof_ns = Some(direct.tof_s * 1e9);
-                self.tracks[ap].accept(direct.aoa_rad, t, now.copied());
+                self.tracks[ap].accept(direct.aoa_rad, now.copied());
                 self.stats.per_ap[ap].acquisitions += 1;
             }
             Err(e) => {
@@ -300,7 +299,6 @@ impl Pipeline {
             peak.aoa_rad,
             &prediction,
             self.config.track_gain,
-            t,
             now.copied(),
         );
         // The side: continuous along the track (the AP crosses from front to back only through

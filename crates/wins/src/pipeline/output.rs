@@ -4,7 +4,7 @@
 //! |---|---|
 //! | `trajectory.tum` | body poses in `w` at every frame after convergence (TUM: `t x y z qx qy qz qw`) |
 //! | `trajectory_all.tum` | the same from the first frame (before convergence `w` is not yet fixed) |
-//! | `aps.csv` | estimated AP positions in `w` ([`crate::eval::aps`] format) |
+//! | `aps.csv` | estimated AP positions in `w` (`crate::eval::aps` format) |
 //! | `aoa.csv` | one row per packet ([`super::PacketLog`]) |
 //! | `stats.json` | packets used/dropped per AP and why, estimator counters, per-stage wall time |
 //! | `metrics.json`, `report.txt` | with a truth only: [`crate::eval::Metrics`] and its text |

@@ -15,7 +15,6 @@ use crate::aoa::AoaPrediction;
 use crate::aoa::steering::aoa_rad;
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::{Side, side_of};
-use crate::time::Timestamp;
 
 /// The array's pose in `b0` at one instant (from the estimator's propagated pose).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -59,8 +58,6 @@ pub enum TrackState {
     Tracking {
         /// The last angle (measured or SpotFi's), rad.
         aoa_rad: f64,
-        /// When it was measured.
-        t: Timestamp,
         /// The array's pose then (`None` before the estimator had a pose).
         pose: Option<ArrayPose>,
         /// Consecutive packets without a credible peak.
@@ -122,10 +119,9 @@ impl Track {
     }
 
     /// Records an accepted angle.
-    pub fn accept(&mut self, aoa_rad: f64, t: Timestamp, pose: Option<ArrayPose>) {
+    pub fn accept(&mut self, aoa_rad: f64, pose: Option<ArrayPose>) {
         self.state = TrackState::Tracking {
             aoa_rad,
-            t,
             pose,
             misses: 0,
         };
@@ -141,7 +137,6 @@ impl Track {
         aoa_rad: f64,
         prediction: &AoaPrediction,
         gain: f64,
-        t: Timestamp,
         pose: Option<ArrayPose>,
     ) {
         self.off_track_in_row = 0;
@@ -151,7 +146,7 @@ impl Track {
             Side::Back
         };
         let predicted_rad = prediction.predicted_aoa_rad();
-        self.accept(predicted_rad + gain * (aoa_rad - predicted_rad), t, pose);
+        self.accept(predicted_rad + gain * (aoa_rad - predicted_rad), pose);
     }
 
     /// Records a packet whose angle jumped off the track; returns `true` when more than
@@ -214,7 +209,7 @@ mod tests {
             b0_from_array: UnitQuaternion::identity(),
             p_a_in_b0: Vector3::zeros(),
         };
-        track.accept(0.2, Timestamp(0), Some(then));
+        track.accept(0.2, Some(then));
         let now = ArrayPose {
             b0_from_array: UnitQuaternion::from_euler_angles(0.0, 0.0, 0.1),
             ..then
@@ -235,17 +230,11 @@ mod tests {
             b0_from_array: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
             p_a_in_b0: Vector3::zeros(),
         };
-        track.accept(85f64.to_radians(), Timestamp(0), Some(pose(0.0)));
+        track.accept(85f64.to_radians(), Some(pose(0.0)));
         let p = track.predict_by_rotation(Some(&pose(-10.0))).unwrap();
         assert!(!p.in_front_after);
         assert!((p.predicted_aoa_rad() - 85f64.to_radians()).abs() < 1e-9);
-        track.update(
-            p.predicted_aoa_rad(),
-            &p,
-            1.0,
-            Timestamp(1),
-            Some(pose(-10.0)),
-        );
+        track.update(p.predicted_aoa_rad(), &p, 1.0, Some(pose(-10.0)));
         assert_eq!(track.side, Side::Back);
         // Turning on, the AP goes further behind (azimuth 105°): the cone angle now falls, where
         // the same turn with the AP in front would have raised it.
@@ -257,14 +246,14 @@ mod tests {
     #[test]
     fn the_track_follows_a_share_of_each_angle_and_a_run_of_jumps_restarts_it() {
         let mut track = Track::default();
-        track.accept(0.0, Timestamp(0), None);
+        track.accept(0.0, None);
         let at = |rad: f64| AoaPrediction {
             previous_aoa_rad: rad,
             rotation_part_rad: 0.0,
             translation_part_rad: 0.0,
             in_front_after: true,
         };
-        track.update(0.1, &at(0.0), 0.3, Timestamp(1), None);
+        track.update(0.1, &at(0.0), 0.3, None);
         let TrackState::Tracking { aoa_rad, .. } = track.state else {
             panic!("tracking");
         };
@@ -272,7 +261,7 @@ mod tests {
         assert!(!track.off_track(2));
         assert!(!track.off_track(2));
         // An accepted angle ends the run.
-        track.update(0.03, &at(0.03), 0.3, Timestamp(2), None);
+        track.update(0.03, &at(0.03), 0.3, None);
         assert!(!track.off_track(2));
         assert!(!track.off_track(2));
         assert!(track.off_track(2));

@@ -3,8 +3,8 @@
 //! every stage above; this module depends on none of them.
 
 pub mod array;
-pub mod chain_calibration;
-pub mod imu_noise;
+pub(crate) mod chain_calibration;
+pub(crate) mod imu_noise;
 
 use nalgebra::Isometry3;
 

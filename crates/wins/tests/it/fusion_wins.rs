@@ -1,6 +1,8 @@
 //! WINS on the simulator's `paper-circle` with true AoA plus 2° Gaussian noise at 50 Hz and the
-//! MicroStrain IMU (issue 5's check): position and AP error after convergence, convergence time,
-//! attitude error; and robustness (motion toward the AP, outages, a still start).
+//! MicroStrain IMU, the estimator alone (no AoA stage): position and AP error after convergence,
+//! convergence time, attitude error; and robustness (motion toward the AP, outages, a still
+//! start). Three studies that measure rather than guard are `#[ignore]`d; run them with
+//! `cargo test --release -p wins --test it -- --ignored --nocapture NAME` (docs/RESULTS.md).
 
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
@@ -253,25 +255,27 @@ fn paper_circle_with_two_degree_bearings() {
         "AP range from b0: {est:.2} m estimated, {truth:.2} m true ({:+.1} %)",
         100.0 * (est / truth - 1.0)
     );
-    // Issue 5's targets are 10 s, 0.15 m, 0.15 m and 0.5°; NOT MET yet (see the README's fusion
-    // section). These bounds guard what the estimator does today, a regression fails them.
+    // The aims are 10 s, 0.15 m, 0.15 m and 0.5°; not met yet (docs/RESULTS.md). These bounds
+    // are 20 % above what the estimator does today (11.5 s, 0.32 m, 0.16 m, 0.52°), so a 20 %
+    // regression fails them.
     assert!(
-        e.converged_s.is_some_and(|t| t <= 13.0),
+        e.converged_s.is_some_and(|t| t <= 13.8),
         "{:?}",
         e.converged_s
     );
-    assert!(e.position_mean_m <= 0.45, "{}", e.position_mean_m);
-    assert!(e.ap_m[0] <= 0.25, "{}", e.ap_m[0]);
-    assert!(e.attitude_mean_deg <= 1.0, "{}", e.attitude_mean_deg);
+    assert!(e.position_mean_m <= 0.39, "{}", e.position_mean_m);
+    assert!(e.ap_m[0] <= 0.19, "{}", e.ap_m[0]);
+    assert!(e.attitude_mean_deg <= 0.63, "{}", e.attitude_mean_deg);
     assert!((est / truth - 1.0).abs() < 0.05);
 }
 
-/// What limits [`paper_circle_with_two_degree_bearings`]: the same flights with the gyro's
-/// turn-on bias known (removed from the simulated MicroStrain, every other noise kept) meet
-/// issue 5's accuracy aims on the median of three noise seeds, with the attitude error falling
-/// from 0.55–1.35° to ~0.05°. One AP observes a ±0.08 °/s turn-on bias only slowly; the first
-/// seconds after convergence carry metre errors while it settles.
+/// Study: what limits [`paper_circle_with_two_degree_bearings`]. The same flights with the
+/// gyro's turn-on bias known (removed from the simulated MicroStrain, every other noise kept)
+/// meet the 0.15 m aim on the median of three noise seeds, with the attitude error falling from
+/// 0.55–1.35° to ~0.05°. One AP observes a ±0.08 °/s turn-on bias only slowly; the first seconds
+/// after convergence carry metre errors while it settles.
 #[test]
+#[ignore = "study, figures in docs/RESULTS.md"]
 fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
     let mut sc = scenario("paper-circle", 40.0);
     let mut noise = sc.imu.model.noise();
@@ -286,7 +290,7 @@ fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
             "seed {seed}, gyro turn-on bias known: converged at {converged_s:?} s; position {:.3} m, AP {:.3} m, attitude {:.3}°",
             e.position_mean_m, e.ap_m[0], e.attitude_mean_deg
         );
-        // Convergence: 11.5 s (the aim of 10 s is not met; see the README).
+        // Convergence: 11.5 s (the aim of 10 s is not met; docs/RESULTS.md).
         assert!(converged_s.is_some_and(|t| t <= 12.0), "{converged_s:?}");
         assert!(e.position_mean_m <= 0.25, "{}", e.position_mean_m);
         assert!(e.ap_m[0] <= 0.2, "{}", e.ap_m[0]);
@@ -297,14 +301,17 @@ fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
     assert!(position[1] <= 0.15, "median {}", position[1]);
 }
 
-/// Issue 5's aims against what the data hold: the estimate started at the TRUE state at 10 s
+/// Study: the aims (0.15 m with a 10 s convergence) against what the data hold. The estimate
+/// started at the TRUE state at 10 s
 /// (every frame, the AP; [`Wins::converge_from`]), re-linearized every frame, the window 10 s
 /// long and never declared lost, is the best an estimator converging at 10 s can do on this
 /// flight. With the MicroStrain's turn-on gyro bias unknown its mean position error over
 /// 10–40 s is 0.23–0.33 m on seeds 11–13 (0.33–0.68 m over 10–15 s): the 0.15 m aim with a
 /// 10 s convergence is beyond the information in the data, for any estimator (with the bias
-/// removed from the simulated IMU the same start nearly meets it: the session-7 issue note).
+/// removed from the simulated IMU the same start nearly meets it). It asserts that the floor is
+/// still above the aim: a better data model would fail it, which is why it is a study.
 #[test]
+#[ignore = "study, figures in docs/RESULTS.md"]
 fn the_information_floor() {
     let sc = scenario("paper-circle", 40.0);
     let start = TruthStart {
@@ -335,16 +342,17 @@ fn the_information_floor() {
     assert!(position[1] > 0.2, "median {}", position[1]);
 }
 
-/// Issue 6's three-AP aim (≤ 0.15 m) against the paper's 5-DoF model: its AoA rows take each AP
+/// Study: the three-AP aim (≤ 0.15 m) against the paper's 5-DoF model: its AoA rows take each AP
 /// at the array's height, which `paper-circle-3ap` breaks on purpose (APs 0.7 m above and 0.5 m
 /// below the flight). With true bearings plus 2° noise, started at the TRUE state at 10 s (the
 /// floor, as in [`the_information_floor`]), the off-plane APs stay ~0.6 m off and the position
 /// above 0.2 m; the same flight with all three APs at the flight's height, started from zeros,
 /// meets the aim. So on this flight the aim needs the APs' heights, which a linear array sees only
 /// through the MAV's small tilts and the range (the exact cone row, `cone_rows`, finds them on
-/// these bearings but fails for APs in the flight's plane and in the pipeline: README, issue
-/// note).
+/// these bearings but fails for APs in the flight's plane and in the pipeline: docs/RESULTS.md).
+/// It asserts the off-plane APs stay off, so a better model fails it: a study.
 #[test]
+#[ignore = "study, figures in docs/RESULTS.md"]
 fn three_aps_off_the_flight_plane() {
     let off_plane = scenario("paper-circle-3ap", 40.0);
     // `ap0` is at the flight's height (1.5 m); the others are moved to it.
@@ -384,9 +392,8 @@ fn three_aps_off_the_flight_plane() {
 #[test]
 fn the_joint_gyro_bias_and_yaw_drift() {
     // The attitude with and without the window's gyro-bias estimate: on the MicroStrain (turn-on
-    // 0.08 °/s per axis) it removes most of the drift; on a consumer MEMS gyro (0.5 °/s) it does
-    // not yet (printed, see the README): the bias is only estimated after convergence, by when
-    // the startup solution has absorbed degrees of drift.
+    // 0.08 °/s per axis) it removes most of the drift (on a consumer MEMS gyro, 0.5 °/s, it does
+    // not yet: docs/RESULTS.md).
     let from = |r: &Run| r.errors(r.errors(0.0).converged_s.unwrap_or(10.0));
     let sc = scenario("paper-circle", 40.0);
     let (a, b) = (
@@ -406,22 +413,6 @@ fn the_joint_gyro_bias_and_yaw_drift() {
     );
     assert!(a.attitude_mean_deg < 0.6 * b.attitude_mean_deg);
     assert!(a.ap_m[0] < 0.2 * b.ap_m[0]);
-    let mut mems = sc.clone();
-    mems.imu.model = wins::sim::imu::ImuModel::ConsumerMems;
-    let (c, d) = (
-        from(&run(&mems, 2.0, 15, true, |_| true)),
-        from(&run(&mems, 2.0, 15, false, |_| true)),
-    );
-    eprintln!(
-        "consumer MEMS, 40 s, after convergence, gyro bias estimated / not: yaw {:.2}° / {:.2}°, attitude {:.2}° / {:.2}°, position {:.3} m / {:.3} m",
-        c.yaw_mean_deg,
-        d.yaw_mean_deg,
-        c.attitude_mean_deg,
-        d.attitude_mean_deg,
-        c.position_mean_m,
-        d.position_mean_m
-    );
-    assert!(c.attitude_mean_deg.is_finite() && d.attitude_mean_deg.is_finite());
 }
 
 #[test]

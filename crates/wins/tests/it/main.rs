@@ -1,5 +1,14 @@
 //! Integration tests of the wins library (one test binary).
 
+// Tests, benchmarks and examples stop at the line that failed and print what they measure.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::print_stdout,
+    clippy::print_stderr
+)]
+
 mod aoa_accuracy;
 mod data;
 mod fusion_ekf;

@@ -1,4 +1,4 @@
-//! Issue 4, sanitization (SpotFi Algorithm 1) on simulated and real packets.
+//! Sanitization (SpotFi Algorithm 1) on simulated and real packets.
 
 use num_complex::Complex64;
 use wins::csi::intel5300::{CsiRecord, read_log};

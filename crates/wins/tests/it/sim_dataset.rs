@@ -1,4 +1,4 @@
-//! Issue 3: the simulator's files. The IMU integrates back to the trajectory, the logs read back
+//! The simulator's files. The IMU integrates back to the trajectory, the logs read back
 //! bit for bit, the clocks line up, and each random stream is independent of the others.
 
 use std::path::PathBuf;

@@ -1,4 +1,4 @@
-//! Issue 3: scenarios are TOML; the built-ins parse, validate and round-trip; bad ones name the field.
+//! Scenarios are TOML; the built-ins parse, validate and round-trip; bad ones name the field.
 
 use wins::sim::scenario::{BUILT_IN, Scenario, ScenarioError, built_in_toml, printable_toml};
 

@@ -128,7 +128,7 @@ fn aoa_rows_match_finite_differences_of_the_angle() {
 }
 
 /// A preintegrated second of rotating, accelerating motion with zero noise.
-fn interval() -> crate::imu::Preintegrated {
+fn interval() -> Preintegrated {
     let noise = ImuNoise {
         gyro_noise_density_rad_s_sqrt_hz: 1e-4,
         gyro_bias_random_walk_rad_s2_sqrt_hz: 0.0,
