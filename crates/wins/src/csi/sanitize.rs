@@ -1,6 +1,6 @@
 //! ToF sanitization, SpotFi (Kotaru et al., SIGCOMM 2015) Algorithm 1: remove the packet's
 //! sampling-time offset (and with it the common part of the ToF) by ONE straight-line fit of
-//! phase against subcarrier frequency over all antennas (DESIGN.md §3).
+//! phase against subcarrier frequency over all antennas (docs/DESIGN.md §3).
 //!
 //! Each antenna's phase is unwrapped along the subcarriers; antennas are aligned to within π of
 //! antenna 0 at the first subcarrier; the line `ψ(Δf) = slope·Δf + offset` is fitted by least

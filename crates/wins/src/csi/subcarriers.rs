@@ -33,7 +33,7 @@ pub enum Bandwidth {
 
 impl Bandwidth {
     /// The true 802.11n subcarrier indices of the 30 reported groups, in report order. Popular SpotFi
-    /// clones use a uniform spacing instead; that is wrong for HT20 (DESIGN.md §3).
+    /// clones use a uniform spacing instead; that is wrong for HT20 (docs/DESIGN.md §3).
     pub fn subcarrier_indices(self) -> &'static [i32; NUM_SUBCARRIERS] {
         match self {
             Bandwidth::Ht20 => &HT20_INDICES,

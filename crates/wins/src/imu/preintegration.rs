@@ -30,7 +30,7 @@
 //! ```
 //!
 //! **Noise**: each sample carries white noise of variance `σ_c²/T_s` (`T_s` the sample period;
-//! DESIGN.md §2). A sub-interval's input noise is the mean of its two endpoints' noises, so
+//! docs/DESIGN.md §2). A sub-interval's input noise is the mean of its two endpoints' noises, so
 //! consecutive sub-intervals share a sample; the covariance carries that correlation exactly
 //! (cross term `C = Cov(δx, η_end)`). A sample interpolated at a cut is treated as having fresh
 //! noise of the full variance (slightly conservative), and intervals are independent of each

@@ -17,6 +17,7 @@
 
 pub mod aoa_log;
 pub mod config;
+mod figure_data;
 pub mod figures;
 pub mod output;
 pub mod replay;

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 
-use super::figures::RunFigures;
+use super::figure_data::RunFigures;
 use super::{Config, PacketLog, Pipeline, PipelineError, PipelineStats, StageTiming};
 use crate::dataset::Dataset;
 use crate::dataset::truth::Truth;

@@ -1,4 +1,4 @@
-//! Per-receive-chain phase offsets: the constant phase each RF chain adds (DESIGN.md §3). Applied to
+//! Per-receive-chain phase offsets: the constant phase each RF chain adds (docs/DESIGN.md §3). Applied to
 //! the raw CSI before everything else; without it MUSIC's angles are wrong by tens of degrees.
 //!
 //! The file is TOML:

@@ -1,5 +1,5 @@
 //! The simulated IMU: perfect specific force and angular rate plus white noise, bias random walks
-//! and turn-on biases, discretized from continuous densities (DESIGN.md §2).
+//! and turn-on biases, discretized from continuous densities (docs/DESIGN.md §2).
 //!
 //! Measurement model (both sensors, per axis): `y_k = x(t_k) + b_k + σ/√Δt · n_k`, with
 //! `b_0 ~ N(0, σ_turn-on²)` and `b_{k+1} = b_k + σ_rw·√Δt · n'_k`, `n, n' ~ N(0, 1)`.

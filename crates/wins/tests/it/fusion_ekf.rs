@@ -70,7 +70,7 @@ fn noisy_imu(imu: &[ImuSample], seed: u64) -> Vec<ImuSample> {
 fn ekf_config(flight: &Flight) -> EkfConfig {
     let dt = 1.0 / IMU_RATE_HZ;
     EkfConfig {
-        // Continuous densities from the per-sample σ: σ_c = σ_d·√Δt (DESIGN.md §2).
+        // Continuous densities from the per-sample σ: σ_c = σ_d·√Δt (docs/DESIGN.md §2).
         gyro_noise_density_rad_s_sqrt_hz: GYRO_SIGMA_PER_SAMPLE * dt.sqrt(),
         accel_noise_density_m_s2_sqrt_hz: ACCEL_SIGMA_PER_SAMPLE * dt.sqrt(),
         gravity_m_s2: flight.gravity_m_s2,

@@ -1,5 +1,5 @@
 //! MUSIC over (AoA, ToF) (SpotFi §3.2), with the spectrum evaluated through the Kronecker
-//! structure of the steering vector (DESIGN.md §3).
+//! structure of the steering vector (docs/DESIGN.md §3).
 //!
 //! The steering vector of a window is `s(θ, τ) = a(θ) ⊗ b(τ)`: `a_m = exp(+j·2π·f_c·y_m·sin θ/c)`
 //! over the window's `M_s` antennas ([`ArrayGeometry::antenna_phase_rad`], the one definition

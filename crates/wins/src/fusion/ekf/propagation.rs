@@ -19,7 +19,7 @@
 //! δp⁺ = δp + Δt·δv − ½R̂[f̄]×Δt²·δθ
 //! ```
 //!
-//! Noise (DESIGN.md §2): white noise of density σ_c averaged over Δt has variance σ_c²/Δt (the
+//! Noise (docs/DESIGN.md §2): white noise of density σ_c averaged over Δt has variance σ_c²/Δt (the
 //! per-sample σ_d = σ_c/√Δt); it enters δθ as `n_g·Δt`, δv as `R̂·n_a·Δt` and δp as `½R̂·n_a·Δt²`.
 
 use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};

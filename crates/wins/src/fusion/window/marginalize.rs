@@ -1,4 +1,4 @@
-//! Marginalizing the oldest frame (DESIGN.md §5): the Schur complement of ONLY the factors that
+//! Marginalizing the oldest frame (docs/DESIGN.md §5): the Schur complement of ONLY the factors that
 //! touch it (the prior, its IMU factor to the next frame, its AoA factors), as VINS-Mono does.
 //! Every other factor stays in the window and is counted once.
 
