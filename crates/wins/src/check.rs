@@ -65,6 +65,17 @@ impl Problems {
         );
     }
 
+    /// `value` must be finite and `≥ 0`.
+    pub fn non_negative(&mut self, prefix: &str, key: &str, value: f64) {
+        let ok = value.is_finite() && value >= 0.0;
+        self.require(
+            ok,
+            prefix,
+            key,
+            format!("{} is not a finite value ≥ 0", num(value)),
+        );
+    }
+
     /// `value` must be at least `min`.
     pub fn at_least(&mut self, prefix: &str, key: &str, value: usize, min: usize) {
         self.require(value >= min, prefix, key, format!("{value} is below {min}"));

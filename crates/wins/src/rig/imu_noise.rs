@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::Problems;
+
 /// Continuous-time noise parameters of a 3-axis gyro and accelerometer.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -22,10 +24,10 @@ pub struct ImuNoise {
 }
 
 impl ImuNoise {
-    /// Every density and spread finite and ≥ 0 (zero is an ideal sensor); the first that is not,
-    /// by name.
-    pub fn validate(&self) -> Result<(), String> {
-        let fields = [
+    /// Every density and spread finite and ≥ 0 (zero is an ideal sensor), under `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        for (key, v) in [
             (
                 "gyro_noise_density_rad_s_sqrt_hz",
                 self.gyro_noise_density_rad_s_sqrt_hz,
@@ -44,10 +46,14 @@ impl ImuNoise {
                 self.accel_bias_random_walk_m_s3_sqrt_hz,
             ),
             ("accel_turn_on_bias_m_s2", self.accel_turn_on_bias_m_s2),
-        ];
-        match fields.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
-            Some((name, v)) => Err(format!("{name} = {v} is not a finite value >= 0")),
-            None => Ok(()),
+        ] {
+            p.non_negative(prefix, key, v);
         }
+        p
+    }
+
+    /// [`ImuNoise::problems`], in words.
+    pub fn validate(&self) -> Result<(), String> {
+        self.problems("").into_result().map_err(|p| p.to_string())
     }
 }

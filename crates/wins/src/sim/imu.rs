@@ -97,33 +97,9 @@ impl ImuConfig {
                 format!("{} is not in [1, 10000] Hz", self.rate_hz),
             ));
         }
-        let n = self.model.noise();
-        for (name, v) in [
-            (
-                "gyro_noise_density_rad_s_sqrt_hz",
-                n.gyro_noise_density_rad_s_sqrt_hz,
-            ),
-            (
-                "gyro_bias_random_walk_rad_s2_sqrt_hz",
-                n.gyro_bias_random_walk_rad_s2_sqrt_hz,
-            ),
-            ("gyro_turn_on_bias_rad_s", n.gyro_turn_on_bias_rad_s),
-            (
-                "accel_noise_density_m_s2_sqrt_hz",
-                n.accel_noise_density_m_s2_sqrt_hz,
-            ),
-            (
-                "accel_bias_random_walk_m_s3_sqrt_hz",
-                n.accel_bias_random_walk_m_s3_sqrt_hz,
-            ),
-            ("accel_turn_on_bias_m_s2", n.accel_turn_on_bias_m_s2),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(ConfigError::new(
-                    format!("{field}.model.{name}"),
-                    format!("{v} is not a finite value ≥ 0"),
-                ));
-            }
+        let problems = self.model.noise().problems(&format!("{field}.model"));
+        if let Some(p) = problems.0.first() {
+            return Err(ConfigError::new(p.key.clone(), p.message.clone()));
         }
         Ok(())
     }
