@@ -9,7 +9,7 @@ use super::music::{AoaWindow, Music, MusicConfig, MusicError};
 use super::peak::Peak;
 use super::spotfi::SpotfiConfig;
 use super::subspace::Subspace;
-use crate::check::Problems;
+use crate::check::{Problems, join};
 use crate::csi::intel5300::{CsiRecord, Perm};
 use crate::csi::sanitize::{SanitizeError, sanitize};
 use crate::csi::{Bandwidth, NUM_SUBCARRIERS};
@@ -33,15 +33,8 @@ pub struct AoaConfig {
 impl AoaConfig {
     /// Every setting of the stage in its range, under `prefix` (`music`, `spotfi` below it).
     pub fn problems(&self, prefix: &str) -> Problems {
-        let sub = |key: &str| {
-            if prefix.is_empty() {
-                key.to_string()
-            } else {
-                format!("{prefix}.{key}")
-            }
-        };
-        let mut p = self.music.problems(&sub("music"));
-        p.extend(self.spotfi.problems(&sub("spotfi")));
+        let mut p = self.music.problems(&join(prefix, "music"));
+        p.extend(self.spotfi.problems(&join(prefix, "spotfi")));
         let w = self.paoa_half_width_deg;
         p.require(
             w.is_finite() && w > 0.0 && w <= 90.0,

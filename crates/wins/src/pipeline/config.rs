@@ -206,12 +206,6 @@ impl Config {
         })?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
-
-    /// The configuration as TOML, every key written.
-    pub fn to_toml(&self) -> String {
-        // Every field serializes (no map keys other than strings, no values TOML lacks).
-        toml::to_string(self).unwrap_or_default()
-    }
 }
 
 /// The shipped defaults, `configs/default.toml`, as text.
