@@ -33,7 +33,7 @@ fn main() {
 /// A converged window holding `frames` frames (full): 16 s of flight plus the window.
 fn window(frames: usize) -> SlidingWindow {
     let sc = Scenario::built_in("paper-circle").expect("built-in");
-    let traj = sc.build_trajectory();
+    let traj = sc.build_flight();
     let body_from_array = sc.body_from_array();
     let ap = Vector3::from(sc.aps[0].position_m);
     let mut pre = Preintegrator::new(sc.imu.model.noise(), ImuBiases::zero());

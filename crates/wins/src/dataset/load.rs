@@ -4,6 +4,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
+use super::baro_csv::{self, BaroCsvError, BaroSample};
 use super::imu_csv::{self, ImuCsvError};
 use super::manifest::{FORMAT, Manifest, VERSION};
 use crate::csi::intel5300::{CsiRecord, ReadError, Skip, read_log};
@@ -49,6 +50,14 @@ pub enum DatasetError {
         /// Which line and why.
         source: ImuCsvError,
     },
+    /// The barometer CSV is malformed.
+    #[error("{path}: {source}")]
+    Baro {
+        /// The CSV.
+        path: PathBuf,
+        /// Which line and why.
+        source: BaroCsvError,
+    },
     /// A CSI log could not be read (corrupt content is skipped and counted, not an error).
     #[error(transparent)]
     Log(#[from] ReadError),
@@ -92,6 +101,8 @@ pub struct Dataset {
     pub aps: Vec<ApLog>,
     /// The NIC's chain calibration, when the manifest names one.
     pub calibration: Option<ChainCalibration>,
+    /// Barometer readings, strictly increasing in time; empty when the manifest names none.
+    pub baro: Vec<BaroSample>,
 }
 
 impl Dataset {
@@ -136,12 +147,25 @@ impl Dataset {
             Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
             None => None,
         };
+        let baro = match &manifest.baro {
+            Some(entry) => {
+                let path = dir.join(&entry.file);
+                let file = File::open(&path).map_err(|source| DatasetError::Io {
+                    path: path.clone(),
+                    source,
+                })?;
+                baro_csv::read(BufReader::new(file))
+                    .map_err(|source| DatasetError::Baro { path, source })?
+            }
+            None => Vec::new(),
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             manifest,
             imu,
             aps,
             calibration,
+            baro,
         })
     }
 }
@@ -172,6 +196,11 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
             "version {} (this build reads version {VERSION})",
             manifest.version
         )));
+    }
+    if let Some(b) = &manifest.baro
+        && !(b.rate_hz.is_finite() && b.rate_hz > 0.0)
+    {
+        return Err(invalid(format!("baro.rate_hz {} is not > 0", b.rate_hz)));
     }
     if manifest.aps.is_empty() {
         return Err(invalid("no access point".into()));

@@ -31,6 +31,19 @@ pub struct Manifest {
     pub channel: ChannelEntry,
     /// One entry per access point.
     pub aps: Vec<ApEntry>,
+    /// The flight controller's barometer, when recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baro: Option<BaroEntry>,
+}
+
+/// The barometer stream (`t_ns,altitude_m`, see [`crate::dataset::baro_csv`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaroEntry {
+    /// CSV file, relative to the dataset directory.
+    pub file: String,
+    /// Nominal sample rate, Hz.
+    pub rate_hz: f64,
 }
 
 /// The IMU stream.

@@ -90,6 +90,20 @@ pub struct BiasRow {
     pub ba_z: f64,
 }
 
+/// One row of `truth/baro.csv`: what lies behind a barometer reading
+/// (`altitude_m = height_m + offset_m + drift_m + noise`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BaroRow {
+    /// Sample time, ns.
+    pub t_ns: i64,
+    /// True height of the body (IMU) origin above the floor, m.
+    pub height_m: f64,
+    /// The flight's constant offset, m.
+    pub offset_m: f64,
+    /// The slow drift at this sample, m.
+    pub drift_m: f64,
+}
+
 /// `truth/truth.toml`: constants of the simulated hardware.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

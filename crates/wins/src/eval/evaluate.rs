@@ -3,8 +3,8 @@
 use nalgebra::Vector3;
 
 use super::{
-    Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics, aps, associate, metrics,
-    relative_pose_errors, umeyama,
+    Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics, aps, associate, drift,
+    metrics, relative_pose_errors, umeyama,
 };
 use crate::dataset::truth::{ApRow, Pose};
 use crate::time::Timestamp;
@@ -38,6 +38,7 @@ pub fn evaluate(
     let rpe = relative_pose_errors(est, truth, pairs, options.rpe_delta_frames)?;
     let rpe_trans = metrics::summarize(&rpe.iter().map(|e| e.translation_m).collect::<Vec<_>>());
     let rpe_rot = metrics::summarize(&rpe.iter().map(|e| e.rotation_deg).collect::<Vec<_>>());
+    let drift = drift::drift_metrics(est, truth, pairs, &alignment, &norms);
     let first_est = est[pairs[0].0].t;
     let last_est = est[pairs[pairs.len() - 1].0].t;
     Ok(Metrics {
@@ -49,6 +50,10 @@ pub fn evaluate(
         position_error_std_xyz_m: std_xyz,
         attitude_error_mean_deg: attitude.mean,
         attitude_error_rmse_deg: attitude.rmse,
+        position_error_last_60s_rmse_m: drift.position_error_last_60s_rmse_m,
+        drift_last_60s_m: drift.drift_last_60s_m,
+        heading_drift_deg_per_min: drift.heading_drift_deg_per_min,
+        jumps: drift.jumps,
         rpe_trans_rmse_m: rpe_trans.rmse,
         rpe_rot_rmse_deg: rpe_rot.rmse,
         rpe_delta_frames: options.rpe_delta_frames,

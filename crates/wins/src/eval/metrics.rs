@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use super::align::Alignment;
+use super::drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
 use crate::dataset::truth::Pose;
 
 /// Truth positions closer in time than this are not differenced for the speed (noise), s.
@@ -28,7 +29,8 @@ pub struct Metrics {
     pub position_error_rmse_m: f64,
     /// Median of `‖e_i‖`, m.
     pub position_error_median_m: f64,
-    /// Largest `‖e_i‖`, m.
+    /// Largest `‖e_i‖`, m: the largest error after convergence, since the pipeline writes only
+    /// converged poses (for `wins eval`, over whichever estimated poses are associated).
     pub position_error_max_m: f64,
     /// Standard deviation of each component of `e_i` (x, y, z of the truth world) about its mean,
     /// m: the per-axis spread the paper reports.
@@ -38,6 +40,36 @@ pub struct Metrics {
     pub attitude_error_mean_deg: f64,
     /// RMSE of the same attitude error angle, deg.
     pub attitude_error_rmse_deg: f64,
+    /// Error in the last minute: RMSE of `‖e_i‖` (the ATE's global alignment) over the associated
+    /// poses whose estimated time is `≥ t_last − 60 s`, `t_last` the time of the last associated
+    /// estimated pose, m. Equals `ate_rmse_m` for a flight under a minute. Absent from older
+    /// files (read as 0).
+    #[serde(default)]
+    pub position_error_last_60s_rmse_m: f64,
+    /// Drift over the flight, m: the estimate aligned (SE(3) Umeyama, as for the ATE) on its
+    /// associated poses of the first minute only (estimated time `≤ t_first + 60 s`, `t_first`
+    /// the time of the first associated estimated pose), then the RMSE of
+    /// `‖R₁·p_est,i + t₁ − p_truth,i‖` over the poses of the last minute (those of
+    /// `position_error_last_60s_rmse_m`). Null when the associated estimate spans less than
+    /// 120 s (the minutes would overlap), or when its first minute cannot fix an alignment
+    /// (fewer than 3 poses, or positions still or along one line); absent from older files.
+    #[serde(default)]
+    pub drift_last_60s_m: Option<f64>,
+    /// Heading error drift, deg/min: the least-squares slope against time of the heading error
+    /// of the associated poses, unwrapped (each step between neighbours taken in [−180°, 180°)).
+    /// Heading error: the yaw about the truth world's vertical z of the error rotation
+    /// `R_err = R·R_est·R_truthᵀ` (`world_from_body` rotations, `R` the global alignment),
+    /// `atan2(R_err[1,0], R_err[0,0])`; positive when the estimate is turned counter-clockwise
+    /// seen from above, unaffected by roll and pitch errors about horizontal world axes. 0 for
+    /// fewer than 2 poses; absent from older files (read as 0).
+    #[serde(default)]
+    pub heading_drift_deg_per_min: f64,
+    /// Jumps: consecutive estimated poses (all those given, in time order, matched or not: after
+    /// convergence, as the pipeline writes only converged poses) whose positions are more than
+    /// [`JUMP_THRESHOLD_M`](super::JUMP_THRESHOLD_M) = 0.3 m apart; the distance needs no
+    /// alignment. Absent from older files (read as 0).
+    #[serde(default)]
+    pub jumps: usize,
     /// Relative pose error, translation: RMSE over pose pairs `(i, i + Δ)` of `‖trans(E_i)‖`
     /// with `E_i = (Q_i⁻¹ Q_{i+Δ})⁻¹ (P_i⁻¹ P_{i+Δ})`, `Q` truth and `P` estimate (no alignment
     /// needed: `E_i` is invariant to it), m. `i` runs over the associated poses 0, Δ, 2Δ, … as in
@@ -117,6 +149,21 @@ impl Metrics {
             s,
             "attitude   RMSE {:.3}°, mean {:.3}°",
             self.attitude_error_rmse_deg, self.attitude_error_mean_deg
+        );
+        let drift = match self.drift_last_60s_m {
+            Some(d) => format!("{d:.4} m"),
+            None if self.duration_s < 2.0 * DRIFT_WINDOW_S => "n/a (under 120 s)".to_string(),
+            None => "n/a (first minute cannot fix an alignment)".to_string(),
+        };
+        let _ = writeln!(
+            s,
+            "drift      last 60 s RMSE {:.4} m, aligned on the first 60 s {}; heading {:+.3}°/min; \
+             {} jumps > {} m",
+            self.position_error_last_60s_rmse_m,
+            drift,
+            self.heading_drift_deg_per_min,
+            self.jumps,
+            JUMP_THRESHOLD_M
         );
         let _ = writeln!(
             s,

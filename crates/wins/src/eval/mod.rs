@@ -8,11 +8,15 @@
 //! The numbers are the paper's (ATE, per-axis error spread, AP error) and the usual VIO ones of
 //! Zhang & Scaramuzza (IROS 2018), computed as evo 1.38 computes them, so that `ate_rmse_m` equals
 //! `evo_ape tum TRUTH EST -a` and `rpe_*` equal `evo_rpe tum TRUTH EST --delta Δ --delta_unit f`
-//! (`scripts/evo_check.sh` checks both). The definitions are on the fields of [`Metrics`].
+//! (`scripts/evo_check.sh` checks both). Beside them, what a flight controller's user watches on a
+//! long flight (`drift`): the error in the last minute, the drift from an alignment fixed on the
+//! first minute, the heading drift rate and the position jumps. The definitions are on the fields
+//! of [`Metrics`].
 
 pub(crate) mod align;
 pub(crate) mod aps;
 pub(crate) mod associate;
+pub(crate) mod drift;
 mod evaluate;
 pub(crate) mod metrics;
 pub(crate) mod rpe;
@@ -22,6 +26,7 @@ use serde::{Deserialize, Serialize};
 pub use align::{Alignment, umeyama};
 pub use aps::{EstimatedAp, read_estimated_aps, write_estimated_aps};
 pub use associate::{Association, associate};
+pub use drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
 pub use evaluate::{evaluate, position_error_series};
 pub use metrics::Metrics;
 pub use rpe::{RelativePoseError, relative_pose_errors};

@@ -11,7 +11,9 @@
 //! its own seed derived from the scenario seed and the stream's name, so changing one sensor's
 //! rate does not change another's noise.
 
+pub mod baro;
 pub mod csi;
+pub mod flight;
 pub mod imu;
 pub mod lab_calibration;
 pub mod motion;
@@ -23,6 +25,7 @@ pub mod run;
 pub mod scenario;
 pub mod summary;
 pub mod trajectory;
+pub mod waypoints;
 pub mod write;
 pub mod yaw;
 

@@ -24,7 +24,8 @@
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
-use super::trajectory::{Trajectory, Translation};
+use super::flight::Flight;
+use super::trajectory::Translation;
 use super::yaw::YawConfig;
 
 pub use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -69,7 +70,7 @@ fn normalize_with_rate(
 ///
 /// Assumes the thrust `t = a + g e_z` does not vanish, which holds whenever `|a| < g` (then
 /// `|t| ≥ g − |a| > 0`, and the tilt stays below 90°); scenarios check this once with
-/// [`Trajectory::acceleration_bound_m_s2`]. It never panics on degenerate input, and falls back
+/// [`super::trajectory::Trajectory::acceleration_bound_m_s2`]. It never panics on degenerate input, and falls back
 /// deterministically instead:
 /// - `|t| < 1e-9` (free fall): `z_b = e_z`, `ż_b = 0`.
 /// - `|y_c × z_b| < 1e-9` (body z horizontal and across the heading, tilt 90°): the Mellinger &
@@ -136,12 +137,18 @@ pub fn specific_force_in_b(s: &BodyState, gravity_m_s2: f64) -> Vector3<f64> {
         .inverse_transform_vector(&(s.a_b_in_w + Vector3::z() * gravity_m_s2))
 }
 
-/// Convenience: evaluates the trajectory and the yaw profile at `t_s` and returns
-/// [`body_state`].
-pub fn sample(traj: &Trajectory, yaw: &YawConfig, gravity_m_s2: f64, t_s: f64) -> BodyState {
-    let tr = traj.at(t_s);
-    let (yaw_rad, yaw_rate_rad_s) = yaw.yaw(t_s, &tr);
-    body_state(&tr, yaw_rad, yaw_rate_rad_s, gravity_m_s2, t_s)
+/// Evaluates the flight and the yaw profile at `t_s` and returns [`body_state`]. The yaw profile
+/// runs on mission time (see [`super::flight`]): ψ = ψ_profile(s), ψ̇ = ψ̇_profile(s)·ṡ.
+pub fn sample(flight: &Flight, yaw: &YawConfig, gravity_m_s2: f64, t_s: f64) -> BodyState {
+    let point = flight.at(t_s);
+    let (yaw_rad, yaw_rate_rad_s) = yaw.yaw(point.mission_s, &point.mission_translation);
+    body_state(
+        &point.translation,
+        yaw_rad,
+        yaw_rate_rad_s * point.mission_rate,
+        gravity_m_s2,
+        t_s,
+    )
 }
 
 #[cfg(test)]
@@ -153,9 +160,9 @@ mod tests {
 
     const G: f64 = STANDARD_GRAVITY_M_S2;
 
-    fn paper_circle() -> Trajectory {
+    fn paper_circle() -> Flight {
         // The paper's circle is the default.
-        TrajectoryConfig::default().build(0)
+        TrajectoryConfig::default().build(0, 60.0).into()
     }
 
     fn oscillating_toward_point() -> YawConfig {
@@ -169,14 +176,15 @@ mod tests {
         }
     }
 
-    fn figure_eight() -> Trajectory {
+    fn figure_eight() -> Flight {
         TrajectoryConfig::FigureEight {
             center_m: [5.0, 5.0, 1.5],
             half_length_m: 3.0,
             half_width_m: 1.5,
             period_s: 20.0,
         }
-        .build(0)
+        .build(0, 60.0)
+        .into()
     }
 
     fn tangent() -> YawConfig {
@@ -186,7 +194,7 @@ mod tests {
         }
     }
 
-    fn random_flight() -> (Trajectory, YawConfig) {
+    fn random_flight() -> (Flight, YawConfig) {
         let traj = TrajectoryConfig::RandomSmooth {
             bounds_min_m: [0.0, 0.0, 0.5],
             bounds_max_m: [10.0, 8.0, 2.5],
@@ -195,7 +203,8 @@ mod tests {
             min_period_s: 4.0,
             max_period_s: 30.0,
         }
-        .build(11);
+        .build(11, 60.0)
+        .into();
         let yaw = YawConfig {
             mode: YawMode::Fixed { yaw_deg: -40.0 },
             offset_deg: 0.0,
@@ -210,7 +219,7 @@ mod tests {
         let tr = TrajectoryConfig::Hover {
             position_m: [1.0, 2.0, 3.0],
         }
-        .build(0)
+        .build(0, 0.0)
         .at(4.0);
         for yaw_deg in [0.0, 37.0, -120.0, 180.0] {
             let psi = f64::to_radians(yaw_deg);
@@ -226,7 +235,7 @@ mod tests {
     }
 
     /// Log(R(t)ᵀ R(t+h)) / h against ω(t + h/2).
-    fn assert_omega_matches_attitude_difference(traj: &Trajectory, yaw: &YawConfig) {
+    fn assert_omega_matches_attitude_difference(traj: &Flight, yaw: &YawConfig) {
         let h = 1e-4;
         for i in 0..40 {
             let t = 0.73 * i as f64;
@@ -260,7 +269,7 @@ mod tests {
         let (traj, yaw) = random_flight();
         for i in 0..200 {
             let t = 0.37 * i as f64;
-            let tr = traj.at(t);
+            let tr = traj.at(t).translation;
             let (psi, _) = yaw.yaw(t, &tr);
             let s = sample(&traj, &yaw, G, t);
             let r = s.world_from_body.to_rotation_matrix();
@@ -282,7 +291,7 @@ mod tests {
         let mut tr = TrajectoryConfig::Hover {
             position_m: [0.0; 3],
         }
-        .build(0)
+        .build(0, 0.0)
         .at(0.0);
         // Free fall.
         tr.a_b_in_w = Vector3::new(0.0, 0.0, -G);
@@ -315,9 +324,14 @@ mod tests {
 
     /// Integrates perfect 1000 Hz IMU samples with RK4 (step 2 ms, samples at k, k+1, k+2) for
     /// 60 s and returns the final (position error m, attitude error rad).
-    fn integrate_perfect_imu(traj: &Trajectory, yaw: &YawConfig) -> (f64, f64) {
-        let dt = 1e-3;
-        let n = 60_000;
+    fn integrate_perfect_imu(traj: &Flight, yaw: &YawConfig) -> (f64, f64) {
+        integrate_perfect_imu_at(traj, yaw, 1000)
+    }
+
+    /// [`integrate_perfect_imu`] with IMU samples at `rate_hz`.
+    fn integrate_perfect_imu_at(traj: &Flight, yaw: &YawConfig, rate_hz: usize) -> (f64, f64) {
+        let dt = 1.0 / rate_hz as f64;
+        let n = 60 * rate_hz;
         let imu: Vec<(Vector3<f64>, Vector3<f64>)> = (0..=n)
             .map(|k| {
                 let s = sample(traj, yaw, G, k as f64 * dt);
@@ -359,5 +373,86 @@ mod tests {
         // Acceptance: ≤ 1 mm and ≤ 1e-6 rad; RK4 at 2 ms reaches ~1e-11 m and ~1e-14 rad.
         assert!(dp <= 1e-6, "position error {dp} m");
         assert!(dq <= 1e-9, "attitude error {dq} rad");
+    }
+
+    /// The paper's circle inside the default phases (3 s rest, 4 s take-off, 3 s ramps, 4 s
+    /// landing, 2 s rest) over 60 s, and a waypoint loop with the heading along the path.
+    fn phased(mission: TrajectoryConfig) -> Flight {
+        use crate::sim::flight::PhasesConfig;
+        let phases = PhasesConfig::default();
+        phases.validate("phases", 60.0).unwrap();
+        Flight::with_phases(mission.build(0, 60.0), &phases, 60.0)
+    }
+
+    fn waypoint_loop() -> TrajectoryConfig {
+        TrajectoryConfig::Waypoints {
+            points_m: vec![
+                [2.0, 2.0, 1.5],
+                [9.0, 2.0, 2.0],
+                [9.0, 6.0, 1.5],
+                [3.0, 6.0, 1.2],
+            ],
+            speed_m_s: 1.5,
+            corner_s: 2.0,
+        }
+    }
+
+    #[test]
+    fn perfect_imu_integration_reproduces_phased_flights_across_every_join() {
+        for (mission, yaw) in [
+            (TrajectoryConfig::default(), oscillating_toward_point()),
+            (waypoint_loop(), tangent()),
+        ] {
+            // A join that steps the IMU (or its derivative) leaves an error of the step's order
+            // whatever the rate; a smooth flight's error falls as the rate⁴ (RK4). The waypoint
+            // corners (1.5 m/s turned by 90° in 2 s) need 4 kHz to reach 1e-7 m by RK4 alone.
+            let (dp, dq) = integrate_perfect_imu_at(&phased(mission), &yaw, 4000);
+            assert!(dp <= 1e-7, "position error {dp} m");
+            assert!(dq <= 1e-9, "attitude error {dq} rad");
+        }
+    }
+
+    #[test]
+    fn at_rest_the_imu_reads_gravity_only() {
+        let flight = phased(TrajectoryConfig::default());
+        let yaw = oscillating_toward_point();
+        for t in [0.0, 1.0, 2.99, 58.5, 60.0, 70.0] {
+            let s = sample(&flight, &yaw, G, t);
+            let f = specific_force_in_b(&s, G);
+            assert!(
+                (f - Vector3::new(0.0, 0.0, G)).norm() < 1e-12,
+                "t={t}: {f:?}"
+            );
+            assert_eq!(s.omega_b_in_b, Vector3::zeros(), "t={t}");
+            assert!((s.p_b_in_w.z - 0.1).abs() < 1e-12, "t={t}: on the ground");
+        }
+        // Airborne in the mission.
+        assert!((sample(&flight, &yaw, G, 30.0).p_b_in_w.z - 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn omega_matches_attitude_difference_phased() {
+        assert_omega_matches_attitude_difference_over(
+            &phased(waypoint_loop()),
+            &tangent(),
+            (8..55).map(|t| f64::from(t) + 0.31),
+        );
+    }
+
+    fn assert_omega_matches_attitude_difference_over(
+        flight: &Flight,
+        yaw: &YawConfig,
+        times: impl Iterator<Item = f64>,
+    ) {
+        let h = 1e-4;
+        for t in times {
+            let (r0, r1) = (sample(flight, yaw, G, t), sample(flight, yaw, G, t + h));
+            let numeric = (r0.world_from_body.inverse() * r1.world_from_body).scaled_axis() / h;
+            let exact = sample(flight, yaw, G, t + h / 2.0).omega_b_in_b;
+            assert!(
+                (numeric - exact).norm() < 1e-7,
+                "t={t}: {numeric:?} vs {exact:?}"
+            );
+        }
     }
 }

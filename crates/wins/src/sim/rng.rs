@@ -10,6 +10,8 @@ use rand_chacha::ChaCha8Rng;
 pub const IMU_STREAM: &str = "imu";
 /// The stream that draws the smooth random flight.
 pub const TRAJECTORY_STREAM: &str = "trajectory";
+/// The stream of the barometer's offset, drift and noise.
+pub const BARO_STREAM: &str = "baro";
 /// The stream that draws the fixed per-chain phase offsets of the NIC.
 pub const CHAIN_OFFSET_STREAM: &str = "nic/chain-phase";
 

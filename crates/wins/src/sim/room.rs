@@ -228,12 +228,11 @@ pub struct Path {
     /// image source), world frame. Zero only for a direct path of zero length.
     pub toward_source_in_w: Vector3<f64>,
     /// Amplitude factor excluding free-space spreading: product of the reflection coefficients
-    /// and of the obstacle's amplitude factor 10^(−dB/20) for each segment that crosses the
-    /// obstacle.
+    /// and of each obstacle's amplitude factor 10^(−dB/20) for each segment that crosses it.
     pub gain: f64,
     /// Number of reflections (0 = direct path).
     pub order: u8,
-    /// Whether any segment of this path crosses the obstacle.
+    /// Whether any segment of this path crosses an obstacle.
     pub obstructed: bool,
 }
 
@@ -269,23 +268,31 @@ fn on_face(room: &RoomConfig, plane: &Plane, r: &Vector3<f64>) -> bool {
         .all(|k| r[k] >= -FACE_TOLERANCE_M && r[k] <= room.size_m[k] + FACE_TOLERANCE_M)
 }
 
+/// Amplitude factor of the obstacles a segment a→b crosses (1 when none), and whether any.
+fn crossing(obstacles: &[ObstacleConfig], a: &Vector3<f64>, b: &Vector3<f64>) -> (f64, bool) {
+    obstacles
+        .iter()
+        .filter(|o| o.blocks_segment(a, b))
+        .fold((1.0, false), |(g, _), o| (g * o.amplitude_factor(), true))
+}
+
 /// Walks the path that reflects off `mirrors` (in the order the wave meets them, starting at
 /// the transmitter) back from the receiver to the transmitter, one reflection at a time.
 ///
-/// `image` is the transmitter mirrored through all of `mirrors` in order. Returns the number of
-/// real segments crossing the obstacle, or `None` if a reflection point misses its finite face
-/// (the mirror sequence is not a physical path).
+/// `image` is the transmitter mirrored through all of `mirrors` in order. Returns the product of
+/// the amplitude factors of every obstacle crossed by every real segment and whether any was
+/// crossed, or `None` if a reflection point misses its finite face (the mirror sequence is not
+/// a physical path).
 fn trace(
     room: &RoomConfig,
-    obstacle: Option<&ObstacleConfig>,
+    obstacles: &[ObstacleConfig],
     p_tx_in_w: &Vector3<f64>,
     p_rx_in_w: &Vector3<f64>,
     mirrors: &[Plane],
     image: &Vector3<f64>,
-) -> Option<i32> {
-    let blocks =
-        |a: &Vector3<f64>, b: &Vector3<f64>| obstacle.is_some_and(|o| o.blocks_segment(a, b));
-    let mut crossings = 0;
+) -> Option<(f64, bool)> {
+    let mut gain = 1.0;
+    let mut obstructed = false;
     let mut start = *p_rx_in_w;
     let mut image = *image;
     for plane in mirrors.iter().rev() {
@@ -303,56 +310,51 @@ fn trace(
         if !on_face(room, plane, &reflection_point) {
             return None;
         }
-        if blocks(&start, &reflection_point) {
-            crossings += 1;
-        }
+        let (g, crossed) = crossing(obstacles, &start, &reflection_point);
+        gain *= g;
+        obstructed |= crossed;
         start = reflection_point;
         image = plane.mirror(&image);
     }
-    if blocks(&start, p_tx_in_w) {
-        crossings += 1;
-    }
-    Some(crossings)
+    let (g, crossed) = crossing(obstacles, &start, p_tx_in_w);
+    Some((gain * g, obstructed || crossed))
 }
 
 /// Shared per-call state of [`paths_into`].
 struct Tracer<'a> {
     room: &'a RoomConfig,
-    obstacle: Option<&'a ObstacleConfig>,
+    obstacles: &'a [ObstacleConfig],
     p_tx_in_w: &'a Vector3<f64>,
     p_rx_in_w: &'a Vector3<f64>,
-    /// Obstacle amplitude factor per crossing, computed once per call.
-    crossing_factor: f64,
 }
 
 impl Tracer<'_> {
     /// The path reflecting off `mirrors` (order met by the wave), if it is physical.
     fn path(&self, mirrors: &[Plane], image: &Vector3<f64>) -> Option<Path> {
-        let crossings = trace(
+        let (crossing_gain, obstructed) = trace(
             self.room,
-            self.obstacle,
+            self.obstacles,
             self.p_tx_in_w,
             self.p_rx_in_w,
             mirrors,
             image,
         )?;
         let reflection: f64 = mirrors.iter().map(|p| p.reflection).product();
-        Some(self.make_path(image, reflection, crossings, mirrors.len() as u8))
+        Some(self.make_path(
+            image,
+            reflection * crossing_gain,
+            obstructed,
+            mirrors.len() as u8,
+        ))
     }
 
-    fn make_path(&self, image: &Vector3<f64>, reflection: f64, crossings: i32, order: u8) -> Path {
+    fn make_path(&self, image: &Vector3<f64>, gain: f64, obstructed: bool, order: u8) -> Path {
         let to_image = image - self.p_rx_in_w;
         let length_m = to_image.norm();
         let toward_source_in_w = if length_m > 0.0 {
             to_image / length_m
         } else {
             Vector3::zeros()
-        };
-        let obstructed = crossings > 0;
-        let gain = if obstructed {
-            reflection * self.crossing_factor.powi(crossings)
-        } else {
-            reflection
         };
         Path {
             length_m,
@@ -377,7 +379,7 @@ impl Tracer<'_> {
 /// direct path has length 0 and a zero direction.
 pub fn paths_into(
     room: &RoomConfig,
-    obstacle: Option<&ObstacleConfig>,
+    obstacles: &[ObstacleConfig],
     p_tx_in_w: &Vector3<f64>,
     p_rx_in_w: &Vector3<f64>,
     out: &mut Vec<Path>,
@@ -386,14 +388,12 @@ pub fn paths_into(
     out.reserve(MAX_PATHS);
     let tracer = Tracer {
         room,
-        obstacle,
+        obstacles,
         p_tx_in_w,
         p_rx_in_w,
-        crossing_factor: obstacle.map_or(1.0, ObstacleConfig::amplitude_factor),
     };
-    let direct_crossings =
-        i32::from(obstacle.is_some_and(|o| o.blocks_segment(p_rx_in_w, p_tx_in_w)));
-    out.push(tracer.make_path(p_tx_in_w, 1.0, direct_crossings, 0));
+    let (direct_gain, direct_obstructed) = crossing(obstacles, p_rx_in_w, p_tx_in_w);
+    out.push(tracer.make_path(p_tx_in_w, direct_gain, direct_obstructed, 0));
     if room.max_order == 0 {
         return;
     }

@@ -3,6 +3,7 @@
 use nalgebra::{Isometry3, Vector3};
 
 use super::ConfigError;
+use super::baro::BaroTruth;
 use super::csi::{CsiSynth, PacketTruth};
 use super::imu::{ImuBiases, ImuSimulator};
 use super::motion::{BodyState, sample};
@@ -11,6 +12,7 @@ use super::rng;
 use super::room::{Path, paths_into};
 use super::scenario::{ApConfig, Scenario};
 use crate::csi::intel5300::CsiRecord;
+use crate::dataset::BaroSample;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
@@ -57,6 +59,10 @@ pub struct SimOutput {
     pub chain_phase_offsets_rad: Vec<f64>,
     /// Per AP, in scenario order.
     pub aps: Vec<ApOutput>,
+    /// Barometer readings (empty without a barometer).
+    pub baro: Vec<BaroSample>,
+    /// What lies behind each barometer reading.
+    pub baro_truth: Vec<BaroTruth>,
 }
 
 /// Simulates `scenario` (validated first). `progress` receives the fraction done, in [0, 1].
@@ -66,7 +72,8 @@ pub fn simulate(
 ) -> Result<SimOutput, ConfigError> {
     scenario.validate()?;
     let seed = scenario.seed;
-    let trajectory = scenario.build_trajectory();
+    let trajectory = scenario.build_flight();
+    let obstacles = scenario.all_obstacles();
     let gravity = scenario.gravity_m_s2;
     let motion_at = |t: Timestamp| sample(&trajectory, &scenario.yaw, gravity, t.as_secs_f64());
 
@@ -125,7 +132,7 @@ pub fn simulate(
             let p_array_in_w = world_from_array.translation.vector;
             paths_into(
                 &scenario.room,
-                scenario.obstacle.as_ref(),
+                &obstacles,
                 &p_ap_in_w,
                 &p_array_in_w,
                 &mut paths,
@@ -158,8 +165,18 @@ pub fn simulate(
             packets: out,
         });
     }
+    let (baro, baro_truth) = match &scenario.baro {
+        Some(config) => config.simulate(
+            scenario.duration_ns(),
+            |t| motion_at(t).p_b_in_w.z,
+            &mut rng::stream(seed, rng::BARO_STREAM),
+        ),
+        None => (Vec::new(), Vec::new()),
+    };
     progress(1.0);
     Ok(SimOutput {
+        baro,
+        baro_truth,
         states,
         imu,
         imu_biases,

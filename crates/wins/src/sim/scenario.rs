@@ -7,11 +7,13 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
+use super::baro::BaroConfig;
+use super::flight::{Flight, MIN_CLIMB_M, PhasesConfig};
 use super::imu::ImuConfig;
 use super::motion::{STANDARD_GRAVITY_M_S2, sample};
 use super::radio::RadioConfig;
 use super::room::{ObstacleConfig, RoomConfig};
-use super::trajectory::{Trajectory, TrajectoryConfig};
+use super::trajectory::TrajectoryConfig;
 use super::yaw::YawConfig;
 use crate::rig::ArrayGeometry;
 
@@ -119,13 +121,17 @@ pub struct Scenario {
     pub description: String,
     /// Master seed; every random stream derives its own seed from it (see `sim::rng`).
     pub seed: u64,
-    /// Length of the flight, s.
+    /// Length of the flight, s (phases included).
     pub duration_s: f64,
     /// Gravity magnitude, m/s².
     pub gravity_m_s2: f64,
-    /// The flight path.
+    /// On the ground, take-off, landing around the mission; absent: the mission alone,
+    /// airborne from t = 0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phases: Option<PhasesConfig>,
+    /// The mission's path.
     pub trajectory: TrajectoryConfig,
-    /// The heading profile.
+    /// The heading profile (on mission time, see [`super::flight`]).
     pub yaw: YawConfig,
     /// The IMU.
     pub imu: ImuConfig,
@@ -135,9 +141,16 @@ pub struct Scenario {
     pub radio: RadioConfig,
     /// The room.
     pub room: RoomConfig,
-    /// An optional box that attenuates the paths crossing it.
+    /// A box that attenuates the paths crossing it (one; `obstacles` takes any number).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub obstacle: Option<ObstacleConfig>,
+    /// Boxes (shelving, boards) that attenuate the paths crossing them, each with its own
+    /// attenuation (TOML `[[obstacles]]`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub obstacles: Vec<ObstacleConfig>,
+    /// The flight controller's barometer; absent: no `baro.csv`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub baro: Option<BaroConfig>,
     /// The access points.
     pub aps: Vec<ApConfig>,
 }
@@ -151,6 +164,7 @@ impl Default for Scenario {
             seed: 1,
             duration_s: 60.0,
             gravity_m_s2: STANDARD_GRAVITY_M_S2,
+            phases: None,
             trajectory: TrajectoryConfig::Hover {
                 position_m: [6.0, 4.0, 1.5],
             },
@@ -160,6 +174,8 @@ impl Default for Scenario {
             radio: RadioConfig::default(),
             room: RoomConfig::default(),
             obstacle: None,
+            obstacles: Vec::new(),
+            baro: None,
             aps: vec![ApConfig {
                 name: "ap0".into(),
                 position_m: [1.0, 4.0, 1.5],
@@ -254,6 +270,9 @@ impl Scenario {
                 format!("{} is not in [1, 30]", self.gravity_m_s2),
             ));
         }
+        if let Some(phases) = &self.phases {
+            phases.validate("phases", self.duration_s)?;
+        }
         self.trajectory.validate("trajectory")?;
         self.yaw.validate("yaw")?;
         self.imu.validate("imu")?;
@@ -273,6 +292,12 @@ impl Scenario {
         self.room.validate("room")?;
         if let Some(o) = &self.obstacle {
             o.validate("obstacle")?;
+        }
+        for (i, o) in self.obstacles.iter().enumerate() {
+            o.validate(&format!("obstacles[{i}]"))?;
+        }
+        if let Some(b) = &self.baro {
+            b.validate("baro")?;
         }
         self.validate_aps()?;
         self.validate_flight()
@@ -334,16 +359,52 @@ impl Scenario {
         Ok(())
     }
 
-    /// The flight path, built with the trajectory stream's seed (only the random flight uses it).
-    pub fn build_trajectory(&self) -> Trajectory {
-        self.trajectory.build(super::rng::stream_seed(
-            self.seed,
-            super::rng::TRAJECTORY_STREAM,
-        ))
+    /// Every obstacle: `obstacle` then `obstacles`.
+    pub fn all_obstacles(&self) -> Vec<ObstacleConfig> {
+        self.obstacle
+            .iter()
+            .chain(&self.obstacles)
+            .cloned()
+            .collect()
+    }
+
+    /// The flight: the mission path (built with the trajectory stream's seed, which only the
+    /// random flight uses) inside the phases, if any.
+    pub fn build_flight(&self) -> Flight {
+        let seed = super::rng::stream_seed(self.seed, super::rng::TRAJECTORY_STREAM);
+        match &self.phases {
+            Some(phases) => Flight::with_phases(
+                self.trajectory
+                    .build(seed, phases.mission_s(self.duration_s)),
+                phases,
+                self.duration_s,
+            ),
+            None => self.trajectory.build(seed, self.duration_s).into(),
+        }
     }
 
     fn validate_flight(&self) -> Result<(), ConfigError> {
-        let traj = self.build_trajectory();
+        let traj = self.build_flight();
+        if let (Some(phases), Some(ground_m)) = (&self.phases, traj.ground_height_m()) {
+            let start_m = traj
+                .at(phases.rest_s + phases.takeoff_s)
+                .translation
+                .p_b_in_w
+                .z;
+            let end_m = traj
+                .at(self.duration_s - phases.final_rest_s - phases.landing_s)
+                .translation
+                .p_b_in_w
+                .z;
+            if start_m.min(end_m) < ground_m + MIN_CLIMB_M {
+                return Err(ConfigError::new(
+                    "phases.ground_height_m",
+                    format!(
+                        "the mission starts at {start_m:.2} m and ends at {end_m:.2} m, not                          {MIN_CLIMB_M} m above the ground ({ground_m} m)"
+                    ),
+                ));
+            }
+        }
         let body_from_array = self.body_from_array();
         let steps = (self.duration_s / VALIDATION_STEP_S).ceil() as usize;
         for i in 0..=steps {

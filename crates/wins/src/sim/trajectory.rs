@@ -18,6 +18,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
+use super::waypoints::WaypointPath;
 use super::{ConfigError, check_finite};
 
 /// Largest `num_harmonics` of [`TrajectoryConfig::RandomSmooth`].
@@ -106,6 +107,18 @@ pub enum TrajectoryConfig {
     Hover {
         /// Where to hover, m.
         position_m: [f64; 3],
+    },
+    /// A closed loop through waypoints at a cruise speed, corners blended over `corner_s`
+    /// (see [`super::waypoints`]): after the last waypoint it flies back to the first and
+    /// around again. It starts at the first waypoint heading for the second.
+    Waypoints {
+        /// The waypoints in the world frame, m (≥ 3).
+        points_m: Vec<[f64; 3]>,
+        /// Cruise speed, m/s (> 0).
+        speed_m_s: f64,
+        /// Time over which each corner's change of direction is blended, s (> 0); every leg
+        /// must be at least `speed_m_s · corner_s` long.
+        corner_s: f64,
     },
 }
 
@@ -210,15 +223,35 @@ impl TrajectoryConfig {
                 Ok(())
             }
             Self::Hover { position_m } => check_finite(field, "position_m", position_m),
+            Self::Waypoints {
+                points_m,
+                speed_m_s,
+                corner_s,
+            } => super::waypoints::validate(field, points_m, *speed_m_s, *corner_s),
         }
     }
 
     /// Builds the trajectory. `seed` is used only by [`TrajectoryConfig::RandomSmooth`]
-    /// (`ChaCha8Rng::seed_from_u64(seed)`); the same seed gives the same flight.
+    /// (`ChaCha8Rng::seed_from_u64(seed)`); the same seed gives the same flight. `horizon_s` is
+    /// the longest mission time it will be evaluated at (the waypoint loop lists its corners up
+    /// to it; the other kinds ignore it).
     ///
     /// Call [`TrajectoryConfig::validate`] first: an invalid config builds a trajectory that
     /// may return non-finite values (it never panics).
-    pub fn build(&self, seed: u64) -> Trajectory {
+    pub fn build(&self, seed: u64, horizon_s: f64) -> Trajectory {
+        Trajectory(match self {
+            Self::Waypoints {
+                points_m,
+                speed_m_s,
+                corner_s,
+            } => Shape::Waypoints(WaypointPath::new(
+                points_m, *speed_m_s, *corner_s, horizon_s,
+            )),
+            other => Shape::Harmonics(other.build_harmonics(seed)),
+        })
+    }
+
+    fn build_harmonics(&self, seed: u64) -> Harmonics {
         match self {
             Self::Circle {
                 center_m,
@@ -231,7 +264,7 @@ impl TrajectoryConfig {
                 let omega_rad_s = sign * speed_m_s / radius_m;
                 let theta0_rad = start_angle_deg.to_radians();
                 // r cos θ = r sin(θ + π/2).
-                Trajectory {
+                Harmonics {
                     center_m: Vector3::from(*center_m),
                     harmonics: vec![
                         Harmonic {
@@ -254,7 +287,7 @@ impl TrajectoryConfig {
                 period_s,
             } => {
                 let omega_rad_s = TAU / period_s;
-                Trajectory {
+                Harmonics {
                     center_m: Vector3::from(*center_m),
                     harmonics: vec![
                         Harmonic {
@@ -285,8 +318,12 @@ impl TrajectoryConfig {
                 (*min_period_s, *max_period_s),
                 seed,
             ),
-            Self::Hover { position_m } => Trajectory {
+            Self::Hover { position_m } => Harmonics {
                 center_m: Vector3::from(*position_m),
+                harmonics: Vec::new(),
+            },
+            Self::Waypoints { .. } => Harmonics {
+                center_m: Vector3::zeros(),
                 harmonics: Vec::new(),
             },
         }
@@ -304,7 +341,7 @@ fn random_smooth(
     num_harmonics: usize,
     (min_period_s, max_period_s): (f64, f64),
     seed: u64,
-) -> Trajectory {
+) -> Harmonics {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let half_width_m = (max_m - min_m) / 2.0;
     let mut harmonics = Vec::with_capacity(3 * num_harmonics);
@@ -330,7 +367,7 @@ fn random_smooth(
             h.amplitude_m *= half_width_m[axis] / weight_sum;
         }
     }
-    let mut trajectory = Trajectory {
+    let mut trajectory = Harmonics {
         center_m: (min_m + max_m) / 2.0,
         harmonics,
     };
@@ -356,18 +393,54 @@ struct Harmonic {
     phase_rad: f64,
 }
 
-/// A built trajectory, evaluated at any time: `p(t) = c + Σ_k A_k sin(ω_k t + φ_k)`.
+/// A built trajectory (mission path), evaluated at any time.
 #[derive(Clone, Debug)]
-pub struct Trajectory {
+pub struct Trajectory(Shape);
+
+#[derive(Clone, Debug)]
+enum Shape {
+    Harmonics(Harmonics),
+    Waypoints(WaypointPath),
+}
+
+impl Trajectory {
+    /// Position, velocity, acceleration and jerk at `t_s` (seconds from the start), exact.
+    pub fn at(&self, t_s: f64) -> Translation {
+        match &self.0 {
+            Shape::Harmonics(h) => h.at(t_s),
+            Shape::Waypoints(w) => w.at(t_s),
+        }
+    }
+
+    /// An upper bound on the speed `|v(t)|` over all time, m/s (exact for a hover and a
+    /// waypoint loop, √2× the true speed for a circle).
+    pub fn speed_bound_m_s(&self) -> f64 {
+        match &self.0 {
+            Shape::Harmonics(h) => h.speed_bound_m_s(),
+            Shape::Waypoints(w) => w.speed_bound_m_s(),
+        }
+    }
+
+    /// An upper bound on `|a(t)|` over all time, m/s² (the waypoint loop's up to its horizon).
+    pub fn acceleration_bound_m_s2(&self) -> f64 {
+        match &self.0 {
+            Shape::Harmonics(h) => h.derivative_bound(2),
+            Shape::Waypoints(w) => w.acceleration_bound_m_s2(),
+        }
+    }
+}
+
+/// `p(t) = c + Σ_k A_k sin(ω_k t + φ_k)`.
+#[derive(Clone, Debug)]
+struct Harmonics {
     /// Offset `c` in `w`, m.
     center_m: Vector3<f64>,
     /// The sinusoids.
     harmonics: Vec<Harmonic>,
 }
 
-impl Trajectory {
-    /// Position, velocity, acceleration and jerk at `t_s` (seconds from the start), exact.
-    pub fn at(&self, t_s: f64) -> Translation {
+impl Harmonics {
+    fn at(&self, t_s: f64) -> Translation {
         let mut tr = Translation {
             p_b_in_w: self.center_m,
             v_b_in_w: Vector3::zeros(),
@@ -395,16 +468,8 @@ impl Trajectory {
             .norm()
     }
 
-    /// An upper bound on the speed `|v(t)|` over all time, m/s (exact for a hover, √2× the true
-    /// speed for a circle).
-    pub fn speed_bound_m_s(&self) -> f64 {
+    fn speed_bound_m_s(&self) -> f64 {
         self.derivative_bound(1)
-    }
-
-    /// An upper bound on `|a(t)|` over all time, m/s². The quadrotor attitude
-    /// ([`super::motion::body_state`]) needs `|a| < g`; this checks it once for the whole flight.
-    pub fn acceleration_bound_m_s2(&self) -> f64 {
-        self.derivative_bound(2)
     }
 }
 

@@ -8,17 +8,19 @@ use super::lab_calibration::{CALIBRATION_FILE, lab_calibration};
 use super::run::SimOutput;
 use super::scenario::Scenario;
 use crate::csi::intel5300::LogWriter;
-use crate::dataset::imu_csv;
 use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
-    ApEntry, ArrayEntry, ChannelEntry, FORMAT, ImuEntry, Manifest, VERSION,
+    ApEntry, ArrayEntry, BaroEntry, ChannelEntry, FORMAT, ImuEntry, Manifest, VERSION,
 };
 use crate::dataset::truth::{
-    self, ApRow, BiasRow, PacketRow, Pose, TRUTH_DIR, TruthInfo, packets_file,
+    self, ApRow, BaroRow, BiasRow, PacketRow, Pose, TRUTH_DIR, TruthInfo, packets_file,
 };
+use crate::dataset::{baro_csv, imu_csv};
 
 /// The IMU file's name in simulated datasets.
 pub const IMU_FILE: &str = "imu.csv";
+/// The barometer file's name in simulated datasets.
+pub const BARO_FILE: &str = "baro.csv";
 
 /// What was written.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -82,6 +84,22 @@ pub fn write_dataset(
         w.write_all(manifest_text.as_bytes())
     })?;
     put(IMU_FILE, &mut |w| imu_csv::write(w, &output.imu))?;
+    if manifest.baro.is_some() {
+        put(BARO_FILE, &mut |w| baro_csv::write(w, &output.baro))?;
+        let rows: Vec<BaroRow> = output
+            .baro_truth
+            .iter()
+            .map(|r| BaroRow {
+                t_ns: r.t.as_nanos(),
+                height_m: r.height_m,
+                offset_m: r.offset_m,
+                drift_m: r.drift_m,
+            })
+            .collect();
+        put(&format!("{TRUTH_DIR}/{BARO_FILE}"), &mut |w| {
+            truth::write_csv(w, &rows)
+        })?;
+    }
     let calibration = lab_calibration(scenario)
         .map_err(io::Error::other)
         .and_then(|c| toml::to_string(&c).map_err(io::Error::other))
@@ -244,6 +262,10 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
                 imu_minus_nic_ns: imu_minus_nic_ns(scenario.radio.nic_clock_at_imu_zero_us),
             })
             .collect(),
+        baro: scenario.baro.as_ref().map(|b| BaroEntry {
+            file: BARO_FILE.into(),
+            rate_hz: b.rate_hz,
+        }),
     }
 }
 

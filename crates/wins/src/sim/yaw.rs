@@ -195,14 +195,14 @@ mod tests {
     fn rate_matches_wrapped_central_difference() {
         let h = 1e-5;
         let trajectories = [
-            circle().build(0),
+            circle().build(0, 200.0),
             TrajectoryConfig::FigureEight {
                 center_m: [5.0, 5.0, 1.5],
                 half_length_m: 3.0,
                 half_width_m: 1.5,
                 period_s: 20.0,
             }
-            .build(0),
+            .build(0, 200.0),
         ];
         for traj in &trajectories {
             for yaw in configs() {
@@ -228,7 +228,7 @@ mod tests {
             },
             ..YawConfig::default()
         };
-        let traj = circle().build(0);
+        let traj = circle().build(0, 200.0);
         for i in 0..100 {
             let tr = traj.at(0.3 * i as f64);
             let (psi, _) = yaw.yaw(0.3 * i as f64, &tr);
@@ -246,7 +246,7 @@ mod tests {
             mode: YawMode::Tangent,
             ..YawConfig::default()
         };
-        let traj = circle().build(0);
+        let traj = circle().build(0, 200.0);
         for i in 0..100 {
             let tr = traj.at(0.3 * i as f64);
             let (psi, rate) = yaw.yaw(0.0, &tr);
@@ -262,7 +262,7 @@ mod tests {
         let hover = TrajectoryConfig::Hover {
             position_m: [1.0, 4.0, 3.0],
         }
-        .build(0)
+        .build(0, 200.0)
         .at(0.0);
         for mode in [
             YawMode::Tangent,
@@ -289,7 +289,7 @@ mod tests {
         let tr = TrajectoryConfig::Hover {
             position_m: [0.0; 3],
         }
-        .build(0)
+        .build(0, 200.0)
         .at(0.0);
         let (psi, rate) = yaw.yaw(1.0, &tr);
         assert!((psi - 130f64.to_radians()).abs() < 1e-12);

@@ -100,7 +100,7 @@ fn run_with_offset(
         config.window.lost_residual_rms = f64::INFINITY;
     }
     let mut wins = Wins::new(config);
-    let traj = scenario.build_trajectory();
+    let traj = scenario.build_flight();
     let yaw = scenario.yaw.clone();
     let g = scenario.gravity_m_s2;
     let truth_at = Box::new(move |t_s: f64| sample(&traj, &yaw, g, t_s));

@@ -13,7 +13,7 @@ const PERIOD_NS: i64 = 5_000_000;
 /// Noise-free samples and true states of the paper's circle at 200 Hz, for `n` samples.
 fn circle(n: usize) -> (Vec<ImuSample>, Vec<BodyState>, f64) {
     let sc = Scenario::built_in("paper-circle").unwrap();
-    let traj = sc.build_trajectory();
+    let traj = sc.build_flight();
     let g = sc.gravity_m_s2;
     let mut samples = Vec::new();
     let mut states = Vec::new();
@@ -93,7 +93,7 @@ fn noise_free_samples_reproduce_the_true_relative_motion() {
         );
         let t_end_s = t_end_ns as f64 * 1e-9;
         let sc = Scenario::built_in("paper-circle").unwrap();
-        let end = sample(&sc.build_trajectory(), &sc.yaw, g, t_end_s);
+        let end = sample(&sc.build_flight(), &sc.yaw, g, t_end_s);
         let (alpha, beta, rot) = truth(&states[i0], &end, g);
         let dt = pre.dt_s();
         assert!((dt - (t_end_s - states[i0].t_s)).abs() < 1e-12);

@@ -58,7 +58,7 @@ fn find<'a>(paths: &'a [Path], rx: &Vector3<f64>, image: &Vector3<f64>) -> Optio
 fn direct_path_matches_geometry() {
     let (tx, rx) = (v(2.0, 3.0, 1.0), v(8.0, 5.0, 2.5));
     let mut out = Vec::new();
-    paths_into(&room(0), None, &tx, &rx, &mut out);
+    paths_into(&room(0), &[], &tx, &rx, &mut out);
     assert_eq!(out.len(), 1);
     let p = out[0];
     let d = tx - rx;
@@ -72,7 +72,7 @@ fn direct_path_matches_geometry() {
 fn coincident_points_give_zero_length_direct_path() {
     let tx = v(2.0, 3.0, 1.0);
     let mut out = Vec::new();
-    paths_into(&room(1), None, &tx, &tx, &mut out);
+    paths_into(&room(1), &[], &tx, &tx, &mut out);
     assert_eq!(out[0].length_m, 0.0);
     assert_eq!(out[0].toward_source_in_w, Vector3::zeros());
     assert_eq!(out.len(), 7);
@@ -83,7 +83,7 @@ fn first_order_paths_match_hand_images_and_reflection_points() {
     let r = room(1);
     let (tx, rx) = (v(2.0, 3.0, 1.0), v(9.0, 6.0, 2.5));
     let mut out = Vec::new();
-    paths_into(&r, None, &tx, &rx, &mut out);
+    paths_into(&r, &[], &tx, &rx, &mut out);
     assert_eq!(out.len(), 7);
     // (axis, plane coordinate, hand-mirrored image, expected Γ), in output order.
     let cases = [
@@ -132,7 +132,7 @@ fn every_path_points_toward_its_image_and_count_is_25() {
     let mut out = Vec::new();
     let points = interior_points();
     for (tx, rx) in points.iter().zip(points.iter().rev()) {
-        paths_into(&r, None, tx, rx, &mut out);
+        paths_into(&r, &[], tx, rx, &mut out);
         assert_eq!(out.len(), 25, "tx {tx:?} rx {rx:?}");
         // Hand-computed images with their orders: 1 + 6 + 18, all distinct, so finding each
         // one among the 25 paths is a one-to-one match.
@@ -185,8 +185,8 @@ fn corner_images_have_exactly_one_physical_order() {
                         continue;
                     }
                     let image = planes[j].mirror(&planes[i].mirror(&tx));
-                    let ij = trace(&r, None, &tx, &rx, &[planes[i], planes[j]], &image);
-                    let ji = trace(&r, None, &tx, &rx, &[planes[j], planes[i]], &image);
+                    let ij = trace(&r, &[], &tx, &rx, &[planes[i], planes[j]], &image);
+                    let ji = trace(&r, &[], &tx, &rx, &[planes[j], planes[i]], &image);
                     assert!(ij.is_some() != ji.is_some(), "{i} {j} {tx:?} {rx:?}");
                 }
             }
@@ -197,18 +197,21 @@ fn corner_images_have_exactly_one_physical_order() {
     let (tx, rx) = (v(10.0, 6.5, 3.0), v(11.0, 0.5, 3.5));
     let image = v(14.0, 6.5, 5.0);
     let (x12, ceiling) = (planes[1], planes[5]);
-    assert!(trace(&r, None, &tx, &rx, &[x12, ceiling], &image).is_some());
-    assert!(trace(&r, None, &tx, &rx, &[ceiling, x12], &image).is_some());
+    assert!(trace(&r, &[], &tx, &rx, &[x12, ceiling], &image).is_some());
+    assert!(trace(&r, &[], &tx, &rx, &[ceiling, x12], &image).is_some());
     let mut out = Vec::new();
-    paths_into(&r, None, &tx, &rx, &mut out);
+    paths_into(&r, &[], &tx, &rx, &mut out);
     assert_eq!(out.len(), 25);
     // Receiver close to x = 0 and far from y = 0: the line to the (x0, y0) corner image
     // crosses x = 0 first, so the wave reflects off y = 0 first and x = 0 last.
     let (tx, rx) = (v(3.0, 1.0, 2.0), v(0.5, 6.0, 2.0));
     let image = v(-3.0, -1.0, 2.0);
     let (x0, y0) = (planes[0], planes[2]);
-    assert_eq!(trace(&r, None, &tx, &rx, &[y0, x0], &image), Some(0));
-    assert_eq!(trace(&r, None, &tx, &rx, &[x0, y0], &image), None);
+    assert_eq!(
+        trace(&r, &[], &tx, &rx, &[y0, x0], &image),
+        Some((1.0, false))
+    );
+    assert_eq!(trace(&r, &[], &tx, &rx, &[x0, y0], &image), None);
 }
 
 #[test]
@@ -216,7 +219,7 @@ fn second_order_gains_multiply_and_lengths_match() {
     let r = room(2);
     let (tx, rx) = (v(2.0, 3.0, 1.0), v(9.0, 6.0, 2.5));
     let mut out = Vec::new();
-    paths_into(&r, None, &tx, &rx, &mut out);
+    paths_into(&r, &[], &tx, &rx, &mut out);
     let cases = [
         (v(24.0 + 2.0, 3.0, 1.0), 0.16), // x = 0 then x = 12
         (v(2.0 - 24.0, 3.0, 1.0), 0.16), // x = 12 then x = 0
@@ -282,7 +285,7 @@ fn obstructed_paths_are_attenuated() {
     };
     let (tx, rx) = (v(2.0, 4.0, 2.0), v(8.0, 4.0, 2.0));
     let mut out = Vec::new();
-    paths_into(&r, Some(&ob), &tx, &rx, &mut out);
+    paths_into(&r, std::slice::from_ref(&ob), &tx, &rx, &mut out);
     let a = 10f64.powf(-10.0 / 20.0);
     assert!(out[0].obstructed);
     assert_close(out[0].gain, a, "direct");
@@ -301,7 +304,7 @@ fn obstructed_paths_are_attenuated() {
         max_m: [hit.x + 0.05, hit.y + 0.1, hit.z + 0.1],
         attenuation_db: 10.0,
     };
-    paths_into(&r, Some(&small), &tx2, &rx2, &mut out);
+    paths_into(&r, std::slice::from_ref(&small), &tx2, &rx2, &mut out);
     assert_eq!(out.len(), 7);
     assert!(out[0].obstructed && out[1..].iter().all(|p| !p.obstructed));
     assert_close(out[0].gain, a, "direct only");
@@ -312,18 +315,36 @@ fn obstructed_paths_are_attenuated() {
         max_m: [3.0, 5.0, 3.0],
         attenuation_db: 10.0,
     };
-    paths_into(&r, Some(&wide), &tx, &rx, &mut out);
+    paths_into(&r, std::slice::from_ref(&wide), &tx, &rx, &mut out);
     assert_close(out[1].gain, 0.4 * a * a, "two crossings");
+    // Two boards on the direct line, 10 dB and 6 dB: their factors multiply; a third board off
+    // every path changes nothing.
+    let second = ObstacleConfig {
+        min_m: [6.0, 0.0, 0.0],
+        max_m: [6.1, 8.0, 4.0],
+        attenuation_db: 6.0,
+    };
+    let aside = ObstacleConfig {
+        min_m: [10.0, 7.0, 3.5],
+        max_m: [10.5, 7.5, 3.9],
+        attenuation_db: 30.0,
+    };
+    paths_into(&r, &[ob.clone(), second.clone(), aside], &tx, &rx, &mut out);
+    let b = 10f64.powf(-6.0 / 20.0);
+    assert_close(out[0].gain, a * b, "direct through both boards");
+    assert_close(out[5].gain, 0.5 * a * b, "floor through both boards");
+    // Wall x = 12: tx → (12, 4, 2) crosses both boards, the way back to rx neither.
+    assert_close(out[2].gain, 0.4 * a * b, "x12");
 }
 
 #[test]
 fn output_buffer_is_reused() {
     let r = room(2);
     let mut out = Vec::new();
-    paths_into(&r, None, &v(1.0, 1.0, 1.0), &v(5.0, 5.0, 2.0), &mut out);
+    paths_into(&r, &[], &v(1.0, 1.0, 1.0), &v(5.0, 5.0, 2.0), &mut out);
     let (ptr, cap) = (out.as_ptr(), out.capacity());
     for rx in interior_points() {
-        paths_into(&r, None, &v(1.0, 1.0, 1.0), &rx, &mut out);
+        paths_into(&r, &[], &v(1.0, 1.0, 1.0), &rx, &mut out);
         assert_eq!((out.as_ptr(), out.capacity()), (ptr, cap));
     }
     assert_eq!(out.len(), 25);

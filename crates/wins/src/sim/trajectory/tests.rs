@@ -48,7 +48,7 @@ fn derivatives_match_central_differences() {
     let h = 1e-4;
     for config in all_kinds() {
         config.validate("trajectory").unwrap();
-        let traj = config.build(7);
+        let traj = config.build(7, 200.0);
         for &t in &[0.0, 0.37, 3.1, 17.9, 123.4] {
             let (lo, mid, hi) = (traj.at(t - h), traj.at(t), traj.at(t + h));
             let fd = |a: Vector3<f64>, b: Vector3<f64>| (b - a) / (2.0 * h);
@@ -67,7 +67,7 @@ fn derivatives_match_central_differences() {
 
 #[test]
 fn circle_keeps_radius_speed_height_and_direction() {
-    let traj = paper_circle().build(0);
+    let traj = paper_circle().build(0, 200.0);
     let center = Vector3::new(6.0, 4.0, 1.5);
     let start = traj.at(0.0).p_b_in_w - center;
     assert!((start.y.atan2(start.x) - 30f64.to_radians()).abs() < 1e-12);
@@ -89,7 +89,7 @@ fn circle_keeps_radius_speed_height_and_direction() {
 
 #[test]
 fn figure_eight_shape() {
-    let traj = figure_eight().build(0);
+    let traj = figure_eight().build(0, 200.0);
     assert!((traj.at(0.0).p_b_in_w - Vector3::new(5.0, 5.0, 1.2)).norm() < 1e-12);
     assert!((traj.at(5.0).p_b_in_w - Vector3::new(8.0, 5.0, 1.2)).norm() < 1e-12);
     assert!((traj.at(2.5).p_b_in_w.y - 6.5).abs() < 1e-12);
@@ -104,7 +104,7 @@ fn figure_eight_shape() {
 fn random_flight_stays_in_bounds_and_below_max_speed() {
     let config = random();
     for seed in [1, 2, 3] {
-        let traj = config.build(seed);
+        let traj = config.build(seed, 200.0);
         let mut max_speed = 0.0_f64;
         for i in 0..=300_000 {
             let tr = traj.at(1e-3 * i as f64);
@@ -124,7 +124,11 @@ fn random_flight_stays_in_bounds_and_below_max_speed() {
 #[test]
 fn random_flight_is_reproducible_and_seed_dependent() {
     let config = random();
-    let (a, b, c) = (config.build(42), config.build(42), config.build(43));
+    let (a, b, c) = (
+        config.build(42, 200.0),
+        config.build(42, 200.0),
+        config.build(43, 200.0),
+    );
     for &t in &[0.0, 1.0, 77.7] {
         assert_eq!(a.at(t), b.at(t));
         assert!((a.at(t).p_b_in_w - c.at(t).p_b_in_w).norm() > 1e-3);
@@ -142,7 +146,7 @@ fn planar_random_flight_keeps_height() {
         max_period_s: 10.0,
     };
     config.validate("trajectory").unwrap();
-    let traj = config.build(5);
+    let traj = config.build(5, 200.0);
     for i in 0..100 {
         let tr = traj.at(i as f64 * 0.77);
         assert_eq!(tr.p_b_in_w.z, 1.5);
@@ -155,7 +159,7 @@ fn hover_has_zero_derivatives() {
     let traj = TrajectoryConfig::Hover {
         position_m: [1.0, 2.0, 3.0],
     }
-    .build(0);
+    .build(0, 200.0);
     for &t in &[0.0, 5.0, 1e4] {
         let tr = traj.at(t);
         assert_eq!(tr.p_b_in_w, Vector3::new(1.0, 2.0, 3.0));
@@ -169,7 +173,7 @@ fn hover_has_zero_derivatives() {
 #[test]
 fn bounds_hold() {
     for config in all_kinds() {
-        let traj = config.build(3);
+        let traj = config.build(3, 200.0);
         let (vb, ab) = (traj.speed_bound_m_s(), traj.acceleration_bound_m_s2());
         for i in 0..5000 {
             let tr = traj.at(0.05 * i as f64);
