@@ -43,6 +43,10 @@ pub struct DemoArgs {
     /// Override the flight duration, s.
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
+    /// Start the flight in the air (no rest on the ground, take-off or landing), as the
+    /// estimator needs today.
+    #[arg(long)]
+    airborne: bool,
     /// Where the dataset and the run go.
     #[arg(long, short, default_value = "target/demo")]
     out: PathBuf,
@@ -71,6 +75,9 @@ pub fn demo(args: DemoArgs) -> Result<()> {
     }
     if let Some(d) = args.duration {
         scenario.duration_s = d;
+    }
+    if args.airborne {
+        scenario = scenario.airborne();
     }
     let data_dir = args.out.join("dataset");
     let output = sim::simulate(&scenario, &mut |_| {})?;

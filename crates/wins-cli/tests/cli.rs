@@ -112,11 +112,16 @@ fn simulate_lists_prints_and_runs_scenarios() {
     let toml = String::from_utf8(printed.stdout).expect("utf-8");
     assert!(toml.contains("kind = \"hover\""), "{toml}");
 
-    // Edit the printed scenario and run it: a 3 s hover with another seed.
+    // Edit the printed scenario and run it: a 3 s hover with another seed, airborne from t = 0
+    // (without its `[phases]` table: the built-in one spends 13 s on the ground, taking off and
+    // landing).
     let dir = std::env::temp_dir().join(format!("wins-cli-sim-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("short.toml");
-    std::fs::write(&file, toml.replace("duration_s = 30.0", "duration_s = 3.0")).unwrap();
+    let start = toml.find("[phases]").expect("a [phases] table");
+    let end = start + toml[start..].find("\n\n").expect("a blank line after it");
+    let airborne = format!("{}{}", &toml[..start], &toml[end..]);
+    std::fs::write(&file, airborne.replace("duration_s = 30.0", "duration_s = 3.0")).unwrap();
     let out_dir = dir.join("out");
     let out = wins(&[
         "simulate",
@@ -190,7 +195,14 @@ fn simulate_rejects_unknown_scenarios_and_bad_files_with_a_message() {
 fn demo_and_run_write_the_run_directory() {
     let dir = std::env::temp_dir().join(format!("wins-cli-demo-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = wins(&["demo", "--duration", "20", "--out", dir.to_str().unwrap()]);
+    let out = wins(&[
+        "demo",
+        "--airborne",
+        "--duration",
+        "20",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

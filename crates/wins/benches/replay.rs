@@ -29,7 +29,7 @@ fn main() {
 }
 
 static SCENARIO: LazyLock<Scenario> = LazyLock::new(|| {
-    let mut s = Scenario::built_in("paper-circle-3ap").expect("built-in scenario");
+    let mut s = Scenario::built_in("paper-circle-3ap").expect("built-in scenario").airborne();
     s.duration_s = 60.0;
     s
 });

@@ -78,7 +78,7 @@ mod tests {
     #[test]
     fn kronecker_spectrum_equals_the_quadratic_form() {
         for bw in [Bandwidth::Ht20, Bandwidth::Ht40] {
-            let mut s = Scenario::built_in("paper-circle").unwrap();
+            let mut s = Scenario::built_in("paper-circle").unwrap().airborne();
             s.duration_s = 0.3;
             s.radio.bandwidth = bw;
             let out = simulate(&s, &mut |_| {}).unwrap();

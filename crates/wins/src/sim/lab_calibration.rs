@@ -75,6 +75,9 @@ pub fn capture_scenario(scenario: &Scenario) -> Result<Scenario, LabCalibrationE
     capture.name = format!("{}-calibration", scenario.name);
     capture.duration_s = CAPTURE_S;
     capture.aps = vec![ap.clone()];
+    // The rig is carried around the AP in the lab, airborne throughout; no flight controller.
+    capture.phases = None;
+    capture.baro = None;
     capture.trajectory = TrajectoryConfig::RandomSmooth {
         bounds_min_m: lo,
         bounds_max_m: hi,
@@ -129,7 +132,7 @@ mod tests {
     /// The measured offsets are close to the simulator's true ones (not copies of them).
     #[test]
     fn the_lab_calibration_is_near_the_true_offsets() {
-        let mut scenario = Scenario::built_in("paper-circle").unwrap();
+        let mut scenario = Scenario::built_in("paper-circle").unwrap().airborne();
         scenario.duration_s = 1.0;
         let truth = simulate(&scenario, &mut |_| {})
             .unwrap()

@@ -43,6 +43,38 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "random-flight",
         include_str!("../../../../configs/scenarios/random-flight.toml"),
     ),
+    (
+        "ceiling-ap",
+        include_str!("../../../../configs/scenarios/ceiling-ap.toml"),
+    ),
+    (
+        "warehouse",
+        include_str!("../../../../configs/scenarios/warehouse.toml"),
+    ),
+    (
+        "warehouse-aisle",
+        include_str!("../../../../configs/scenarios/warehouse-aisle.toml"),
+    ),
+    (
+        "three-walls",
+        include_str!("../../../../configs/scenarios/three-walls.toml"),
+    ),
+    (
+        "consumer-two-ap",
+        include_str!("../../../../configs/scenarios/consumer-two-ap.toml"),
+    ),
+    (
+        "busy-ap",
+        include_str!("../../../../configs/scenarios/busy-ap.toml"),
+    ),
+    (
+        "long-flight",
+        include_str!("../../../../configs/scenarios/long-flight.toml"),
+    ),
+    (
+        "near-walls",
+        include_str!("../../../../configs/scenarios/near-walls.toml"),
+    ),
 ];
 
 /// Sampling step of the checks that the flight stays in the room and flyable.
@@ -219,6 +251,13 @@ pub enum ScenarioError {
 }
 
 impl Scenario {
+    /// The same flight started in the air: the phases (rest, take-off, landing) removed, so the
+    /// mission is flown from t = 0 at its own speed, as every flight was before phases existed.
+    pub fn airborne(mut self) -> Self {
+        self.phases = None;
+        self
+    }
+
     /// The built-in scenario `name`, parsed and validated.
     pub fn built_in(name: &str) -> Result<Self, ScenarioError> {
         let text = built_in_toml(name)?;
@@ -400,7 +439,8 @@ impl Scenario {
                 return Err(ConfigError::new(
                     "phases.ground_height_m",
                     format!(
-                        "the mission starts at {start_m:.2} m and ends at {end_m:.2} m, not                          {MIN_CLIMB_M} m above the ground ({ground_m} m)"
+                        "the mission starts at {start_m:.2} m and ends at {end_m:.2} m, not \
+                         {MIN_CLIMB_M} m above the ground ({ground_m} m)"
                     ),
                 ));
             }

@@ -32,6 +32,8 @@ pub struct ApSummary {
 pub struct SimSummary {
     /// IMU samples.
     pub imu_samples: usize,
+    /// Barometer samples (0 without a barometer).
+    pub baro_samples: usize,
     /// Per AP.
     pub aps: Vec<ApSummary>,
 }
@@ -64,6 +66,7 @@ impl SimOutput {
             .collect();
         SimSummary {
             imu_samples: self.imu.len(),
+            baro_samples: self.baro.len(),
             aps,
         }
     }
@@ -80,6 +83,9 @@ fn max(v: &[f64]) -> f64 {
 impl fmt::Display for SimSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "{:<12}{} samples", "imu", self.imu_samples)?;
+        if self.baro_samples > 0 {
+            writeln!(f, "{:<12}{} samples", "baro", self.baro_samples)?;
+        }
         for ap in &self.aps {
             writeln!(
                 f,

@@ -62,7 +62,7 @@ fn estimator(calibration: Option<ChainCalibration>) -> AoaEstimator {
 }
 
 fn flight(name: &str, seconds: f64) -> SimOutput {
-    let mut s = Scenario::built_in(name).unwrap();
+    let mut s = Scenario::built_in(name).unwrap().airborne();
     s.duration_s = seconds;
     simulate(&s, &mut |_| {}).unwrap()
 }
@@ -205,8 +205,8 @@ fn calibration_from_a_simulated_capture_removes_the_chain_offsets() {
     assert!(median <= 2.0, "{median}");
 
     // A static capture at a known angle, off the room's symmetry axes.
-    let mut h = Scenario::built_in("hover").unwrap();
-    h.seed = Scenario::built_in("paper-circle").unwrap().seed;
+    let mut h = Scenario::built_in("hover").unwrap().airborne();
+    h.seed = Scenario::built_in("paper-circle").unwrap().airborne().seed;
     h.duration_s = 10.0;
     h.trajectory = TrajectoryConfig::Hover {
         position_m: [5.0, 2.6, 1.2],

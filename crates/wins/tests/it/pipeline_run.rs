@@ -29,7 +29,7 @@ fn dataset(
     dir: &PathBuf,
     spoil: impl Fn(&mut Dataset),
 ) -> (Dataset, Truth) {
-    let mut s = Scenario::built_in(name).unwrap();
+    let mut s = Scenario::built_in(name).unwrap().airborne();
     s.duration_s = seconds;
     let out = simulate(&s, &mut |_| {}).unwrap();
     write_dataset(dir, &s, &out).unwrap();
@@ -173,7 +173,7 @@ fn metrics_over_seeds(name: &str, seconds: f64, seeds: &[u64]) -> Vec<Metrics> {
         .iter()
         .map(|&seed| {
             let dir = temp_dir(&format!("{name}-{seed}"));
-            let mut s = Scenario::built_in(name).unwrap();
+            let mut s = Scenario::built_in(name).unwrap().airborne();
             s.duration_s = seconds;
             s.seed = seed;
             let out = simulate(&s, &mut |_| {}).unwrap();

@@ -18,7 +18,7 @@ fn rows(record: &CsiRecord) -> Vec<Complex64> {
 
 #[test]
 fn single_path_packets_give_back_time_of_flight_plus_sampling_offset() {
-    let mut s = Scenario::built_in("paper-circle").unwrap();
+    let mut s = Scenario::built_in("paper-circle").unwrap().airborne();
     s.duration_s = 5.0;
     s.room.max_order = 0;
     s.radio.bandwidth = wins::csi::Bandwidth::Ht40;

@@ -12,7 +12,7 @@ use wins::sim::imu::ImuModel;
 use wins::sim::{Scenario, SimOutput, simulate, write_dataset};
 
 fn scenario(name: &str) -> Scenario {
-    Scenario::built_in(name).unwrap()
+    Scenario::built_in(name).unwrap().airborne()
 }
 
 fn run(s: &Scenario) -> SimOutput {
@@ -222,4 +222,54 @@ fn figure8_yaw_turns_the_ap_behind_the_array_and_paper_circle_does_not() {
         "{}",
         eight.aps[0].in_front
     );
+}
+
+#[test]
+fn a_phased_flight_writes_its_barometer_and_its_truth_and_reads_back() {
+    // The built-in flight as shipped: on the ground, take-off, the circle, landing.
+    let mut s = Scenario::built_in("paper-circle").unwrap();
+    s.duration_s = 30.0;
+    assert!(s.phases.is_some() && s.baro.is_some());
+    let out = run(&s);
+    let dir = temp_dir("baro");
+    write_dataset(&dir, &s, &out).unwrap();
+    let data = Dataset::load(&dir).unwrap();
+    assert_eq!(data.baro, out.baro);
+    let rate_hz = s.baro.as_ref().unwrap().rate_hz;
+    assert_eq!(data.baro.len(), (30.0 * rate_hz) as usize + 1);
+    // Reading = truth height + offset + drift + white noise; the truth height is the flight's.
+    let truth_rows: Vec<f64> = std::fs::read_to_string(dir.join("truth/baro.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(truth_rows.len(), out.baro_truth.len());
+    for (row, t) in truth_rows.iter().zip(&out.baro_truth) {
+        assert_eq!(*row, t.height_m);
+    }
+    let flight = s.build_flight();
+    for t in &out.baro_truth {
+        let z = flight.at(t.t.as_secs_f64()).translation.p_b_in_w.z;
+        assert!((t.height_m - z).abs() < 1e-12, "{} vs {z}", t.height_m);
+    }
+    // On the ground at the start, at the mission's height in the middle.
+    assert!((out.baro_truth[0].height_m - 0.1).abs() < 1e-12);
+    assert!((out.baro_truth[out.baro_truth.len() / 2].height_m - 1.5).abs() < 0.05);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_dataset_without_a_barometer_stays_valid() {
+    let mut s = scenario("paper-circle");
+    s.baro = None;
+    s.duration_s = 5.0;
+    let out = run(&s);
+    assert!(out.baro.is_empty());
+    let dir = temp_dir("no-baro");
+    write_dataset(&dir, &s, &out).unwrap();
+    assert!(!dir.join("baro.csv").exists() && !dir.join("truth/baro.csv").exists());
+    let data = Dataset::load(&dir).unwrap();
+    assert!(data.baro.is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -11,6 +11,14 @@ fn built_in_scenarios_validate_and_round_trip_through_toml() {
         "paper-circle-obstacle",
         "figure8-yaw",
         "hover",
+        "ceiling-ap",
+        "warehouse",
+        "warehouse-aisle",
+        "three-walls",
+        "consumer-two-ap",
+        "busy-ap",
+        "long-flight",
+        "near-walls",
     ] {
         assert!(
             names.contains(&required),
@@ -30,6 +38,32 @@ fn built_in_scenarios_validate_and_round_trip_through_toml() {
             "{name}"
         );
         assert!(printed.starts_with("# ") && printed.contains("implementation_snr_db"));
+        // Every built-in flight starts on the ground, at rest for at least 2 s, and takes off;
+        // every one has a barometer.
+        let phases = s.phases.as_ref().expect("phases");
+        assert!(phases.rest_s >= 2.0 && phases.takeoff_s > 0.0, "{name}");
+        assert!(s.baro.is_some(), "{name}");
+    }
+}
+
+#[test]
+fn every_built_in_flight_simulates_and_starts_at_rest_on_the_ground() {
+    for (name, _) in BUILT_IN {
+        let mut s = Scenario::built_in(name).unwrap();
+        s.duration_s = s.duration_s.min(30.0);
+        let out = wins::sim::simulate(&s, &mut |_| {}).unwrap();
+        let ground_m = s.phases.as_ref().unwrap().ground_height_m;
+        // Still on the ground for the first 2 s: the truth does not move.
+        let first = &out.states[0].1;
+        let at_rest = out.states.iter().take_while(|(t, _)| t.as_secs_f64() <= 2.0);
+        for (_, b) in at_rest {
+            assert!((b.p_b_in_w - first.p_b_in_w).norm() < 1e-12, "{name}");
+            assert!((b.p_b_in_w.z - ground_m).abs() < 1e-12, "{name}");
+        }
+        for ap in &out.aps {
+            assert!(ap.received().count() > 0, "{name}: {} received nothing", ap.config.name);
+        }
+        assert!(!out.baro.is_empty(), "{name}");
     }
 }
 

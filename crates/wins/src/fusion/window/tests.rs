@@ -29,7 +29,7 @@ struct Flight {
 }
 
 fn flight(seconds: f64, aps: &[Vector3<f64>], sigma_rad: f64, seed: u64) -> Flight {
-    let sc = Scenario::built_in("paper-circle").unwrap();
+    let sc = Scenario::built_in("paper-circle").unwrap().airborne();
     let traj = sc.build_flight();
     let g = sc.gravity_m_s2;
     let body_from_array = sc.body_from_array();

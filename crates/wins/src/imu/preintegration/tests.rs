@@ -12,7 +12,7 @@ const PERIOD_NS: i64 = 5_000_000;
 
 /// Noise-free samples and true states of the paper's circle at 200 Hz, for `n` samples.
 fn circle(n: usize) -> (Vec<ImuSample>, Vec<BodyState>, f64) {
-    let sc = Scenario::built_in("paper-circle").unwrap();
+    let sc = Scenario::built_in("paper-circle").unwrap().airborne();
     let traj = sc.build_flight();
     let g = sc.gravity_m_s2;
     let mut samples = Vec::new();
@@ -92,7 +92,7 @@ fn noise_free_samples_reproduce_the_true_relative_motion() {
             Timestamp(t_end_ns),
         );
         let t_end_s = t_end_ns as f64 * 1e-9;
-        let sc = Scenario::built_in("paper-circle").unwrap();
+        let sc = Scenario::built_in("paper-circle").unwrap().airborne();
         let end = sample(&sc.build_flight(), &sc.yaw, g, t_end_s);
         let (alpha, beta, rot) = truth(&states[i0], &end, g);
         let dt = pre.dt_s();

@@ -9,7 +9,7 @@ use crate::time::Timestamp;
 use num_complex::Complex;
 
 fn flight() -> (Scenario, SimOutput) {
-    let mut s = Scenario::built_in("paper-circle").unwrap();
+    let mut s = Scenario::built_in("paper-circle").unwrap().airborne();
     s.duration_s = 2.0;
     let out = simulate(&s, &mut |_| {}).unwrap();
     (s, out)
