@@ -1,6 +1,8 @@
-//! Flight trajectories with exact analytic derivatives.
+//! Mission paths with exact analytic derivatives (the part of a flight between take-off and
+//! landing, see [`super::flight`]).
 //!
-//! Every trajectory is an offset plus a sum of sinusoids with vector amplitudes,
+//! The circle, the figure-eight, the smooth random flight and the hover are an offset plus a sum
+//! of sinusoids with vector amplitudes,
 //!
 //! ```text
 //! p(t) = c + Σ_k A_k sin(ω_k t + φ_k)
@@ -10,7 +12,8 @@
 //! ```
 //!
 //! so position, velocity, acceleration and jerk are exact to rounding at any time, with no
-//! numerical differentiation. The quadrotor attitude ([`super::motion`]) needs all four.
+//! numerical differentiation. The quadrotor attitude ([`super::motion`]) needs all four. The
+//! waypoint loop ([`super::waypoints`]) is a polyline with blended corners, exact likewise.
 
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
