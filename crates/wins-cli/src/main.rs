@@ -16,6 +16,7 @@ use wins::sim::{self, Scenario};
 mod aoa_cmd;
 mod eval_cmd;
 mod run_cmd;
+mod sweep_cmd;
 
 /// WiFi-inertial pose estimation for micro aerial vehicles.
 #[derive(Parser)]
@@ -45,6 +46,9 @@ enum Command {
     Run(run_cmd::RunArgs),
     /// Simulate the paper's flight, run WINS on it, print the report and draw the figures.
     Demo(run_cmd::DemoArgs),
+    /// Measure WINS over many simulated flights (scenarios × seeds) on all cores: runs.csv,
+    /// summary.json and a figure; `wins sweep merge` joins the shards of a sharded sweep.
+    Sweep(sweep_cmd::SweepArgs),
     /// Print the default settings as TOML (the `--config` file of `wins run`), or check a file.
     Config(ConfigArgs),
 }
@@ -73,6 +77,10 @@ struct SimulateArgs {
     /// Override the flight duration, s.
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
+    /// Start the flight in the air: drop the scenario's phases (rest on the ground, take-off,
+    /// landing) and fly the mission alone from t = 0.
+    #[arg(long)]
+    airborne: bool,
     /// Print a built-in scenario's TOML and exit.
     #[arg(long, value_name = "NAME", conflicts_with = "out")]
     print_scenario: Option<String>,
@@ -157,6 +165,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Eval(args) => eval_cmd::eval(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Demo(args) => run_cmd::demo(args),
+        Command::Sweep(args) => sweep_cmd::sweep(args),
         Command::Config(args) => config(args),
     }
 }
@@ -254,6 +263,9 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     }
     if let Some(d) = args.duration {
         scenario.duration_s = d;
+    }
+    if args.airborne {
+        scenario = scenario.airborne();
     }
     let Some(dir) = args.out else {
         anyhow::bail!("--out is required");

@@ -121,7 +121,11 @@ fn simulate_lists_prints_and_runs_scenarios() {
     let start = toml.find("[phases]").expect("a [phases] table");
     let end = start + toml[start..].find("\n\n").expect("a blank line after it");
     let airborne = format!("{}{}", &toml[..start], &toml[end..]);
-    std::fs::write(&file, airborne.replace("duration_s = 30.0", "duration_s = 3.0")).unwrap();
+    std::fs::write(
+        &file,
+        airborne.replace("duration_s = 30.0", "duration_s = 3.0"),
+    )
+    .unwrap();
     let out_dir = dir.join("out");
     let out = wins(&[
         "simulate",

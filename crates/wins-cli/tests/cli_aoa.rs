@@ -29,6 +29,7 @@ fn flight(name: &str) -> PathBuf {
         "paper-circle",
         "--duration",
         "4",
+        "--airborne",
         "--out",
         s(&ds),
     ]);

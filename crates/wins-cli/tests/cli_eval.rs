@@ -210,6 +210,7 @@ fn eval_against_a_dataset_with_ap_estimates() {
         "paper-circle",
         "--duration",
         "3",
+        "--airborne",
         "--out",
         s(&ds),
     ]);

@@ -1,12 +1,14 @@
-//! PNG plots for wins. Two kinds:
+//! PNG plots for wins. Three kinds:
 //!
 //! - [`heat_map_png`]: a 2-D map on a regular grid (e.g. a MUSIC spectrum over AoA x ToF) with
 //!   a colour bar and point markers;
 //! - [`xy_plot_png`]: lines and dot clouds over x/y axes with markers, vertical lines and an
 //!   optional equal aspect ratio, for the trajectory seen from above (estimate vs truth, APs),
-//!   the position error over time and the per-packet AoA against the truth.
+//!   the position error over time and the per-packet AoA against the truth;
+//! - [`strip_plot_png`]: the distribution of a value per group (e.g. the position error of
+//!   each simulated flight, per scenario) as jittered points with the median.
 //!
-//! Both have a title, axis labels and a legend for labelled items. The crate takes plain slices
+//! Each has a title and axis labels; the first two have a legend for labelled items. The crate takes plain slices
 //! so it does not depend on the estimator; input is checked before anything is drawn and
 //! rejected with a [`PlotError`], never a panic. Text is rendered by plotters' `ttf` feature,
 //! which finds the `sans-serif` font through fontconfig/freetype.
@@ -58,6 +60,7 @@ mod colormap;
 mod heat_map;
 #[cfg(test)]
 mod png_check;
+mod strip_plot;
 mod style;
 mod ticks;
 mod validate;
@@ -66,6 +69,7 @@ mod xy_plot;
 mod xy_range;
 
 pub use heat_map::heat_map_png;
+pub use strip_plot::strip_plot_png;
 pub use validate::{MAX_IMAGE_SIDE, MIN_IMAGE_HEIGHT, MIN_IMAGE_WIDTH};
 pub use xy_plot::xy_plot_png;
 
@@ -180,6 +184,31 @@ pub struct VerticalLine<'a> {
     pub x: f64,
     /// Legend text; empty for no legend entry.
     pub label: &'a str,
+}
+
+/// The distribution of one value per group: for each group a column of points, spread
+/// sideways by a deterministic jitter so that equal values stay visible, and a bar at the
+/// group's median; e.g. the position error of every simulated flight, per scenario.
+#[derive(Debug, Clone, Copy)]
+pub struct StripPlot<'a> {
+    /// Title drawn above the plot.
+    pub title: &'a str,
+    /// Vertical axis label, e.g. `"ATE RMSE (m)"`.
+    pub y_label: &'a str,
+    /// The groups, left to right; at least one.
+    pub groups: &'a [StripGroup<'a>],
+}
+
+/// One column of a [`StripPlot`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StripGroup<'a> {
+    /// Name under the axis.
+    pub label: &'a str,
+    /// Second line under the name (what the points leave out, e.g. `"8 runs, 2 never
+    /// converged"`); empty for none.
+    pub note: &'a str,
+    /// The values, finite; may be empty (the group keeps its place and labels).
+    pub values: &'a [f64],
 }
 
 /// What is wrong with one field of the input.

@@ -42,7 +42,9 @@ struct Case {
 }
 
 fn case(bw: Bandwidth) -> Case {
-    let mut s = Scenario::built_in("paper-circle").expect("built-in").airborne();
+    let mut s = Scenario::built_in("paper-circle")
+        .expect("built-in")
+        .airborne();
     s.duration_s = 1.0;
     s.radio.bandwidth = bw;
     let out = simulate(&s, &mut |_| {}).expect("valid");

@@ -29,7 +29,9 @@ fn main() {
 }
 
 static SCENARIO: LazyLock<Scenario> = LazyLock::new(|| {
-    let mut s = Scenario::built_in("paper-circle-3ap").expect("built-in scenario").airborne();
+    let mut s = Scenario::built_in("paper-circle-3ap")
+        .expect("built-in scenario")
+        .airborne();
     s.duration_s = 60.0;
     s
 });

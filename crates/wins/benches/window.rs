@@ -32,7 +32,9 @@ fn main() {
 
 /// A converged window holding `frames` frames (full): 16 s of flight plus the window.
 fn window(frames: usize) -> SlidingWindow {
-    let sc = Scenario::built_in("paper-circle").expect("built-in").airborne();
+    let sc = Scenario::built_in("paper-circle")
+        .expect("built-in")
+        .airborne();
     let traj = sc.build_flight();
     let body_from_array = sc.body_from_array();
     let ap = Vector3::from(sc.aps[0].position_m);

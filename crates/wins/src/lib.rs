@@ -92,6 +92,7 @@ pub mod pipeline;
 pub mod rig;
 pub mod sim;
 pub mod so3;
+pub mod sweep;
 pub mod time;
 
 pub use pipeline::config::{Config, ConfigError};

@@ -367,8 +367,8 @@ mod tests {
         let strong = with_gain(10.0 * NEGLIGIBLE_PATH_POWER_RATIO * floor_mw);
         let q = UnitQuaternion::identity();
         let alone = synth.channel(std::slice::from_ref(&direct), &q);
-        assert_eq!(synth.channel(&[direct.clone(), weak.clone()], &q), alone);
-        assert_ne!(synth.channel(&[direct.clone(), strong], &q), alone);
+        assert_eq!(synth.channel(&[direct, weak], &q), alone);
+        assert_ne!(synth.channel(&[direct, strong], &q), alone);
         // A direct path as weak as the skipped reflection is still synthesized.
         let faint = synth.channel(std::slice::from_ref(&weak), &q);
         assert!(faint[0][0].norm_sqr() > 0.0);

@@ -36,7 +36,9 @@ struct Flight {
 }
 
 fn paper_circle(duration_s: f64) -> Flight {
-    let mut s = Scenario::built_in("paper-circle").expect("built in").airborne();
+    let mut s = Scenario::built_in("paper-circle")
+        .expect("built in")
+        .airborne();
     s.duration_s = duration_s;
     s.imu.rate_hz = IMU_RATE_HZ;
     s.imu.model = ImuModel::Ideal;

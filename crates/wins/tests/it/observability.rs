@@ -42,7 +42,9 @@ fn config() -> EkfConfig {
 
 /// The paper's circle (noise-free IMU) from the simulator: its first state and IMU samples.
 fn circle() -> (EkfState, Vec<ImuSample>) {
-    let mut s = Scenario::built_in("paper-circle").expect("built in").airborne();
+    let mut s = Scenario::built_in("paper-circle")
+        .expect("built in")
+        .airborne();
     s.duration_s = FLIGHT_S;
     s.imu.rate_hz = IMU_RATE_HZ;
     s.imu.model = ImuModel::Ideal;

@@ -55,13 +55,20 @@ fn every_built_in_flight_simulates_and_starts_at_rest_on_the_ground() {
         let ground_m = s.phases.as_ref().unwrap().ground_height_m;
         // Still on the ground for the first 2 s: the truth does not move.
         let first = &out.states[0].1;
-        let at_rest = out.states.iter().take_while(|(t, _)| t.as_secs_f64() <= 2.0);
+        let at_rest = out
+            .states
+            .iter()
+            .take_while(|(t, _)| t.as_secs_f64() <= 2.0);
         for (_, b) in at_rest {
             assert!((b.p_b_in_w - first.p_b_in_w).norm() < 1e-12, "{name}");
             assert!((b.p_b_in_w.z - ground_m).abs() < 1e-12, "{name}");
         }
         for ap in &out.aps {
-            assert!(ap.received().count() > 0, "{name}: {} received nothing", ap.config.name);
+            assert!(
+                ap.received().count() > 0,
+                "{name}: {} received nothing",
+                ap.config.name
+            );
         }
         assert!(!out.baro.is_empty(), "{name}");
     }

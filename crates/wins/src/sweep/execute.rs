@@ -1,0 +1,284 @@
+//! Running a plan: each run simulates its flight, writes it as a dataset, runs the pipeline on
+//! the files and scores it, exactly as `wins simulate` then `wins run` do; runs execute on a
+//! rayon pool and their rows come back in canonical order.
+
+use std::io::Write as _;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::plan::{Plan, RunId, Shard};
+use super::record::PlanRecord;
+use super::summary::{SweepSummary, summarize};
+use super::table::{RunRow, metric_columns, metric_keys, runs_csv};
+use super::{DATASETS_DIR, PLAN_FILE, RUNS_FILE, SUMMARY_FILE, SweepError};
+use crate::sim;
+use crate::{RunOutput, run_dataset};
+
+/// How to run a plan.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SweepOptions {
+    /// Worker threads (0: one per core).
+    pub jobs: usize,
+    /// Run only this part of the plan.
+    pub shard: Option<Shard>,
+    /// Keep each run's dataset in `OUT/.datasets/<scenario>-<seed>/` (deleted otherwise).
+    pub keep_datasets: bool,
+}
+
+/// One finished run, handed to the progress callback.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress<'a> {
+    /// Runs finished so far, this one included.
+    pub done: usize,
+    /// Runs in this sweep (this shard).
+    pub total: usize,
+    /// This run's row.
+    pub row: &'a RunRow,
+}
+
+/// What a sweep produced (also written to its directory).
+#[derive(Clone, Debug)]
+pub struct SweepReport {
+    /// `plan.json`.
+    pub record: PlanRecord,
+    /// The metric columns of `runs.csv`.
+    pub columns: Vec<String>,
+    /// `runs.csv`, in canonical order.
+    pub rows: Vec<RunRow>,
+    /// `summary.json`.
+    pub summary: SweepSummary,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// What did not go as it should without spoiling the results (a temporary dataset that
+    /// could not be deleted).
+    pub warnings: Vec<String>,
+}
+
+/// Refuses a directory that holds anything; creates it when missing.
+pub fn prepare_out_dir(out: &Path) -> Result<(), SweepError> {
+    match std::fs::read_dir(out) {
+        Ok(mut entries) => {
+            if entries.next().is_some() {
+                return Err(SweepError::OutputNotEmpty {
+                    path: out.to_path_buf(),
+                });
+            }
+            Ok(())
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            std::fs::create_dir_all(out).map_err(|source| SweepError::Write {
+                path: out.to_path_buf(),
+                source,
+            })
+        }
+        Err(source) => Err(SweepError::Read {
+            path: out.to_path_buf(),
+            source,
+        }),
+    }
+}
+
+/// Runs `plan` (the part `options.shard` keeps) into `out`, which must be new or empty:
+/// `runs.csv`, `summary.json` and `plan.json`, each written under a temporary name and renamed
+/// into place once complete. `progress` is called after each run, from the worker threads.
+pub fn run_sweep(
+    plan: &Plan,
+    out: &Path,
+    options: &SweepOptions,
+    progress: &(dyn Fn(Progress<'_>) + Sync),
+) -> Result<SweepReport, SweepError> {
+    let record = plan.record(options.shard)?;
+    prepare_out_dir(out)?;
+    let runs: Vec<RunId> = plan
+        .runs()
+        .into_iter()
+        .filter(|r| options.shard.is_none_or(|s| s.keeps(r.index)))
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.jobs)
+        .build()
+        .map_err(|e| SweepError::ThreadPool {
+            jobs: options.jobs,
+            reason: e.to_string(),
+        })?;
+    let datasets = out.join(DATASETS_DIR);
+    let done = AtomicUsize::new(0);
+    let total = runs.len();
+    // The metric columns of each scenario, for its rows that are not scored.
+    let keys: Vec<Vec<String>> = plan
+        .scenarios
+        .iter()
+        .map(|s| {
+            let names: Vec<String> = s.scenario.aps.iter().map(|a| a.name.clone()).collect();
+            metric_keys(&names)
+        })
+        .collect();
+    let mut rows: Vec<(RunRow, Option<String>)> = pool.install(|| {
+        runs.par_iter()
+            .with_max_len(1)
+            .map(|run| {
+                let (mut row, warning) = run_one(plan, *run, &datasets, options.keep_datasets);
+                if row.metrics.is_empty() {
+                    row.metrics = keys[run.scenario]
+                        .iter()
+                        .map(|k| (k.clone(), String::new()))
+                        .collect();
+                }
+                let done = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(Progress {
+                    done,
+                    total,
+                    row: &row,
+                });
+                (row, warning)
+            })
+            .collect()
+    });
+    // Canonical order whatever the completion order (par_iter keeps it; sorting states it).
+    let order = |r: &RunRow| plan.scenarios.iter().position(|s| s.label == r.scenario);
+    rows.sort_by_key(|(r, _)| (order(r), r.seed));
+    let mut warnings: Vec<String> = rows.iter_mut().filter_map(|(_, w)| w.take()).collect();
+    let rows: Vec<RunRow> = rows.into_iter().map(|(r, _)| r).collect();
+    if !options.keep_datasets
+        && datasets.is_dir()
+        && let Err(e) = std::fs::remove_dir(&datasets)
+    {
+        warnings.push(format!("cannot delete {}: {e}", datasets.display()));
+    }
+    let columns = metric_columns(&rows);
+    let labels: Vec<String> = plan.scenarios.iter().map(|s| s.label.clone()).collect();
+    let summary = summarize(&record.plan_id, &record.wins_version, &labels, &rows);
+    let files = write_outputs(out, &record, &columns, &rows, &summary)?;
+    Ok(SweepReport {
+        record,
+        columns,
+        rows,
+        summary,
+        files,
+        warnings,
+    })
+}
+
+/// Writes `runs.csv`, `summary.json` and `plan.json` into `out`, each under a temporary name
+/// first; returns their paths.
+pub fn write_outputs(
+    out: &Path,
+    record: &PlanRecord,
+    columns: &[String],
+    rows: &[RunRow],
+    summary: &SweepSummary,
+) -> Result<Vec<PathBuf>, SweepError> {
+    let plan_json = serde_json::to_string_pretty(record).map_err(|e| SweepError::Malformed {
+        path: out.join(PLAN_FILE),
+        reason: e.to_string(),
+    })? + "\n";
+    let files = [
+        (RUNS_FILE, runs_csv(columns, rows)?),
+        (SUMMARY_FILE, summary.to_json().into_bytes()),
+        (PLAN_FILE, plan_json.into_bytes()),
+    ];
+    let mut written = Vec::with_capacity(files.len());
+    for (name, bytes) in files {
+        let path = out.join(name);
+        write_atomic(&path, &bytes)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// Writes `bytes` to `.NAME.tmp` beside `path`, then renames it to `path`.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SweepError> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    let err = |source| SweepError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut f = std::fs::File::create(&tmp).map_err(err)?;
+    f.write_all(bytes).map_err(err)?;
+    f.sync_all().map_err(err)?;
+    std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// The dataset folder of a run: `<datasets>/<scenario>-<seed>`.
+pub fn dataset_dir(datasets: &Path, label: &str, seed: u64) -> PathBuf {
+    datasets.join(format!("{label}-{seed}"))
+}
+
+/// One run, whatever happens in it: its row, and a warning if its dataset could not be
+/// deleted.
+fn run_one(plan: &Plan, run: RunId, datasets: &Path, keep: bool) -> (RunRow, Option<String>) {
+    let started = Instant::now();
+    let s = &plan.scenarios[run.scenario];
+    let dir = dataset_dir(datasets, &s.label, run.seed);
+    let scenario = s.for_run(run.seed, plan.duration_s);
+    // A bug in a stage must cost one row, not the sweep.
+    let outcome = catch_unwind(AssertUnwindSafe(|| fly(&scenario, &dir, plan)))
+        .unwrap_or_else(|panic| Err(format!("panicked: {}", panic_text(panic.as_ref()))));
+    let mut row = match outcome {
+        Ok(output) => row_of(&s.label, run.seed, &output),
+        Err(error) => RunRow::failed(&s.label, run.seed, error),
+    };
+    let warning = if keep || !dir.exists() {
+        None
+    } else {
+        std::fs::remove_dir_all(&dir)
+            .err()
+            .map(|e| format!("cannot delete {}: {e}", dir.display()))
+    };
+    row.wall_s = started.elapsed().as_secs_f64();
+    (row, warning)
+}
+
+/// `wins simulate --seed S [--duration D] --out DIR`, then `wins run DIR` with the plan's
+/// settings, through the same library calls.
+fn fly(scenario: &sim::Scenario, dir: &Path, plan: &Plan) -> Result<RunOutput, String> {
+    let output = sim::simulate(scenario, &mut |_| {}).map_err(|e| format!("simulation: {e}"))?;
+    sim::write_dataset(dir, scenario, &output)
+        .map_err(|e| format!("writing the dataset: {e}: {}", e.source))?;
+    run_dataset(dir, &plan.config).map_err(|e| format!("pipeline: {e}"))
+}
+
+/// The row of a run that went through the pipeline.
+fn row_of(label: &str, seed: u64, run: &RunOutput) -> RunRow {
+    let mut row = RunRow::failed(label, seed, String::new());
+    row.converged = run.converged_at.is_some() || run.metrics.is_some();
+    row.restarts = Some(run.wins.restarts);
+    row.rejected_convergences = Some(run.wins.rejected_convergences);
+    match &run.metrics {
+        Some(m) => {
+            if let Err(e) = row.set_metrics(m) {
+                row.error = format!("cannot flatten the metrics: {e}");
+            }
+        }
+        // Converged but not scored: say why (the pipeline's warning).
+        None if row.converged => {
+            row.error = run
+                .warnings
+                .iter()
+                .find(|w| w.starts_with("cannot score"))
+                .cloned()
+                .unwrap_or_else(|| "converged, but not scored".to_string());
+        }
+        None => {}
+    }
+    row
+}
+
+fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".to_string())
+}
+
+#[cfg(test)]
+mod tests;

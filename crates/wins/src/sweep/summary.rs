@@ -1,0 +1,280 @@
+//! `summary.json` and the printed table: per scenario, how many runs converged, never
+//! converged or failed, and the median, 90th percentile and worst of the main errors over the
+//! converged runs.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use super::RunRow;
+
+/// `format` of `summary.json`.
+pub const SUMMARY_FORMAT: &str = "wins-sweep-summary";
+/// A converged run whose aligned position error ever exceeds this is counted in
+/// [`ScenarioSummary::error_over_2m_after_convergence`], m.
+pub const ERROR_THRESHOLD_M: f64 = 2.0;
+/// What the statistics are taken over, in words (`summary.json`'s `statistics_over`).
+pub const STATISTICS_OVER: &str = "converged runs: runs that never converged or failed are \
+                                   counted, not in the statistics";
+
+/// The `q`-quantile (`0 ≤ q ≤ 1`) of `sorted` (increasing, finite) as numpy's default
+/// (`numpy.quantile(x, q)`, method "linear"; `numpy.percentile(x, 100·q)`), to the bit:
+/// the virtual index `(n − 1)·q` splits into `i + g`, and the value is `x[i] + (x[i+1] −
+/// x[i])·g`, computed as `x[i+1] − (x[i+1] − x[i])·(1 − g)` when `g ≥ 0.5` as numpy does.
+/// `None` for no values.
+pub fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
+    let n = sorted.len();
+    let last = n.checked_sub(1)?;
+    let virtual_index = last as f64 * q;
+    if virtual_index <= 0.0 {
+        return sorted.first().copied();
+    }
+    if virtual_index >= last as f64 {
+        return sorted.last().copied();
+    }
+    let below = virtual_index.floor();
+    let gamma = virtual_index - below;
+    let i = below as usize;
+    let (a, b) = (sorted[i], sorted[(i + 1).min(last)]);
+    let diff = b - a;
+    Some(if gamma >= 0.5 {
+        b - diff * (1.0 - gamma)
+    } else {
+        a + diff * gamma
+    })
+}
+
+/// Median, 90th percentile and largest of one quantity over the converged runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spread {
+    /// Converged runs that have the quantity.
+    pub count: usize,
+    /// `numpy.percentile(x, 50)` (null: no value).
+    pub median: Option<f64>,
+    /// `numpy.percentile(x, 90)`.
+    pub p90: Option<f64>,
+    /// The largest.
+    pub worst: Option<f64>,
+}
+
+impl Spread {
+    /// Of `values` (non-finite ones left out).
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Self {
+        let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
+        v.sort_by(f64::total_cmp);
+        Self {
+            count: v.len(),
+            median: percentile(&v, 0.5),
+            p90: percentile(&v, 0.9),
+            worst: v.last().copied(),
+        }
+    }
+}
+
+/// The statistics of one scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioSummary {
+    /// The scenario's label.
+    pub scenario: String,
+    /// Runs (converged + never converged + failed).
+    pub runs: usize,
+    /// Runs that converged and were scored: the statistics are over these.
+    pub converged: usize,
+    /// Runs whose estimator never converged (no error).
+    pub never_converged: usize,
+    /// Runs with an error (simulation, dataset, pipeline, or converged but not scorable).
+    pub failed: usize,
+    /// Converged runs whose aligned position error ever exceeds [`ERROR_THRESHOLD_M`] after
+    /// convergence (`max_error_after_convergence_m > 2`).
+    pub error_over_2m_after_convergence: usize,
+    /// ATE: RMSE of the aligned position error, m (`ate_rmse_m`).
+    pub ate_rmse_m: Spread,
+    /// RMSE of the attitude error, deg (`attitude_error_rmse_deg`).
+    pub attitude_error_rmse_deg: Spread,
+    /// Largest per-AP position error of each run, m (`ap_position_error_max_m`).
+    pub ap_position_error_max_m: Spread,
+    /// Time from the start of the flight to the first converged pose, s
+    /// (`convergence_time_s`).
+    pub convergence_time_s: Spread,
+}
+
+/// `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSummary {
+    /// [`SUMMARY_FORMAT`].
+    pub format: String,
+    /// The plan's `plan_id` (`plan.json`).
+    pub plan_id: String,
+    /// The version of the `wins` library.
+    pub wins_version: String,
+    /// [`STATISTICS_OVER`].
+    pub statistics_over: String,
+    /// [`ERROR_THRESHOLD_M`].
+    pub error_threshold_m: f64,
+    /// Per scenario, in the plan's order.
+    pub scenarios: Vec<ScenarioSummary>,
+}
+
+/// How a row counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Converged and scored.
+    Converged,
+    /// The estimator never converged.
+    NeverConverged,
+    /// An error (its text in the row).
+    Failed,
+}
+
+impl Outcome {
+    /// Of `row`: an error first, then convergence.
+    pub fn of(row: &RunRow) -> Self {
+        if !row.error.is_empty() {
+            Self::Failed
+        } else if row.converged {
+            Self::Converged
+        } else {
+            Self::NeverConverged
+        }
+    }
+}
+
+/// The statistics of `rows` per scenario of `labels` (in that order), for the plan `plan_id`.
+pub fn summarize(
+    plan_id: &str,
+    wins_version: &str,
+    labels: &[String],
+    rows: &[RunRow],
+) -> SweepSummary {
+    let scenarios = labels
+        .iter()
+        .map(|label| {
+            let mine: Vec<&RunRow> = rows.iter().filter(|r| &r.scenario == label).collect();
+            let count = |o: Outcome| mine.iter().filter(|r| Outcome::of(r) == o).count();
+            let converged: Vec<&RunRow> = mine
+                .iter()
+                .copied()
+                .filter(|r| Outcome::of(r) == Outcome::Converged)
+                .collect();
+            let spread = |f: &dyn Fn(&RunRow) -> Option<f64>| {
+                Spread::of(converged.iter().filter_map(|r| f(r)))
+            };
+            ScenarioSummary {
+                scenario: label.clone(),
+                runs: mine.len(),
+                converged: converged.len(),
+                never_converged: count(Outcome::NeverConverged),
+                failed: count(Outcome::Failed),
+                error_over_2m_after_convergence: converged
+                    .iter()
+                    .filter(|r| {
+                        r.max_error_after_convergence_m
+                            .is_some_and(|e| e > ERROR_THRESHOLD_M)
+                    })
+                    .count(),
+                ate_rmse_m: spread(&|r| r.metric("ate_rmse_m")),
+                attitude_error_rmse_deg: spread(&|r| r.metric("attitude_error_rmse_deg")),
+                ap_position_error_max_m: spread(&|r| r.ap_position_error_max_m),
+                convergence_time_s: spread(&|r| r.metric("convergence_time_s")),
+            }
+        })
+        .collect();
+    SweepSummary {
+        format: SUMMARY_FORMAT.to_string(),
+        plan_id: plan_id.to_string(),
+        wins_version: wins_version.to_string(),
+        statistics_over: STATISTICS_OVER.to_string(),
+        error_threshold_m: ERROR_THRESHOLD_M,
+        scenarios,
+    }
+}
+
+impl SweepSummary {
+    /// `summary.json`'s text (pretty, with a final newline).
+    pub fn to_json(&self) -> String {
+        // Plain strings, integers and floats: serializing cannot fail.
+        let mut s = serde_json::to_string_pretty(self).unwrap_or_default();
+        s.push('\n');
+        s
+    }
+}
+
+/// `median / p90 / worst` with `digits` decimals, `–` for none.
+fn spread_cell(s: &Spread, digits: usize) -> String {
+    let f = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.digits$}"));
+    format!("{} / {} / {}", f(s.median), f(s.p90), f(s.worst))
+}
+
+impl fmt::Display for SweepSummary {
+    /// The table `wins sweep` prints: one line per scenario.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "median / p90 / worst over the converged runs (never-converged and failed runs are \
+             counted, not in the statistics); >{ERROR_THRESHOLD_M} m: converged runs whose error \
+             exceeds {ERROR_THRESHOLD_M} m after convergence"
+        )?;
+        let header = [
+            "scenario",
+            "runs",
+            "conv",
+            "never",
+            "failed",
+            ">2 m",
+            "ATE RMSE (m)",
+            "attitude RMSE (deg)",
+            "AP error max (m)",
+            "convergence (s)",
+        ];
+        let rows: Vec<[String; 10]> = self
+            .scenarios
+            .iter()
+            .map(|s| {
+                [
+                    s.scenario.clone(),
+                    s.runs.to_string(),
+                    s.converged.to_string(),
+                    s.never_converged.to_string(),
+                    s.failed.to_string(),
+                    s.error_over_2m_after_convergence.to_string(),
+                    spread_cell(&s.ate_rmse_m, 3),
+                    spread_cell(&s.attitude_error_rmse_deg, 2),
+                    spread_cell(&s.ap_position_error_max_m, 3),
+                    spread_cell(&s.convergence_time_s, 1),
+                ]
+            })
+            .collect();
+        let mut width = header.map(|h| h.chars().count());
+        for r in &rows {
+            for (w, c) in width.iter_mut().zip(r) {
+                *w = (*w).max(c.chars().count());
+            }
+        }
+        let line = |f: &mut fmt::Formatter<'_>, cells: &[&str]| -> fmt::Result {
+            let mut text = String::new();
+            for (k, (c, w)) in cells.iter().zip(width).enumerate() {
+                let pad = w - c.chars().count();
+                if k == 0 {
+                    text.push_str(c);
+                    text.push_str(&" ".repeat(pad));
+                } else {
+                    text.push_str("  ");
+                    text.push_str(&" ".repeat(pad));
+                    text.push_str(c);
+                }
+            }
+            writeln!(f, "{}", text.trim_end())
+        };
+        line(f, &header)?;
+        for r in &rows {
+            line(f, &r.each_ref().map(String::as_str))?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;
