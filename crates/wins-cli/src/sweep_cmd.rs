@@ -13,6 +13,8 @@ use wins_plot::{StripGroup, StripPlot, strip_plot_png};
 /// The figure written beside `runs.csv`.
 const FIGURE_FILE: &str = "position_error.png";
 const FIGURE_WIDTH_PX: u32 = 900;
+/// Width given to each scenario when there are many, so that their labels do not overlap, px.
+const FIGURE_PX_PER_SCENARIO: u32 = 170;
 const FIGURE_HEIGHT_PX: u32 = 550;
 
 /// Arguments of `wins sweep`.
@@ -221,10 +223,7 @@ fn draw(out: &Path, summary: &SweepSummary, rows: &[RunRow]) -> Result<Vec<PathB
         .scenarios
         .iter()
         .map(|s| {
-            let mut note = format!("{} runs", s.runs);
-            if s.never_converged > 0 {
-                note.push_str(&format!(", {} never converged", s.never_converged));
-            }
+            let mut note = format!("{}/{} converged", s.converged, s.runs);
             if s.failed > 0 {
                 note.push_str(&format!(", {} failed", s.failed));
             }
@@ -250,7 +249,9 @@ fn draw(out: &Path, summary: &SweepSummary, rows: &[RunRow]) -> Result<Vec<PathB
     // plotters picks the encoder from the extension: the temporary name ends in .png too.
     let path = out.join(FIGURE_FILE);
     let tmp = out.join(format!(".tmp.{FIGURE_FILE}"));
-    strip_plot_png(&tmp, &plot, FIGURE_WIDTH_PX, FIGURE_HEIGHT_PX)
+    let width_px =
+        FIGURE_WIDTH_PX.max(FIGURE_PX_PER_SCENARIO.saturating_mul(groups.len() as u32 + 1));
+    strip_plot_png(&tmp, &plot, width_px, FIGURE_HEIGHT_PX)
         .with_context(|| format!("drawing {}", path.display()))?;
     std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
     Ok(vec![path])
