@@ -13,7 +13,7 @@ use crate::style::{
 };
 use crate::ticks::TickFormat;
 use crate::validate::check_size;
-use crate::xy_plot::Frame;
+use crate::xy_plot::{Frame, render_frame};
 use crate::{PlotError, ShapeProblem, StripPlot};
 
 /// Points of a group spread over ± this many group widths around its centre.
@@ -114,14 +114,7 @@ pub(crate) fn render_rgb(
 ) -> Result<(Vec<u8>, Frame), PlotError> {
     check_size(width, height)?;
     let y = y_range(plot)?;
-    let mut rgb = vec![0; width as usize * height as usize * 3];
-    let frame = {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        let frame = draw(&root, plot, y)?;
-        root.present().map_err(draw_err)?;
-        frame
-    };
-    Ok((rgb, frame))
+    render_frame(width, height, |root| draw(root, plot, y))
 }
 
 fn draw<DB: DrawingBackend>(

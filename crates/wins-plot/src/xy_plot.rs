@@ -57,11 +57,21 @@ pub(crate) fn render_rgb(
 ) -> Result<(Vec<u8>, Frame), PlotError> {
     check_size(width, height)?;
     let axes = check(plot)?;
+    render_frame(width, height, |root| draw(root, plot, axes))
+}
+
+/// A `width` x `height` RGB buffer (row-major, 3 bytes a pixel, sizes checked by the caller with
+/// [`check_size`]) drawn by `draw`, and the axes' mapping it returns.
+pub(crate) fn render_frame(
+    width: u32,
+    height: u32,
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<Frame, PlotError>,
+) -> Result<(Vec<u8>, Frame), PlotError> {
     // check_size bounds both sides, so this cannot overflow.
     let mut rgb = vec![0; width as usize * height as usize * 3];
     let frame = {
         let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        let frame = draw(&root, plot, axes)?;
+        let frame = draw(&root)?;
         root.present().map_err(draw_err)?;
         frame
     };

@@ -15,6 +15,7 @@ pub mod baro;
 pub mod csi;
 pub mod flight;
 pub mod imu;
+mod kinematics;
 pub mod lab_calibration;
 pub mod motion;
 pub mod packets;

@@ -385,16 +385,7 @@ mod tests {
     }
 
     fn waypoint_loop() -> TrajectoryConfig {
-        TrajectoryConfig::Waypoints {
-            points_m: vec![
-                [2.0, 2.0, 1.5],
-                [9.0, 2.0, 2.0],
-                [9.0, 6.0, 1.5],
-                [3.0, 6.0, 1.2],
-            ],
-            speed_m_s: 1.5,
-            corner_s: 2.0,
-        }
+        crate::sim::waypoints::example_loop()
     }
 
     #[test]

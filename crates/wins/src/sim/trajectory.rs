@@ -21,6 +21,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
+pub use super::kinematics::Translation;
 use super::waypoints::WaypointPath;
 use super::{ConfigError, check_finite};
 
@@ -30,19 +31,6 @@ pub const MAX_HARMONICS: usize = 16;
 /// Smallest relative weight of a random harmonic's amplitude (weights are drawn in
 /// `[MIN_HARMONIC_WEIGHT, 1)` before normalisation), so no drawn harmonic is negligible.
 const MIN_HARMONIC_WEIGHT: f64 = 0.1;
-
-/// Translational state at one instant, world frame `w` (z up), exact derivatives.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Translation {
-    /// Position of the body origin in `w`, m.
-    pub p_b_in_w: Vector3<f64>,
-    /// Velocity of the body origin in `w`, m/s.
-    pub v_b_in_w: Vector3<f64>,
-    /// Acceleration of the body origin in `w`, m/s².
-    pub a_b_in_w: Vector3<f64>,
-    /// Jerk (time derivative of the acceleration) in `w`, m/s³.
-    pub j_b_in_w: Vector3<f64>,
-}
 
 /// The flight path of a scenario, in the world frame `w` (z up).
 ///

@@ -3,7 +3,7 @@
 //! The straight polyline `W₀ → W₁ → … → W_{n−1} → W₀ → …` flown at speed `c` reaches waypoint
 //! `k` at time `s_k` (cumulative leg lengths over `c`). Its velocity `c·u_k` (`u_k` the unit
 //! direction of leg `k`) steps at every waypoint; the path here blends each step over the corner
-//! time `w` with the smooth step `S` of [`super::flight`], centred on `s_k`:
+//! time `w` with the septic smooth step `S` of the flight's joins, centred on `s_k`:
 //!
 //! ```text
 //! v(s) = c·u₀ + Σ_k c·(u_k − u_{k−1})·S((s − s_k)/w + 1/2)
@@ -18,8 +18,8 @@
 use nalgebra::Vector3;
 
 use super::ConfigError;
-use super::flight::smooth_step;
-use super::trajectory::Translation;
+use super::kinematics::Translation;
+use super::kinematics::smooth_step;
 
 /// The built loop, its corners listed up to a horizon.
 #[derive(Clone, Debug)]
@@ -148,5 +148,20 @@ impl WaypointPath {
             .iter()
             .map(|(_, dv)| dv.norm() * 2.1875 / self.corner_s)
             .fold(0.0, f64::max)
+    }
+}
+
+/// A loop for tests: four waypoints at 1.2–2.0 m over 9 × 6 m, 1.5 m/s, 2 s corners.
+#[cfg(test)]
+pub(crate) fn example_loop() -> super::trajectory::TrajectoryConfig {
+    super::trajectory::TrajectoryConfig::Waypoints {
+        points_m: vec![
+            [2.0, 2.0, 1.5],
+            [9.0, 2.0, 2.0],
+            [9.0, 6.0, 1.5],
+            [3.0, 6.0, 1.2],
+        ],
+        speed_m_s: 1.5,
+        corner_s: 2.0,
     }
 }

@@ -24,6 +24,7 @@ pub mod execute;
 pub mod merge;
 pub mod plan;
 pub mod record;
+pub mod shard;
 pub mod summary;
 pub mod table;
 

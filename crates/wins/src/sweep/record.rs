@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::plan::Shard;
+use super::shard::Shard;
 
 /// `format` of `plan.json`.
 pub const PLAN_FORMAT: &str = "wins-sweep-plan";

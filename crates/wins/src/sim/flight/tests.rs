@@ -1,19 +1,11 @@
 //! Tests of `flight` and `waypoints`.
 
 use super::*;
+use crate::sim::kinematics::{septic, smooth_step};
 use crate::sim::trajectory::TrajectoryConfig;
 
 fn loop_config() -> TrajectoryConfig {
-    TrajectoryConfig::Waypoints {
-        points_m: vec![
-            [2.0, 2.0, 1.5],
-            [9.0, 2.0, 2.0],
-            [9.0, 6.0, 1.5],
-            [3.0, 6.0, 1.2],
-        ],
-        speed_m_s: 1.5,
-        corner_s: 2.0,
-    }
+    crate::sim::waypoints::example_loop()
 }
 
 fn phased_circle() -> Flight {
