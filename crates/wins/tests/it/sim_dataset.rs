@@ -273,3 +273,38 @@ fn a_dataset_without_a_barometer_stays_valid() {
     assert!(data.baro.is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn on_the_ground_the_imu_reads_gravity_plus_its_biases_only() {
+    // The paper's circle as shipped, with an IMU that has turn-on biases and no noise.
+    let mut s = Scenario::built_in("paper-circle").unwrap();
+    s.duration_s = 30.0;
+    s.imu.model = ImuModel::Custom(wins::rig::ImuNoise {
+        gyro_noise_density_rad_s_sqrt_hz: 0.0,
+        gyro_bias_random_walk_rad_s2_sqrt_hz: 0.0,
+        gyro_turn_on_bias_rad_s: 2e-3,
+        accel_noise_density_m_s2_sqrt_hz: 0.0,
+        accel_bias_random_walk_m_s3_sqrt_hz: 0.0,
+        accel_turn_on_bias_m_s2: 0.05,
+    });
+    let out = run(&s);
+    let rest_s = s.phases.as_ref().unwrap().rest_s;
+    let mut on_ground = 0;
+    for ((sample, biases), (t, _)) in out.imu.iter().zip(&out.imu_biases).zip(&out.states) {
+        if t.as_secs_f64() >= rest_s {
+            break;
+        }
+        on_ground += 1;
+        let g = Vector3::new(0.0, 0.0, s.gravity_m_s2);
+        assert!(
+            (sample.gyro_rad_s - biases.gyro_rad_s).norm() < 1e-12,
+            "{t:?}"
+        );
+        assert!(
+            (sample.accel_m_s2 - g - biases.accel_m_s2).norm() < 1e-12,
+            "{t:?}"
+        );
+    }
+    assert!(on_ground as f64 >= rest_s * s.imu.rate_hz);
+    assert!(out.imu_biases[0].gyro_rad_s.norm() > 0.0);
+}
