@@ -75,7 +75,7 @@ struct SimulateArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Override the flight duration, s.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", visible_alias = "duration-s")]
     duration: Option<f64>,
     /// Start the flight in the air: drop the scenario's phases (rest on the ground, take-off,
     /// landing) and fly the mission alone from t = 0.

@@ -41,7 +41,7 @@ pub struct DemoArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Override the flight duration, s.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", visible_alias = "duration-s")]
     duration: Option<f64>,
     /// Start the flight in the air (no rest on the ground, take-off or landing), as the
     /// estimator needs today.

@@ -16,7 +16,7 @@ use common::s;
 /// short enough to keep the test quick in a debug build.
 const DURATION_S: &str = "40";
 /// `wins simulate`'s flag for the flight duration.
-const SIMULATE_DURATION_FLAG: &str = "--duration";
+const SIMULATE_DURATION_FLAG: &str = "--duration-s";
 /// The seeds whose rows are checked against `wins simulate` + `wins run`.
 const CHECKED_SEEDS: [u64; 3] = [1, 4, 8];
 
