@@ -251,11 +251,7 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         return Ok(());
     }
     let mut scenario = match &args.scenario_file {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            Scenario::from_toml(&text, &path.display().to_string())?
-        }
+        Some(path) => Scenario::from_file(path)?,
         None => Scenario::built_in(&args.scenario)?,
     };
     if let Some(seed) = args.seed {

@@ -172,6 +172,14 @@ pub enum ScenarioError {
         /// The names there are, comma separated.
         known: String,
     },
+    /// A scenario file that cannot be read.
+    #[error("cannot read scenario file {path}: {source}")]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
     /// The TOML does not parse into a scenario.
     #[error("scenario {origin}: {source}")]
     Parse {
@@ -205,6 +213,16 @@ impl Scenario {
     pub fn built_in(name: &str) -> Result<Self, ScenarioError> {
         let text = built_in_toml(name)?;
         Self::from_toml(text, &format!("built-in {name}"))
+    }
+
+    /// Reads, parses and validates a scenario file (what `wins simulate --scenario-file` and
+    /// `wins sweep` read); errors name the file.
+    pub fn from_file(path: &std::path::Path) -> Result<Self, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
     }
 
     /// Parses and validates a scenario; `origin` names the source in errors.

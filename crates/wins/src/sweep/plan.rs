@@ -125,11 +125,7 @@ impl SweepScenario {
             Some(dir) if Path::new(name).is_relative() => dir.join(name),
             _ => PathBuf::from(name),
         };
-        let text = std::fs::read_to_string(&path).map_err(|source| SweepError::Read {
-            path: path.clone(),
-            source,
-        })?;
-        let scenario = Scenario::from_toml(&text, &path.display().to_string())?;
+        let scenario = Scenario::from_file(&path)?;
         let label = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
