@@ -105,11 +105,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
         shard,
         keep_datasets: args.keep,
     };
-    let total = plan
-        .runs()
-        .iter()
-        .filter(|r| shard.is_none_or(|s| s.keeps(r.index)))
-        .count();
+    let total = plan.runs_of(shard).len();
     let bar = progress_bar(total as u64);
     let report = sweep::run_sweep(&plan, &out, &options, &|p: Progress<'_>| {
         bar.set_position(p.done as u64);

@@ -136,6 +136,10 @@ struct Timeline {
     mission_s: f64,
     ramp_s: f64,
     landing_s: f64,
+    /// The mission path at its start and at its end (mission time `mission_s − ramp_s`), where
+    /// the take-off ends and the landing starts.
+    first: Translation,
+    last: Translation,
 }
 
 /// A flight: the mission path and, optionally, the phases around it.
@@ -159,6 +163,8 @@ impl Flight {
     /// `mission` flown inside `phases` over a flight of `duration_s` (validate the phases first:
     /// invalid ones give a flight that may return non-finite values, never a panic).
     pub fn with_phases(mission: Trajectory, phases: &PhasesConfig, duration_s: f64) -> Self {
+        let mission_s = phases.mission_s(duration_s);
+        let (first, last) = (mission.at(0.0), mission.at(mission_s - phases.ramp_s));
         Self {
             mission,
             timeline: Some(Timeline {
@@ -166,9 +172,11 @@ impl Flight {
                 takeoff_start_s: phases.rest_s,
                 takeoff_s: phases.takeoff_s,
                 mission_start_s: phases.rest_s + phases.takeoff_s,
-                mission_s: phases.mission_s(duration_s),
+                mission_s,
                 ramp_s: phases.ramp_s,
                 landing_s: phases.landing_s,
+                first,
+                last,
             }),
         }
     }
@@ -196,8 +204,7 @@ impl Flight {
             };
         };
         let s_end = tl.mission_s - tl.ramp_s;
-        let first = self.mission.at(0.0);
-        let last = self.mission.at(s_end);
+        let (first, last) = (tl.first, tl.last);
         let held = |s: f64, m: Translation, tr: Translation| FlightPoint {
             translation: tr,
             mission_s: s,

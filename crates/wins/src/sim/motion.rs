@@ -69,9 +69,9 @@ fn normalize_with_rate(
 /// differential flatness in Z-Y-X form (Faessler et al. 2018 eqns 18–20; see the module doc).
 ///
 /// Assumes the thrust `t = a + g e_z` does not vanish, which holds whenever `|a| < g` (then
-/// `|t| ≥ g − |a| > 0`, and the tilt stays below 90°); scenarios check this once with
-/// [`super::trajectory::Trajectory::acceleration_bound_m_s2`]. It never panics on degenerate input, and falls back
-/// deterministically instead:
+/// `|t| ≥ g − |a| > 0`, and the tilt stays below 90°); a scenario checks `|a| < 0.9 g` every
+/// 50 ms of its flight ([`super::Scenario::validate`]). It never panics on degenerate input, and
+/// falls back deterministically instead:
 /// - `|t| < 1e-9` (free fall): `z_b = e_z`, `ż_b = 0`.
 /// - `|y_c × z_b| < 1e-9` (body z horizontal and across the heading, tilt 90°): the Mellinger &
 ///   Kumar 2011 form with `x_c = (cos ψ, sin ψ, 0)`, `y_b = normalize(z_b × x_c)`,

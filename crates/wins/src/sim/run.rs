@@ -168,7 +168,7 @@ pub fn simulate(
     let (baro, baro_truth) = match &scenario.baro {
         Some(config) => config.simulate(
             scenario.duration_ns(),
-            |t| motion_at(t).p_b_in_w.z,
+            |t| trajectory.at(t.as_secs_f64()).translation.p_b_in_w.z,
             &mut rng::stream(seed, rng::BARO_STREAM),
         ),
         None => (Vec::new(), Vec::new()),

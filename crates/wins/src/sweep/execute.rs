@@ -93,11 +93,7 @@ pub fn run_sweep(
 ) -> Result<SweepReport, SweepError> {
     let record = plan.record(options.shard)?;
     prepare_out_dir(out)?;
-    let runs: Vec<RunId> = plan
-        .runs()
-        .into_iter()
-        .filter(|r| options.shard.is_none_or(|s| s.keeps(r.index)))
-        .collect();
+    let runs: Vec<RunId> = plan.runs_of(options.shard);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.jobs)
         .build()

@@ -330,6 +330,14 @@ impl Plan {
             .collect()
     }
 
+    /// The runs `shard` keeps (every run without one), in canonical order.
+    pub fn runs_of(&self, shard: Option<Shard>) -> Vec<RunId> {
+        self.runs()
+            .into_iter()
+            .filter(|r| shard.is_none_or(|s| s.keeps(r.index)))
+            .collect()
+    }
+
     /// The record of this plan (`plan.json`), for `shard`.
     pub fn record(&self, shard: Option<Shard>) -> Result<PlanRecord, SweepError> {
         let mut scenarios = Vec::with_capacity(self.scenarios.len());
