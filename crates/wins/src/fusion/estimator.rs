@@ -15,11 +15,11 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3};
 
 use super::bearing::Bearing;
 use super::window::arrow::Vec9;
-use super::window::{FrameEstimate, SlidingWindow, WindowConfig, WindowError};
+use super::window::{FrameEstimate, SlidingWindow, StartPrior, WindowConfig, WindowError};
 use crate::imu::{ImuBiases, ImuSample, PreintegrationError, Preintegrator};
 use crate::rig::ImuNoise;
 use crate::time::Timestamp;
@@ -73,6 +73,9 @@ pub struct PoseEstimate {
     pub b0_from_body: UnitQuaternion<f64>,
     /// Whether the window had converged.
     pub converged: bool,
+    /// Covariance of `[δθ, δp]`: attitude error on the body side (`R = R̂ Exp(δθ)`), rad², and
+    /// position in `w`, m² (`None`: the estimator gives none).
+    pub covariance: Option<Matrix6<f64>>,
 }
 
 /// What the estimator has seen and skipped.
@@ -157,6 +160,21 @@ impl Wins {
             last_good: None,
             config,
         }
+    }
+
+    /// A fresh estimator whose first frame starts from what is known (a static initialization
+    /// or a lost estimate's last state): the IMU is integrated with that gyro bias.
+    pub fn with_start(config: WinsConfig, start: StartPrior) -> Self {
+        let mut w = Self::new(config);
+        w.pre = Preintegrator::new(
+            w.config.imu_noise.clone(),
+            ImuBiases {
+                gyro_rad_s: start.gyro_bias_rad_s,
+                accel_m_s2: Vector3::zeros(),
+            },
+        );
+        w.window = SlidingWindow::with_start(w.config.window.clone(), start);
+        w
     }
 
     /// The settings.
@@ -322,6 +340,7 @@ impl Wins {
             p_b_in_b0: f.p_in_b0,
             b0_from_body: f.b0_from_bk,
             converged: self.window.converged_at().is_some(),
+            covariance: None,
         }
     }
 

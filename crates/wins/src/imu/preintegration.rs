@@ -85,6 +85,16 @@ pub enum PreintegrationError {
         /// The cut, ns.
         t_ns: i64,
     },
+    /// [`Preintegrated::append`] of an interval that does not start where this one ends.
+    #[error(
+        "cannot append an interval starting at {next_start_ns} ns to one ending at {end_ns} ns"
+    )]
+    NotContiguous {
+        /// End of the interval appended to, ns.
+        end_ns: i64,
+        /// Start of the appended interval, ns.
+        next_start_ns: i64,
+    },
 }
 
 /// The preintegrated IMU measurement between two frames.
@@ -141,6 +151,67 @@ impl Preintegrated {
         let beta = self.beta + d.fixed_rows::<3>(3);
         let rot = self.bk_from_bk1 * exp(&d.fixed_rows::<3>(6).into_owned());
         (alpha, beta, rot)
+    }
+
+    /// Extends this interval `[t_0, t_1]` by `next` over `[t_1, t_2]`, so that it covers
+    /// `[t_0, t_2]` (1 = `self`, 2 = `next`, `Δt_2 = next.dt_s()`):
+    ///
+    /// ```text
+    /// α_13 = α_1 + β_1 Δt_2 + ΔR_1 α_2      β_13 = β_1 + ΔR_1 β_2      ΔR_13 = ΔR_1 ΔR_2
+    /// ```
+    ///
+    /// Errors (right perturbation, `[δα, δβ, δθ]`) compose as `δx_13 = A δx_1 + B δx_2` with
+    ///
+    /// ```text
+    /// A = | I  Δt_2 I  −ΔR_1 [α_2]× |     B = | ΔR_1  0     0 |
+    ///     | 0  I       −ΔR_1 [β_2]× |         | 0     ΔR_1  0 |
+    ///     | 0  0        ΔR_2ᵀ       |         | 0     0     I |
+    /// ```
+    ///
+    /// so `Σ_13 = A Σ_1 Aᵀ + B Σ_2 Bᵀ` (the two intervals' noises independent) and
+    /// `J_13 = A J_1 + B J_2`. If `next` was integrated with another bias estimate, its α, β, ΔR
+    /// are first moved to `self.bias` with [`Self::corrected`] (its covariance and bias Jacobian
+    /// are kept as they are: first order). `self` is left unchanged on error.
+    ///
+    /// Within one [`Preintegrator`] interval the sample at a cut would feed both sides' endpoint
+    /// noise; appended intervals treat those as independent, so `Σ_13` is slightly smaller (by
+    /// about `1/(2N)` of the total per cut, `N` samples) than integrating `[t_0, t_2]` in one go.
+    pub fn append(&mut self, next: &Preintegrated) -> Result<(), PreintegrationError> {
+        if next.start != self.end {
+            return Err(PreintegrationError::NotContiguous {
+                end_ns: self.end.0,
+                next_start_ns: next.start.0,
+            });
+        }
+        let (alpha2, beta2, rot2) = if next.bias == self.bias {
+            (next.alpha, next.beta, next.bk_from_bk1)
+        } else {
+            next.corrected(&self.bias)
+        };
+        let dt2 = next.dt_s();
+        let r1 = self.bk_from_bk1.to_rotation_matrix().into_inner();
+        let r2 = rot2.to_rotation_matrix().into_inner();
+
+        let mut a = Covariance9::identity();
+        a.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(Matrix3::identity() * dt2));
+        a.fixed_view_mut::<3, 3>(0, 6)
+            .copy_from(&(-r1 * alpha2.cross_matrix()));
+        a.fixed_view_mut::<3, 3>(3, 6)
+            .copy_from(&(-r1 * beta2.cross_matrix()));
+        a.fixed_view_mut::<3, 3>(6, 6).copy_from(&r2.transpose());
+        let mut b = Covariance9::identity();
+        b.fixed_view_mut::<3, 3>(0, 0).copy_from(&r1);
+        b.fixed_view_mut::<3, 3>(3, 3).copy_from(&r1);
+
+        self.alpha += self.beta * dt2 + r1 * alpha2;
+        self.beta += r1 * beta2;
+        self.bk_from_bk1 = UnitQuaternion::new_normalize(*(self.bk_from_bk1 * rot2).quaternion());
+        let cov = a * self.covariance * a.transpose() + b * next.covariance * b.transpose();
+        self.covariance = (cov + cov.transpose()) * 0.5;
+        self.jacobian_bias = a * self.jacobian_bias + b * next.jacobian_bias;
+        self.end = next.end;
+        Ok(())
     }
 }
 

@@ -1,5 +1,5 @@
 //! The one configuration tree: every stage's settings under one [`Config`], read from one TOML
-//! file whose tables are the stages (`[aoa]`, `[pipeline]`, `[window]`, `[eval]`). Missing keys
+//! file whose tables are the stages (`[aoa]`, `[pipeline]`, `[window]`, `[nonlinear]`, `[eval]`) and one key, `estimator`. Missing keys
 //! take the defaults (shipped as `configs/default.toml`, equal to [`Config::default`]); an unknown
 //! key, a value of the wrong kind or out of its range is refused, and every such problem is listed
 //! at once. What describes the hardware is not here but in the dataset's rig
@@ -13,18 +13,25 @@ use crate::aoa::AoaConfig;
 use crate::aoa::spotfi::MIN_GROUP_SIZE;
 use crate::check::{Problems, overlay};
 use crate::eval::EvalOptions;
+use crate::fusion::choice::EstimatorKind;
+use crate::fusion::nonlinear::NonlinearConfig;
 use crate::fusion::window::WindowConfig;
 
 /// Every setting of a run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Config {
+    /// The estimator: `"paper"` (the paper's linear window, default) or `"nonlinear"` (the 6-DoF
+    /// sliding window started by the linear one; experimental).
+    pub estimator: EstimatorKind,
     /// The AoA stage: MUSIC grid, PAoA half-width, SpotFi clustering.
     pub aoa: AoaConfig,
     /// Per-AP tracking and the bearings' path into the estimator.
     pub pipeline: PipelineConfig,
-    /// The sliding-window estimator.
+    /// The paper's linear sliding window (also the nonlinear estimator's start).
     pub window: WindowConfig,
+    /// The nonlinear sliding window.
+    pub nonlinear: NonlinearConfig,
     /// Scoring against a truth (association, RPE).
     pub eval: EvalOptions,
 }
@@ -152,6 +159,7 @@ impl Config {
         let mut p = self.aoa.problems("aoa");
         p.extend(self.pipeline.problems("pipeline"));
         p.extend(self.window.problems("window"));
+        p.extend(self.nonlinear.problems("nonlinear"));
         p.extend(self.eval.problems("eval"));
         p
     }

@@ -38,7 +38,8 @@ use self::track::{ArrayPose, Track, TrackState};
 use crate::aoa::{AoaError, AoaEstimator};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
-use crate::fusion::estimator::{PoseEstimate, Step, Wins, WinsConfig, WinsError};
+use crate::fusion::choice::Estimator;
+use crate::fusion::estimator::{PoseEstimate, Step, WinsConfig, WinsError};
 use crate::imu::ImuSample;
 use crate::rig::{Rig, RigError};
 use crate::time::Timestamp;
@@ -75,12 +76,12 @@ pub struct Pipeline {
     config: PipelineConfig,
     rig: Rig,
     aoa: AoaEstimator,
-    wins: Wins,
+    wins: Estimator,
     tracks: Vec<Track>,
     slot: FrameSlot,
     history: VecDeque<ImuSample>,
     latest: Option<PoseEstimate>,
-    /// The estimator's restarts seen so far (a restart starts a new `b0`).
+    /// The estimator's frame changes seen so far (a start or restart gives a new `b0`).
     restarts_seen: u64,
     stats: PipelineStats,
     timing: StageTiming,
@@ -94,8 +95,13 @@ const SIDE_SWITCH_MIN_AOA_DEG: f64 = 60.0;
 const HISTORY_MARGIN_NS: i64 = 50_000_000;
 
 impl Pipeline {
-    /// A pipeline for `rig` (initialization-free: no state is needed).
+    /// A pipeline for `rig` (initialization-free: no state is needed) without a barometer.
     pub fn new(config: &Config, rig: Rig) -> Result<Self, PipelineError> {
+        Self::with_baro(config, rig, false)
+    }
+
+    /// A pipeline for `rig`; `has_baro`: barometer samples will come ([`Self::push_baro`]).
+    pub fn with_baro(config: &Config, rig: Rig, has_baro: bool) -> Result<Self, PipelineError> {
         config.validate()?;
         rig.validate()?;
         let aoa = AoaEstimator::new(
@@ -112,7 +118,12 @@ impl Pipeline {
         Ok(Self {
             tracks: vec![Track::default(); rig.ap_names.len()],
             stats: PipelineStats::new(&rig.ap_names),
-            wins: Wins::new(wins_config),
+            wins: Estimator::new(
+                config.estimator,
+                wins_config,
+                config.nonlinear.clone(),
+                has_baro,
+            ),
             aoa,
             config: config.pipeline.clone(),
             rig,
@@ -124,8 +135,8 @@ impl Pipeline {
         })
     }
 
-    /// The estimator (window, AP positions, counters).
-    pub fn wins(&self) -> &Wins {
+    /// The estimator (AP positions, counters).
+    pub fn wins(&self) -> &Estimator {
         &self.wins
     }
 
@@ -159,7 +170,7 @@ impl Pipeline {
         let step = self.wins.push_imu(s);
         self.timing.estimator_s += started.elapsed().as_secs_f64();
         let step = step?;
-        let restarts = self.wins.stats().restarts;
+        let restarts = self.wins.epoch();
         if restarts != self.restarts_seen {
             // The tracks' poses are in the lost window's `b0`: the next prediction of each
             // track uses no rotation (at most one packet's turn, well inside the PAoA window).
@@ -180,11 +191,19 @@ impl Pipeline {
         Ok(step)
     }
 
+    /// Queues a barometer altitude at `t` (IMU clock), m.
+    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), PipelineError> {
+        if self.slot.t.is_some_and(|st| st <= t) {
+            self.flush_slot()?;
+        }
+        Ok(self.wins.push_baro(t, altitude_m)?)
+    }
+
     /// Processes one packet of AP `ap` received at `t` (IMU clock); returns its log row.
     /// Packets must come in time order with the IMU samples (a packet at `t` before the samples
     /// after `t`).
     pub fn push_csi(&mut self, ap: usize, t: Timestamp, record: &CsiRecord) -> PacketLog {
-        let converged = self.wins.window().converged_at().is_some();
+        let converged = self.wins.is_converged();
         let mut row = PacketLog::new(ap, t, converged);
         let Some(track) = self.tracks.get(ap) else {
             row.status = PacketStatus::Skipped;
@@ -249,14 +268,10 @@ impl Pipeline {
         row: &mut PacketLog,
     ) {
         let from_state = if converged {
-            self.wins
-                .window()
-                .ap_in_b0(ap)
-                .zip(now)
-                .and_then(|(c, pose)| {
-                    pose.bearing_to(&c)
-                        .map(|b| (b, (c - pose.p_a_in_b0).norm()))
-                })
+            self.wins.ap_in_b0(ap).zip(now).and_then(|(c, pose)| {
+                pose.bearing_to(&c)
+                    .map(|b| (b, (c - pose.p_a_in_b0).norm()))
+            })
         } else {
             None
         };
@@ -360,7 +375,7 @@ impl Pipeline {
             return Ok(());
         };
         let pending = std::mem::take(&mut self.slot.bearings);
-        let bias = self.wins.window().gyro_bias_rad_s();
+        let bias = self.wins.gyro_bias_rad_s();
         let bearings: Vec<Bearing> = pending
             .iter()
             .map(|p| {

@@ -127,14 +127,17 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
     };
     let flight_s = last.t.secs_since(first.t);
     let started = Instant::now();
-    let mut pipeline = Pipeline::new(config, rig)?;
-    // (time, 0 = packet / 1 = IMU, AP, index): packets before IMU samples at the same time.
+    let baro = &dataset.baro;
+    let mut pipeline = Pipeline::with_baro(config, rig, !baro.is_empty())?;
+    // (time, 0 = packet / 1 = barometer / 2 = IMU, AP, index): packets and barometer samples
+    // before IMU samples at the same time.
     let mut events: Vec<(Timestamp, u8, usize, usize)> = dataset
         .imu
         .iter()
         .enumerate()
-        .map(|(i, s)| (s.t, 1, 0, i))
+        .map(|(i, s)| (s.t, 2, 0, i))
         .collect();
+    events.extend(baro.iter().enumerate().map(|(i, b)| (b.t, 1, 0, i)));
     for (l, ap) in dataset.aps.iter().enumerate() {
         events.extend(ap.packets.iter().enumerate().map(|(i, p)| (p.t, 0, l, i)));
     }
@@ -146,6 +149,9 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         if kind == 0 {
             let p = &dataset.aps[l].packets[i];
             packets.push(pipeline.push_csi(l, p.t, &p.record));
+        } else if kind == 1 {
+            // A refused sample (out of order, not finite) is counted by the estimator.
+            let _ = pipeline.push_baro(baro[i].t, baro[i].altitude_m);
         } else {
             match pipeline.push_imu(&dataset.imu[i]) {
                 Ok(step) => frames.extend(step.frames),
@@ -154,19 +160,16 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         }
     }
     let wins = pipeline.wins();
-    let w_from_b0 = wins.world_from_b0();
-    let window = wins.window();
     let aps = pipeline
         .rig()
         .ap_names
         .iter()
         .enumerate()
         .filter_map(|(l, name)| {
-            let c = window.ap_in_b0(l)?;
-            let sigma_m = window.ap_sigma_m(l).unwrap_or(f64::INFINITY);
+            let (p_in_w, sigma_m) = wins.ap_in_w(l)?;
             Some(ApEstimate {
                 name: name.clone(),
-                p_in_w: w_from_b0.transform_point(&c.into()).coords,
+                p_in_w,
                 sigma_m,
             })
         })

@@ -12,6 +12,7 @@
 mod aoa_accuracy;
 mod data;
 mod fusion_ekf;
+mod fusion_nonlinear;
 mod fusion_wins;
 mod intel5300_corrupt;
 mod intel5300_real;

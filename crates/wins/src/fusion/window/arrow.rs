@@ -12,59 +12,77 @@
 //! L_BB   = chol(H_BB − Σ_k L_B,k L_B,kᵀ)
 //! ```
 //!
-//! so a solve costs O(n·(9³ + 9²·m)) for n frames and a border of m, linear in the window size.
-//! `(L_BB L_BBᵀ)⁻¹` is the border's marginal covariance, for free.
+//! so a solve costs O(n·(D³ + D²·m)) for n frames of D (9 here) and a border of m, linear in the
+//! window size. `Σ_BB = (L_BB L_BBᵀ)⁻¹` is the border's marginal covariance, for free, and since
+//! the last frame f = n − 1 is eliminated last among the frames, its marginal covariance and its
+//! cross-covariance with the border come from the trailing blocks alone:
+//!
+//! ```text
+//! Σ_ff = L_ff⁻ᵀ (I + L_Bfᵀ Σ_BB L_Bf) L_ff⁻¹ = (L_ff L_ffᵀ)⁻¹ + R Σ_BB Rᵀ,   R = L_ff⁻ᵀ L_Bfᵀ
+//! Σ_fB = −L_ff⁻ᵀ L_Bfᵀ Σ_BB = −R Σ_BB
+//! ```
 
 use nalgebra::{Cholesky, Const, DMatrix, DVector, Dyn, OMatrix, SMatrix, SVector};
 
 /// Size of one frame's state `[p, v, g]`.
 pub const FRAME_DIM: usize = 9;
+/// D×D block.
+pub type BlockOf<const D: usize> = SMatrix<f64, D, D>;
+/// D-vector.
+pub type VecOf<const D: usize> = SVector<f64, D>;
+/// A border block transposed: D frame rows × border columns.
+pub type BorderTOf<const D: usize> = OMatrix<f64, Const<D>, Dyn>;
 /// 9×9 block.
-pub type Block = SMatrix<f64, FRAME_DIM, FRAME_DIM>;
+pub type Block = BlockOf<FRAME_DIM>;
 /// 9-vector.
-pub type Vec9 = SVector<f64, FRAME_DIM>;
+pub type Vec9 = VecOf<FRAME_DIM>;
 
 /// A border block transposed: frame rows × border columns.
-pub type BorderT = OMatrix<f64, Const<FRAME_DIM>, Dyn>;
+pub type BorderT = BorderTOf<FRAME_DIM>;
 
-/// Information matrix and vector of the window, in arrow form.
+/// Information matrix and vector of the window, in arrow form, with frame blocks of `D`.
 #[derive(Clone, Debug)]
-pub struct ArrowSystem {
+pub struct ArrowSystem<const D: usize = FRAME_DIM> {
     /// `H_kk` per frame.
-    pub diag: Vec<Block>,
+    pub diag: Vec<BlockOf<D>>,
     /// `H_{k+1,k}` per consecutive pair (length `n − 1`).
-    pub lower: Vec<Block>,
-    /// `H_{k,B}` per frame (9 × border columns; `H_{B,k}` transposed, the layout the
+    pub lower: Vec<BlockOf<D>>,
+    /// `H_{k,B}` per frame (D × border columns; `H_{B,k}` transposed, the layout the
     /// factorization works in).
-    pub frame_border: Vec<BorderT>,
+    pub frame_border: Vec<BorderTOf<D>>,
     /// `H_BB`.
     pub corner: DMatrix<f64>,
     /// Information vector of the frames.
-    pub rhs_frames: Vec<Vec9>,
+    pub rhs_frames: Vec<VecOf<D>>,
     /// Information vector of the border.
     pub rhs_border: DVector<f64>,
 }
 
 /// The solution and what comes with it.
 #[derive(Clone, Debug)]
-pub struct ArrowSolution {
-    /// Per-frame `[p, v, g]`.
-    pub frames: Vec<Vec9>,
+pub struct ArrowSolution<const D: usize = FRAME_DIM> {
+    /// Per-frame state (`[p, v, g]` for the window's frames).
+    pub frames: Vec<VecOf<D>>,
     /// The border.
     pub border: DVector<f64>,
     /// Marginal covariance of the border.
     pub border_covariance: DMatrix<f64>,
+    /// Marginal covariance of the last frame (frame `n − 1`); zeros when there are no frames.
+    pub last_frame_covariance: BlockOf<D>,
+    /// Cross-covariance of the last frame (rows) with the border (columns), D × m; zeros when
+    /// there are no frames.
+    pub last_frame_border_covariance: BorderTOf<D>,
 }
 
-impl ArrowSystem {
+impl<const D: usize> ArrowSystem<D> {
     /// All zeros for `n` frames and a border of `m`.
     pub fn zeros(n: usize, m: usize) -> Self {
         Self {
-            diag: vec![Block::zeros(); n],
-            lower: vec![Block::zeros(); n.saturating_sub(1)],
-            frame_border: vec![BorderT::zeros_generic(Const::<FRAME_DIM>, Dyn(m)); n],
+            diag: vec![BlockOf::<D>::zeros(); n],
+            lower: vec![BlockOf::<D>::zeros(); n.saturating_sub(1)],
+            frame_border: vec![BorderTOf::<D>::zeros_generic(Const::<D>, Dyn(m)); n],
             corner: DMatrix::zeros(m, m),
-            rhs_frames: vec![Vec9::zeros(); n],
+            rhs_frames: vec![VecOf::<D>::zeros(); n],
             rhs_border: DVector::zeros(m),
         }
     }
@@ -83,13 +101,13 @@ impl ArrowSystem {
     /// diagonal (Jacobi: the IMU rows weigh ~10¹⁰ and the weak priors ~10⁻⁴, so the unscaled
     /// condition number reaches 1/ε). `None` when `H` is not positive definite (it always is with
     /// the estimator's priors unless the input is degenerate).
-    pub fn solve(&self) -> Option<ArrowSolution> {
+    pub fn solve(&self) -> Option<ArrowSolution<D>> {
         self.clone().into_solution()
     }
 
     /// [`ArrowSystem::solve`] on a system that is not needed afterwards (scaled in place, no
     /// copy).
-    pub fn into_solution(mut self) -> Option<ArrowSolution> {
+    pub fn into_solution(mut self) -> Option<ArrowSolution<D>> {
         let inv_sqrt = |d: f64| {
             if d > 0.0 && d.is_finite() {
                 1.0 / d.sqrt()
@@ -97,10 +115,10 @@ impl ArrowSystem {
                 1.0
             }
         };
-        let s_frames: Vec<Vec9> = self
+        let s_frames: Vec<VecOf<D>> = self
             .diag
             .iter()
-            .map(|d| Vec9::from_fn(|i, _| inv_sqrt(d[(i, i)])))
+            .map(|d| VecOf::<D>::from_fn(|i, _| inv_sqrt(d[(i, i)])))
             .collect();
         let s_border = DVector::from_fn(self.border_dim(), |i, _| inv_sqrt(self.corner[(i, i)]));
         // D H D with D diagonal: every entry (i, j) times s_i s_j.
@@ -113,7 +131,7 @@ impl ArrowSystem {
             [1e-12, 1e-10, 1e-8].iter().find_map(|&mu| {
                 let mut damped = scaled.clone();
                 for d in &mut damped.diag {
-                    *d += Block::identity() * mu;
+                    *d += BlockOf::<D>::identity() * mu;
                 }
                 damped.corner += DMatrix::identity(damped.border_dim(), damped.border_dim()) * mu;
                 damped.solve_unscaled()
@@ -124,30 +142,23 @@ impl ArrowSystem {
         }
         sol.border = sol.border.component_mul(&s_border);
         scale_both_sides(&mut sol.border_covariance, &s_border);
+        // Σ = S Σ_scaled S: the last frame's block by its own scaling, the cross term by the last
+        // frame's rows and the border's columns.
+        if let Some(s_last) = s_frames.last() {
+            scale_block(&mut sol.last_frame_covariance, s_last, s_last);
+            scale_border_t(&mut sol.last_frame_border_covariance, s_last, &s_border);
+        }
         Some(sol)
     }
 
     /// `D H D` and `D b` in place, `D` = diag(`s_frames`, `s_border`).
-    fn scale(&mut self, s_frames: &[Vec9], s_border: &DVector<f64>) {
-        let scale_block = |m: &mut Block, si: &Vec9, sj: &Vec9| {
-            for j in 0..FRAME_DIM {
-                for i in 0..FRAME_DIM {
-                    m[(i, j)] *= si[i] * sj[j];
-                }
-            }
-        };
-        let m = self.border_dim();
+    fn scale(&mut self, s_frames: &[VecOf<D>], s_border: &DVector<f64>) {
         for (k, s) in s_frames.iter().enumerate() {
             scale_block(&mut self.diag[k], s, s);
             if let Some(next) = s_frames.get(k + 1) {
                 scale_block(&mut self.lower[k], next, s);
             }
-            let b = &mut self.frame_border[k];
-            for c in 0..m {
-                for r in 0..FRAME_DIM {
-                    b[(r, c)] *= s[r] * s_border[c];
-                }
-            }
+            scale_border_t(&mut self.frame_border[k], s, s_border);
             self.rhs_frames[k].component_mul_assign(s);
         }
         scale_both_sides(&mut self.corner, s_border);
@@ -155,15 +166,15 @@ impl ArrowSystem {
     }
 
     /// The block Cholesky solve without scaling.
-    fn solve_unscaled(&self) -> Option<ArrowSolution> {
+    fn solve_unscaled(&self) -> Option<ArrowSolution<D>> {
         let n = self.frames();
         let m = self.border_dim();
-        let mut l_diag: Vec<Block> = Vec::with_capacity(n);
-        let mut l_lower: Vec<Block> = Vec::with_capacity(n.saturating_sub(1));
-        // `L_B,kᵀ = L_kk⁻¹ (H_B,k − L_B,k−1 L_k,k−1ᵀ)ᵀ`, kept transposed (9 × m).
-        let mut l_border_t: Vec<BorderT> = Vec::with_capacity(n);
+        let mut l_diag: Vec<BlockOf<D>> = Vec::with_capacity(n);
+        let mut l_lower: Vec<BlockOf<D>> = Vec::with_capacity(n.saturating_sub(1));
+        // `L_B,kᵀ = L_kk⁻¹ (H_B,k − L_B,k−1 L_k,k−1ᵀ)ᵀ`, kept transposed (D × m).
+        let mut l_border_t: Vec<BorderTOf<D>> = Vec::with_capacity(n);
         // Forward substitution runs alongside: y_k = L_kk⁻¹ (b_k − L_k,k−1 y_k−1).
-        let mut y_frames: Vec<Vec9> = Vec::with_capacity(n);
+        let mut y_frames: Vec<VecOf<D>> = Vec::with_capacity(n);
         let mut schur = self.corner.clone();
         let mut y_border_acc = self.rhs_border.clone();
         for k in 0..n {
@@ -173,12 +184,10 @@ impl ArrowSystem {
             if k > 0 {
                 let lk = &l_lower[k - 1];
                 a -= lk * lk.transpose();
-                for (col, prev) in bt
-                    .as_mut_slice()
-                    .chunks_exact_mut(FRAME_DIM)
-                    .zip(l_border_t[k - 1].as_slice().chunks_exact(FRAME_DIM))
-                {
-                    let d = lk * Vec9::from_column_slice(prev);
+                let (cols, _) = bt.as_mut_slice().as_chunks_mut::<D>();
+                let (prevs, _) = l_border_t[k - 1].as_slice().as_chunks::<D>();
+                for (col, prev) in cols.iter_mut().zip(prevs) {
+                    let d = lk * VecOf::<D>::from(*prev);
                     col.iter_mut().zip(d.iter()).for_each(|(c, d)| *c -= d);
                 }
                 rhs -= lk * y_frames[k - 1];
@@ -187,7 +196,7 @@ impl ArrowSystem {
             forward_substitute(&l, bt.as_mut_slice());
             forward_substitute(&l, rhs.as_mut_slice());
             if k + 1 < n {
-                let mut lo_t: Block = self.lower[k].transpose();
+                let mut lo_t: BlockOf<D> = self.lower[k].transpose();
                 forward_substitute(&l, lo_t.as_mut_slice());
                 l_lower.push(lo_t.transpose());
             }
@@ -208,26 +217,33 @@ impl ArrowSystem {
             (DVector::zeros(0), DMatrix::zeros(0, 0))
         };
         // Back substitution: L_kkᵀ x_k = y_k − L_k+1,kᵀ x_k+1 − L_B,kᵀ x_B.
-        let mut frames = vec![Vec9::zeros(); n];
+        let mut frames = vec![VecOf::<D>::zeros(); n];
         for k in (0..n).rev() {
             let mut r = y_frames[k];
             if k + 1 < n {
                 r -= l_lower[k].transpose() * frames[k + 1];
             }
-            for (col, x) in l_border_t[k]
-                .as_slice()
-                .chunks_exact(FRAME_DIM)
-                .zip(border.iter())
-            {
+            let (cols, _) = l_border_t[k].as_slice().as_chunks::<D>();
+            for (col, x) in cols.iter().zip(border.iter()) {
                 r.iter_mut().zip(col).for_each(|(r, c)| *r -= c * x);
             }
-            back_substitute(&l_diag[k], &mut r);
+            back_substitute(&l_diag[k], r.as_mut_slice());
             frames[k] = r;
         }
+        let (last_frame_covariance, last_frame_border_covariance) =
+            match (l_diag.last(), l_border_t.pop()) {
+                (Some(l_ff), Some(r)) => last_frame_covariances(l_ff, r, &border_covariance),
+                _ => (
+                    BlockOf::<D>::zeros(),
+                    BorderTOf::<D>::zeros_generic(Const::<D>, Dyn(m)),
+                ),
+            };
         Some(ArrowSolution {
             frames,
             border,
             border_covariance,
+            last_frame_covariance,
+            last_frame_border_covariance,
         })
     }
 
@@ -235,26 +251,23 @@ impl ArrowSystem {
     pub fn to_dense(&self) -> (DMatrix<f64>, DVector<f64>) {
         let n = self.frames();
         let m = self.border_dim();
-        let dim = n * FRAME_DIM + m;
+        let dim = n * D + m;
         let mut h = DMatrix::zeros(dim, dim);
         let mut b = DVector::zeros(dim);
-        let bo = n * FRAME_DIM;
+        let bo = n * D;
         for k in 0..n {
-            let o = k * FRAME_DIM;
-            h.view_mut((o, o), (FRAME_DIM, FRAME_DIM))
-                .copy_from(&self.diag[k]);
-            b.rows_mut(o, FRAME_DIM).copy_from(&self.rhs_frames[k]);
+            let o = k * D;
+            h.view_mut((o, o), (D, D)).copy_from(&self.diag[k]);
+            b.rows_mut(o, D).copy_from(&self.rhs_frames[k]);
             if k + 1 < n {
-                h.view_mut((o + FRAME_DIM, o), (FRAME_DIM, FRAME_DIM))
-                    .copy_from(&self.lower[k]);
-                h.view_mut((o, o + FRAME_DIM), (FRAME_DIM, FRAME_DIM))
+                h.view_mut((o + D, o), (D, D)).copy_from(&self.lower[k]);
+                h.view_mut((o, o + D), (D, D))
                     .copy_from(&self.lower[k].transpose());
             }
             if m > 0 {
-                h.view_mut((bo, o), (m, FRAME_DIM))
+                h.view_mut((bo, o), (m, D))
                     .copy_from(&self.frame_border[k].transpose());
-                h.view_mut((o, bo), (FRAME_DIM, m))
-                    .copy_from(&self.frame_border[k]);
+                h.view_mut((o, bo), (D, m)).copy_from(&self.frame_border[k]);
             }
         }
         if m > 0 {
@@ -262,6 +275,56 @@ impl ArrowSystem {
             b.rows_mut(bo, m).copy_from(&self.rhs_border);
         }
         (h, b)
+    }
+}
+
+/// The last frame's marginal covariance and its cross-covariance with the border (module doc),
+/// from its Cholesky block `l_ff`, `L_Bfᵀ` (`l_bf_t`, D × m, overwritten by `R = L_ff⁻ᵀ L_Bfᵀ`)
+/// and the border's covariance `Σ_BB`.
+fn last_frame_covariances<const D: usize>(
+    l_ff: &BlockOf<D>,
+    mut l_bf_t: BorderTOf<D>,
+    sigma_bb: &DMatrix<f64>,
+) -> (BlockOf<D>, BorderTOf<D>) {
+    // (L_ff L_ffᵀ)⁻¹ = L_ff⁻ᵀ L_ff⁻¹.
+    let mut l_inv = BlockOf::<D>::identity();
+    forward_substitute(l_ff, l_inv.as_mut_slice());
+    let mut sigma_ff = l_inv.tr_mul(&l_inv);
+    back_substitute(l_ff, l_bf_t.as_mut_slice());
+    let r = l_bf_t;
+    // Σ_fB = −R Σ_BB.
+    let mut sigma_fb = &r * sigma_bb;
+    sigma_fb.neg_mut();
+    // Σ_ff += R Σ_BB Rᵀ = −Σ_fB Rᵀ, one rank-1 update per border column.
+    let (fb_cols, _) = sigma_fb.as_slice().as_chunks::<D>();
+    let (r_cols, _) = r.as_slice().as_chunks::<D>();
+    for (x, y) in fb_cols.iter().zip(r_cols) {
+        for j in 0..D {
+            for i in 0..D {
+                sigma_ff[(i, j)] -= x[i] * y[j];
+            }
+        }
+    }
+    // Symmetric in exact arithmetic; make it so in floating point.
+    let sigma_ff = (sigma_ff + sigma_ff.transpose()) * 0.5;
+    (sigma_ff, sigma_fb)
+}
+
+/// `M ← diag(si) M diag(sj)`.
+fn scale_block<const D: usize>(m: &mut BlockOf<D>, si: &VecOf<D>, sj: &VecOf<D>) {
+    for j in 0..D {
+        for i in 0..D {
+            m[(i, j)] *= si[i] * sj[j];
+        }
+    }
+}
+
+/// `M ← diag(s_rows) M diag(s_cols)` for a D × m border block.
+fn scale_border_t<const D: usize>(b: &mut BorderTOf<D>, s_rows: &VecOf<D>, s_cols: &DVector<f64>) {
+    for c in 0..b.ncols() {
+        for r in 0..D {
+            b[(r, c)] *= s_rows[r] * s_cols[c];
+        }
     }
 }
 
@@ -275,11 +338,12 @@ fn scale_both_sides(m: &mut DMatrix<f64>, s: &DVector<f64>) {
 }
 
 /// `X ← L⁻¹ X` for a lower-triangular `l` with a positive diagonal (a Cholesky factor), `X`
-/// given as consecutive 9-element columns (column-major storage).
-pub(super) fn forward_substitute(l: &Block, columns: &mut [f64]) {
-    let inv_diag = Vec9::from_fn(|i, _| 1.0 / l[(i, i)]);
-    for col in columns.chunks_exact_mut(FRAME_DIM) {
-        for i in 0..FRAME_DIM {
+/// given as consecutive D-element columns (column-major storage).
+pub(super) fn forward_substitute<const D: usize>(l: &BlockOf<D>, columns: &mut [f64]) {
+    let inv_diag = VecOf::<D>::from_fn(|i, _| 1.0 / l[(i, i)]);
+    let (cols, _) = columns.as_chunks_mut::<D>();
+    for col in cols {
+        for i in 0..D {
             let mut v = col[i];
             for j in 0..i {
                 v -= l[(i, j)] * col[j];
@@ -289,28 +353,32 @@ pub(super) fn forward_substitute(l: &Block, columns: &mut [f64]) {
     }
 }
 
-/// `x ← L⁻ᵀ x` for a lower-triangular `l` with a positive diagonal (a Cholesky factor).
-fn back_substitute(l: &Block, x: &mut Vec9) {
-    for i in (0..FRAME_DIM).rev() {
-        let mut v = x[i];
-        for j in i + 1..FRAME_DIM {
-            v -= l[(j, i)] * x[j];
+/// `X ← L⁻ᵀ X` for a lower-triangular `l` with a positive diagonal (a Cholesky factor), `X`
+/// given as consecutive D-element columns (column-major storage).
+fn back_substitute<const D: usize>(l: &BlockOf<D>, columns: &mut [f64]) {
+    let (cols, _) = columns.as_chunks_mut::<D>();
+    for x in cols {
+        for i in (0..D).rev() {
+            let mut v = x[i];
+            for j in i + 1..D {
+                v -= l[(j, i)] * x[j];
+            }
+            x[i] = v / l[(i, i)];
         }
-        x[i] = v / l[(i, i)];
     }
 }
 
-/// `S ← S − Bᵀ B` on the lower triangle of `S` only (`B` is 9 × m; the caller mirrors it).
-/// Columns as `[f64; 9]` so the dot products unroll.
-fn subtract_gram_lower(s: &mut DMatrix<f64>, b: &BorderT) {
+/// `S ← S − Bᵀ B` on the lower triangle of `S` only (`B` is D × m; the caller mirrors it).
+/// Columns as `[f64; D]` so the dot products unroll.
+fn subtract_gram_lower<const D: usize>(s: &mut DMatrix<f64>, b: &BorderTOf<D>) {
     let m = s.nrows();
-    let (cols, _) = b.as_slice().as_chunks::<FRAME_DIM>();
+    let (cols, _) = b.as_slice().as_chunks::<D>();
     let s = s.as_mut_slice();
     for (j, cj) in cols.iter().enumerate() {
         let s_col = &mut s[j * m..(j + 1) * m];
         for (i, ci) in cols.iter().enumerate().skip(j) {
             let mut dot = 0.0;
-            for r in 0..FRAME_DIM {
+            for r in 0..D {
                 dot += ci[r] * cj[r];
             }
             s_col[i] -= dot;
@@ -324,20 +392,18 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// A random positive definite arrow system.
-    fn random(n: usize, m: usize, seed: u64) -> ArrowSystem {
+    /// A random positive definite arrow system with frame blocks of `D`.
+    fn random<const D: usize>(n: usize, m: usize, seed: u64) -> ArrowSystem<D> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut s = ArrowSystem::zeros(n, m);
+        let mut s = ArrowSystem::<D>::zeros(n, m);
         // Sum of random rank-limited factors with the arrow's sparsity.
         for k in 0..n {
-            let j = DMatrix::from_fn(12, 2 * FRAME_DIM + m, |_, _| rng.random::<f64>() - 0.5);
+            let j = DMatrix::from_fn(D + 3, 2 * D + m, |_, _| rng.random::<f64>() - 0.5);
             let jt_j = j.transpose() * &j;
             let two = if k + 1 < n { 2 } else { 1 };
             for a in 0..two {
                 for c in 0..two {
-                    let blk: Block = jt_j
-                        .fixed_view::<FRAME_DIM, FRAME_DIM>(a * FRAME_DIM, c * FRAME_DIM)
-                        .into_owned();
+                    let blk: BlockOf<D> = jt_j.fixed_view::<D, D>(a * D, c * D).into_owned();
                     match (a, c) {
                         (0, 0) => s.diag[k] += blk,
                         (1, 1) => s.diag[k + 1] += blk,
@@ -345,42 +411,129 @@ mod tests {
                         _ => {}
                     }
                 }
-                let bb = jt_j.view((a * FRAME_DIM, 2 * FRAME_DIM), (FRAME_DIM, m));
+                let bb = jt_j.view((a * D, 2 * D), (D, m));
                 s.frame_border[k + a] += bb;
             }
-            s.corner += jt_j.view((2 * FRAME_DIM, 2 * FRAME_DIM), (m, m));
-            s.diag[k] += Block::identity() * 0.1;
-            s.rhs_frames[k] = Vec9::from_fn(|_, _| rng.random::<f64>() - 0.5);
+            s.corner += jt_j.view((2 * D, 2 * D), (m, m));
+            s.diag[k] += BlockOf::<D>::identity() * 0.1;
+            s.rhs_frames[k] = VecOf::<D>::from_fn(|_, _| rng.random::<f64>() - 0.5);
         }
         s.corner += DMatrix::identity(m, m) * 0.1;
         s.rhs_border = DVector::from_fn(m, |_, _| rng.random::<f64>() - 0.5);
         s
     }
 
+    /// Frobenius distance within `rel` of `b`'s norm.
+    fn assert_close(a: &DMatrix<f64>, b: &DMatrix<f64>, rel: f64, what: &str) {
+        assert_eq!(a.shape(), b.shape(), "{what}: shape");
+        let d = (a - b).norm();
+        assert!(d <= rel * b.norm(), "{what}: {d} vs {}", b.norm());
+    }
+
+    /// The arrow solve against a dense Cholesky of the same system: solution, border covariance
+    /// and the last frame's covariance blocks.
+    fn matches_a_dense_solve<const D: usize>(n: usize, m: usize, seed: u64) {
+        let s = random::<D>(n, m, seed);
+        let sol = s.solve().unwrap();
+        let (h, b) = s.to_dense();
+        let dense = h.clone().cholesky().unwrap();
+        let x = dense.solve(&b);
+        let cov = dense.inverse();
+        let what = format!("D {D} n {n} m {m}");
+        assert_eq!(sol.frames.len(), n);
+        for k in 0..n {
+            let d = (sol.frames[k] - x.rows(k * D, D)).norm();
+            assert!(d < 1e-9 * (1.0 + x.norm()), "{what} frame {k}: {d}");
+        }
+        assert_eq!(sol.border.len(), m);
+        assert_eq!(sol.border_covariance.shape(), (m, m));
+        assert_eq!(sol.last_frame_border_covariance.shape(), (D, m));
+        if m > 0 {
+            assert!((&sol.border - x.rows(n * D, m)).norm() < 1e-9 * (1.0 + x.norm()));
+            let cb = cov.view((n * D, n * D), (m, m)).into_owned();
+            assert_close(&sol.border_covariance, &cb, 1e-9, &what);
+        }
+        if n > 0 {
+            let f = (n - 1) * D;
+            let cff = cov.view((f, f), (D, D)).into_owned();
+            let got = DMatrix::from_column_slice(D, D, sol.last_frame_covariance.as_slice());
+            assert_close(&got, &cff, 1e-9, &format!("{what} Σ_ff"));
+            if m > 0 {
+                let cfb = cov.view((f, n * D), (D, m)).into_owned();
+                let got =
+                    DMatrix::from_column_slice(D, m, sol.last_frame_border_covariance.as_slice());
+                assert_close(&got, &cfb, 1e-9, &format!("{what} Σ_fB"));
+            }
+        } else {
+            assert_eq!(sol.last_frame_covariance, BlockOf::<D>::zeros());
+            assert!(sol.last_frame_border_covariance.iter().all(|&v| v == 0.0));
+        }
+    }
+
+    const CASES: [(usize, usize, u64); 8] = [
+        (1, 0, 1),
+        (2, 3, 2),
+        (30, 6, 3),
+        (7, 12, 4),
+        (1, 5, 6),
+        (4, 0, 7),
+        (0, 4, 8),
+        (0, 0, 9),
+    ];
+
     #[test]
     fn arrow_cholesky_matches_a_dense_solve() {
-        for (n, m, seed) in [(1, 0, 1), (2, 3, 2), (30, 6, 3), (7, 12, 4)] {
-            let s = random(n, m, seed);
-            let sol = s.solve().unwrap();
-            let (h, b) = s.to_dense();
-            let dense = h.clone().cholesky().unwrap();
-            let x = dense.solve(&b);
-            for k in 0..n {
-                let d = (sol.frames[k] - x.rows(k * FRAME_DIM, FRAME_DIM)).norm();
-                assert!(d < 1e-9 * (1.0 + x.norm()), "n {n} m {m} frame {k}: {d}");
-            }
-            if m > 0 {
-                assert!((&sol.border - x.rows(n * FRAME_DIM, m)).norm() < 1e-9 * (1.0 + x.norm()));
-                let cov = dense.inverse();
-                let cb = cov.view((n * FRAME_DIM, n * FRAME_DIM), (m, m));
-                assert!((&sol.border_covariance - cb).norm() < 1e-9 * (1.0 + cb.norm()));
-            }
+        for (n, m, seed) in CASES {
+            matches_a_dense_solve::<FRAME_DIM>(n, m, seed);
         }
     }
 
     #[test]
+    fn arrow_cholesky_matches_a_dense_solve_with_15_blocks() {
+        for (n, m, seed) in CASES {
+            matches_a_dense_solve::<15>(n, m, seed);
+        }
+    }
+
+    /// Jacobi scaling is undone in the covariances: the same check on a badly scaled system.
+    #[test]
+    fn last_frame_covariance_survives_bad_scaling() {
+        let (n, m) = (5, 6);
+        let mut s = random::<FRAME_DIM>(n, m, 10);
+        let scales = DVector::from_fn(n * FRAME_DIM + m, |i, _| 10f64.powi((i % 7) as i32 - 3));
+        // H ← D H D, b ← D b with D far from the identity.
+        for k in 0..n {
+            let sk = scales.fixed_rows::<FRAME_DIM>(k * FRAME_DIM).into_owned();
+            scale_block(&mut s.diag[k], &sk, &sk);
+            if k + 1 < n {
+                let sn = scales
+                    .fixed_rows::<FRAME_DIM>((k + 1) * FRAME_DIM)
+                    .into_owned();
+                scale_block(&mut s.lower[k], &sn, &sk);
+            }
+            let sb = scales.rows(n * FRAME_DIM, m).into_owned();
+            scale_border_t(&mut s.frame_border[k], &sk, &sb);
+            s.rhs_frames[k].component_mul_assign(&sk);
+        }
+        let sb = scales.rows(n * FRAME_DIM, m).into_owned();
+        scale_both_sides(&mut s.corner, &sb);
+        s.rhs_border.component_mul_assign(&sb);
+        let sol = s.solve().unwrap();
+        let cov = s.to_dense().0.cholesky().unwrap().inverse();
+        let f = (n - 1) * FRAME_DIM;
+        let cff = cov.view((f, f), (FRAME_DIM, FRAME_DIM)).into_owned();
+        let got =
+            DMatrix::from_column_slice(FRAME_DIM, FRAME_DIM, sol.last_frame_covariance.as_slice());
+        assert_close(&got, &cff, 1e-8, "Σ_ff");
+        let cfb = cov.view((f, n * FRAME_DIM), (FRAME_DIM, m)).into_owned();
+        let got =
+            DMatrix::from_column_slice(FRAME_DIM, m, sol.last_frame_border_covariance.as_slice());
+        assert_close(&got, &cfb, 1e-8, "Σ_fB");
+    }
+
+    #[test]
     fn indefinite_systems_are_refused() {
-        let mut s = random(3, 3, 5);
+        let mut s = random::<FRAME_DIM>(3, 3, 5);
         s.diag[1] = -Block::identity();
         assert!(s.solve().is_none());
     }

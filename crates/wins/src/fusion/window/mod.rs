@@ -127,10 +127,28 @@ impl Frame {
     }
 }
 
+/// What is known at the start of a window (a static initialization, or the state a lost
+/// estimate last had): the first frame's gravity and velocity (in `b0`, the first frame) and the
+/// gyro bias, each with its 1σ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartPrior {
+    /// Upward gravity in `b0`, m/s².
+    pub gravity_in_b0: Vector3<f64>,
+    /// 1σ per axis, m/s².
+    pub gravity_sigma_m_s2: f64,
+    /// Velocity in `b0`, m/s.
+    pub velocity_in_b0: Vector3<f64>,
+    /// 1σ per axis, m/s.
+    pub velocity_sigma_m_s: f64,
+    /// Gyro bias, rad/s (its 1σ stays the window's prior).
+    pub gyro_bias_rad_s: Vector3<f64>,
+}
+
 /// The sliding window (module doc).
 #[derive(Clone, Debug)]
 pub struct SlidingWindow {
     config: WindowConfig,
+    start: Option<StartPrior>,
     frames: VecDeque<Frame>,
     num_aps: usize,
     /// Prior over `[first frame, border]` in information form (border may be shorter than now).
@@ -156,6 +174,7 @@ impl SlidingWindow {
     pub fn new(config: WindowConfig) -> Self {
         Self {
             config,
+            start: None,
             frames: VecDeque::new(),
             num_aps: 0,
             prior_h: DMatrix::zeros(0, 0),
@@ -176,6 +195,14 @@ impl SlidingWindow {
     /// The settings.
     pub fn config(&self) -> &WindowConfig {
         &self.config
+    }
+
+    /// An empty window whose first frame starts from `start` instead of zero-mean priors.
+    pub fn with_start(config: WindowConfig, start: StartPrior) -> Self {
+        let mut w = Self::new(config);
+        w.gyro_bias_rad_s = start.gyro_bias_rad_s;
+        w.start = Some(start);
+        w
     }
 
     /// Appends a frame at `t` with attitude `b0_from_bk`, the IMU interval from the previous
@@ -212,6 +239,20 @@ impl SlidingWindow {
                 self.prior_h[(6 + i, 6 + i)] = c.prior_gravity_sigma_m_s2.powi(-2);
                 self.prior_h[(9 + i, 9 + i)] = c.prior_accel_bias_sigma_m_s2.powi(-2);
                 self.prior_h[(12 + i, 12 + i)] = c.prior_gyro_bias_sigma_rad_s.powi(-2);
+            }
+            if let Some(s) = self.start {
+                for i in 0..3 {
+                    let hv = s.velocity_sigma_m_s.powi(-2);
+                    let hg = s.gravity_sigma_m_s2.powi(-2);
+                    self.prior_h[(3 + i, 3 + i)] = hv;
+                    self.prior_h[(6 + i, 6 + i)] = hg;
+                    self.prior_b[3 + i] = hv * s.velocity_in_b0[i];
+                    self.prior_b[6 + i] = hg * s.gravity_in_b0[i];
+                    self.prior_b[12 + i] = self.prior_h[(12 + i, 12 + i)] * s.gyro_bias_rad_s[i];
+                }
+                self.border
+                    .fixed_rows_mut::<3>(3)
+                    .copy_from(&s.gyro_bias_rad_s);
             }
         }
         let needed = bearings.iter().map(|b| b.ap + 1).max().unwrap_or(0);

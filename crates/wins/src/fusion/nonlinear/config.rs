@@ -1,0 +1,161 @@
+//! Settings of the nonlinear estimator (the `[nonlinear]` table of a configuration).
+
+use serde::{Deserialize, Serialize};
+
+use crate::check::Problems;
+
+/// Settings of the nonlinear window and its start (the `[nonlinear]` table).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NonlinearConfig {
+    /// A new keyframe when this long has passed since the last one, s. Bearings and barometer
+    /// samples in between are tied to the keyframe before them.
+    pub keyframe_period_s: f64,
+    /// Keyframes in the window; older ones are marginalized into the prior.
+    pub max_keyframes: usize,
+    /// Gauss–Newton (Levenberg–Marquardt) iterations per keyframe once converged.
+    pub iterations: usize,
+    /// Iterations over the whole start window when the linear solution is refined.
+    pub iterations_at_start: usize,
+    /// Scale of the Cauchy loss on the AoA factors, in units of the bearing's σ.
+    pub cauchy_scale: f64,
+    /// Barometer white noise 1σ, m.
+    pub baro_sigma_m: f64,
+    /// Barometer offset random walk, m/√s (the drift of a still room's pressure).
+    pub baro_offset_walk_m_sqrt_s: f64,
+    /// Significance of the χ² tests (start acceptance and loss): a correct solution fails with
+    /// this probability.
+    pub chi2_significance: f64,
+    /// A start is accepted only when every AP's largest marginal position σ is below this, m.
+    pub max_ap_sigma_m: f64,
+    /// … and below this fraction of its smallest range from the start's keyframes (a wrong scale
+    /// puts the AP close, where its bearings pin it: a linearized σ alone then looks fine).
+    pub max_ap_sigma_fraction: f64,
+    /// The static start: the IMU is at rest while the gyro's norm stays below this, rad/s …
+    pub rest_max_gyro_rad_s: f64,
+    /// … and the specific force's norm within this of gravity, m/s².
+    pub rest_max_accel_deviation_m_s2: f64,
+    /// At least this long at rest gives a static initialization, s.
+    pub rest_min_s: f64,
+    /// Motion (after a rest, or from the start) for at least this long before the first start
+    /// attempt, s.
+    pub start_after_motion_s: f64,
+    /// Time between start attempts, s.
+    pub start_retry_s: f64,
+    /// The start window keeps at most this many seconds of keyframes.
+    pub max_start_window_s: f64,
+    /// The loss test runs over the bearings of this many seconds.
+    pub loss_window_s: f64,
+}
+
+impl Default for NonlinearConfig {
+    fn default() -> Self {
+        Self {
+            keyframe_period_s: 0.1,
+            max_keyframes: 20,
+            iterations: 2,
+            iterations_at_start: 15,
+            cauchy_scale: 2.0,
+            baro_sigma_m: 0.3,
+            baro_offset_walk_m_sqrt_s: 0.04,
+            chi2_significance: 1e-3,
+            max_ap_sigma_m: 0.5,
+            max_ap_sigma_fraction: 0.1,
+            rest_max_gyro_rad_s: 0.05,
+            rest_max_accel_deviation_m_s2: 0.3,
+            rest_min_s: 1.0,
+            start_after_motion_s: 4.0,
+            start_retry_s: 1.0,
+            max_start_window_s: 30.0,
+            loss_window_s: 2.0,
+        }
+    }
+}
+
+impl NonlinearConfig {
+    /// Every setting in its range, under `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.in_range(
+            prefix,
+            "keyframe_period_s",
+            self.keyframe_period_s,
+            0.0,
+            2.0,
+        );
+        p.require(
+            (3..=500).contains(&self.max_keyframes),
+            prefix,
+            "max_keyframes",
+            format!("{} is not in [3, 500]", self.max_keyframes),
+        );
+        p.require(
+            (1..=50).contains(&self.iterations),
+            prefix,
+            "iterations",
+            format!("{} is not in [1, 50]", self.iterations),
+        );
+        p.require(
+            (1..=200).contains(&self.iterations_at_start),
+            prefix,
+            "iterations_at_start",
+            format!("{} is not in [1, 200]", self.iterations_at_start),
+        );
+        p.in_range(prefix, "cauchy_scale", self.cauchy_scale, 0.1, 100.0);
+        p.in_range(prefix, "baro_sigma_m", self.baro_sigma_m, 1e-3, 100.0);
+        p.in_range(
+            prefix,
+            "baro_offset_walk_m_sqrt_s",
+            self.baro_offset_walk_m_sqrt_s,
+            0.0,
+            10.0,
+        );
+        p.in_range(
+            prefix,
+            "chi2_significance",
+            self.chi2_significance,
+            1e-9,
+            0.5,
+        );
+        p.in_range(prefix, "max_ap_sigma_m", self.max_ap_sigma_m, 1e-3, 100.0);
+        p.in_range(
+            prefix,
+            "max_ap_sigma_fraction",
+            self.max_ap_sigma_fraction,
+            1e-3,
+            1.0,
+        );
+        p.in_range(
+            prefix,
+            "rest_max_gyro_rad_s",
+            self.rest_max_gyro_rad_s,
+            1e-4,
+            1.0,
+        );
+        p.in_range(
+            prefix,
+            "rest_max_accel_deviation_m_s2",
+            self.rest_max_accel_deviation_m_s2,
+            1e-3,
+            5.0,
+        );
+        p.in_range(prefix, "rest_min_s", self.rest_min_s, 0.05, 60.0);
+        p.in_range(
+            prefix,
+            "start_after_motion_s",
+            self.start_after_motion_s,
+            0.0,
+            600.0,
+        );
+        p.in_range(prefix, "start_retry_s", self.start_retry_s, 0.05, 600.0);
+        p.in_range(
+            prefix,
+            "max_start_window_s",
+            self.max_start_window_s,
+            1.0,
+            600.0,
+        );
+        p.in_range(prefix, "loss_window_s", self.loss_window_s, 0.1, 60.0);
+        p
+    }
+}

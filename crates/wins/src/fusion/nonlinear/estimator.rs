@@ -1,0 +1,481 @@
+//! The nonlinear estimator as a push API (IMU samples, bearings and barometer samples in; poses
+//! out), and its start and recovery:
+//!
+//! 1. **Rest** ([`super::rest`]): while the IMU is still, the gyro bias, roll and pitch.
+//! 2. **Linear start**: from the first motion, the paper's linear window
+//!    ([`crate::fusion::estimator::Wins`], started from the rest's gravity, velocity and gyro bias
+//!    when there was one) solves positions, velocities, gravity and APs from zeros. Its own
+//!    convergence test is off: it only proposes.
+//! 3. **Acceptance** (`start`): every [`NonlinearConfig::start_retry_s`] the linear solution,
+//!    levelled, initializes the nonlinear window over the whole start (one keyframe per
+//!    [`NonlinearConfig::keyframe_period_s`]), which is iterated. It is accepted only when its
+//!    AoA and IMU residuals pass χ² tests at [`NonlinearConfig::chi2_significance`] and every AP's
+//!    marginal σ is below [`NonlinearConfig::max_ap_sigma_m`]; then the window is marginalized
+//!    down to [`NonlinearConfig::max_keyframes`] and the output starts, converged.
+//! 4. **Tracking**: one solve per keyframe. The same χ² tests over the window's residuals decide
+//!    loss: failing for [`NonlinearConfig::loss_window_s`] in a row restarts at 2 from the last
+//!    keyframe that passed, propagated by the IMU to now; the output frame is kept (the new
+//!    window is placed at that state), so the trajectory does not jump back.
+
+use std::collections::VecDeque;
+
+use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3};
+
+use super::config::NonlinearConfig;
+use super::rest::{RestDetector, StaticInit};
+use super::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
+use super::window::{NonlinearWindow, SubFrame};
+use crate::fusion::bearing::Bearing;
+use crate::fusion::estimator::{PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats};
+use crate::fusion::window::StartPrior;
+use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
+use crate::time::Timestamp;
+
+/// A frame waiting for the IMU to pass it.
+#[derive(Clone, Debug)]
+struct PendingFrame {
+    t: Timestamp,
+    bearings: Vec<Bearing>,
+    altitude_m: Option<f64>,
+}
+
+/// A keyframe of the start window (its state comes from the linear solution).
+#[derive(Clone, Debug)]
+pub(super) struct StartKeyframe {
+    pub(super) t: Timestamp,
+    pub(super) from_prev: Option<Preintegrated>,
+    pub(super) frames: Vec<SubFrame>,
+}
+
+/// The estimator (module doc).
+#[derive(Clone, Debug)]
+pub struct NonlinearEstimator {
+    pub(super) config: NonlinearConfig,
+    pub(super) linear_config: WinsConfig,
+    /// The linear solution is tried when its APs' largest σ is below this, m.
+    pub(super) candidate_ap_sigma_m: f64,
+    pub(super) has_baro: bool,
+    pre: Preintegrator,
+    pending: VecDeque<PendingFrame>,
+    rest: RestDetector,
+    pub(super) static_init: Option<StaticInit>,
+    pub(super) moving_since: Option<Timestamp>,
+    pub(super) linear: Option<Wins>,
+    pub(super) start: VecDeque<StartKeyframe>,
+    /// IMU since the newest keyframe.
+    since_keyframe: Option<Preintegrated>,
+    pub(super) window: Option<NonlinearWindow>,
+    /// Output `w` from the window's `w`.
+    pub(super) anchor: Isometry3<f64>,
+    pub(super) last_try: Option<Timestamp>,
+    pub(super) failing_since: Option<Timestamp>,
+    /// The newest keyframe that passed the loss test.
+    pub(super) last_good: Option<NavState>,
+    pub(super) stats: WinsStats,
+    pub(super) converged_at: Option<Timestamp>,
+    /// Changes of the frame poses are given in (a start or a restart).
+    pub(super) epoch: u64,
+}
+
+impl NonlinearEstimator {
+    /// A fresh estimator; `has_baro`: barometer samples will come.
+    pub fn new(config: NonlinearConfig, linear: WinsConfig, has_baro: bool) -> Self {
+        let mut linear_config = linear;
+        // The linear window only proposes (when its APs' σ is below its own convergence
+        // threshold): its own convergence test is off.
+        let candidate_ap_sigma_m = linear_config.window.converged_ap_sigma_m;
+        linear_config.window.converged_ap_sigma_m = 0.0;
+        Self {
+            pre: Preintegrator::new(linear_config.imu_noise.clone(), ImuBiases::zero()),
+            rest: RestDetector::new(config.clone(), STANDARD_GRAVITY_M_S2),
+            config,
+            linear_config,
+            candidate_ap_sigma_m,
+            has_baro,
+            pending: VecDeque::new(),
+            static_init: None,
+            moving_since: None,
+            linear: None,
+            start: VecDeque::new(),
+            since_keyframe: None,
+            window: None,
+            anchor: Isometry3::identity(),
+            last_try: None,
+            failing_since: None,
+            last_good: None,
+            stats: WinsStats::default(),
+            converged_at: None,
+            epoch: 0,
+        }
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> WinsStats {
+        self.stats
+    }
+
+    /// When the output first started (a restart does not reset it).
+    pub fn converged_at(&self) -> Option<Timestamp> {
+        self.converged_at
+    }
+
+    /// Whether the nonlinear window is running now.
+    pub fn is_tracking(&self) -> bool {
+        self.window.is_some()
+    }
+
+    /// The static initialization, when the flight started at rest.
+    pub fn static_init(&self) -> Option<&StaticInit> {
+        self.static_init.as_ref()
+    }
+
+    /// The nonlinear window (while tracking).
+    pub fn window(&self) -> Option<&NonlinearWindow> {
+        self.window.as_ref()
+    }
+
+    /// Starts and restarts so far: poses of different epochs are in different `b0` frames.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
+    /// The gyro bias now, rad/s.
+    pub fn gyro_bias_rad_s(&self) -> Vector3<f64> {
+        match (&self.window, &self.linear) {
+            (Some(w), _) => w.newest().map_or(Vector3::zeros(), |x| x.gyro_bias_rad_s),
+            (None, Some(l)) => l.window().gyro_bias_rad_s(),
+            _ => self
+                .static_init
+                .map_or(Vector3::zeros(), |s| s.gyro_bias_rad_s),
+        }
+    }
+
+    /// AP `l` in the frame poses are given in (`b0` of [`PoseEstimate`]), while tracking.
+    pub fn ap_in_b0(&self, l: usize) -> Option<Vector3<f64>> {
+        self.window.as_ref()?.aps().get(l).copied()
+    }
+
+    /// AP `l` in the output frame `w`, and its largest σ, while tracking.
+    pub fn ap_in_w(&self, l: usize) -> Option<(Vector3<f64>, f64)> {
+        let w = self.window.as_ref()?;
+        let c = w.aps().get(l)?;
+        let sigma = w.ap_sigma_m(l).unwrap_or(f64::INFINITY);
+        Some((self.anchor.transform_point(&(*c).into()).coords, sigma))
+    }
+
+    /// Queues a frame of bearings at `t`.
+    pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
+        self.check_order(t)?;
+        if let Some(l) = &mut self.linear {
+            l.push_bearings(t, bearings.clone())?;
+        }
+        self.pending.push_back(PendingFrame {
+            t,
+            bearings,
+            altitude_m: None,
+        });
+        Ok(())
+    }
+
+    /// Queues a barometer altitude at `t`, m.
+    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), WinsError> {
+        self.check_order(t)?;
+        if !altitude_m.is_finite() {
+            self.stats.frames_refused += 1;
+            return Ok(());
+        }
+        match self.pending.back_mut() {
+            Some(p) if p.t == t => p.altitude_m = Some(altitude_m),
+            _ => self.pending.push_back(PendingFrame {
+                t,
+                bearings: Vec::new(),
+                altitude_m: Some(altitude_m),
+            }),
+        }
+        Ok(())
+    }
+
+    fn check_order(&mut self, t: Timestamp) -> Result<(), WinsError> {
+        let last = self.pre.last_sample().map(|s| s.t);
+        let newest = self.pending.back().map(|p| p.t).or(last);
+        if let Some(l) = newest.filter(|l| t < *l) {
+            self.stats.frames_late += 1;
+            return Err(WinsError::LateFrame {
+                t_ns: t.0,
+                last_ns: l.0,
+            });
+        }
+        Ok(())
+    }
+
+    /// Integrates one IMU sample, processing every queued frame it passes.
+    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, WinsError> {
+        if let Err(e) = self.pre.check(s) {
+            self.stats.imu_refused += 1;
+            return Err(e.into());
+        }
+        let mut step = Step::default();
+        if !self.rest.moved() {
+            if let Some(init) = self.rest.push(s) {
+                self.static_init = Some(init);
+                self.pre.set_bias(ImuBiases {
+                    gyro_rad_s: init.gyro_bias_rad_s,
+                    accel_m_s2: Vector3::zeros(),
+                });
+            }
+            if self.rest.moved() {
+                self.begin_start(s.t, None);
+            }
+        }
+        if let Some(l) = &mut self.linear {
+            match l.push_imu(s) {
+                Ok(ls) => step.frames.extend(ls.frames.into_iter().map(|mut p| {
+                    p.converged = false;
+                    p
+                })),
+                Err(e) => step.refused.extend(match e {
+                    WinsError::Window(w) => Some(w),
+                    _ => None,
+                }),
+            }
+        }
+        while self.pending.front().is_some_and(|p| p.t <= s.t) {
+            let Some(frame) = self.pending.pop_front() else {
+                break;
+            };
+            if self.pre.last_sample().is_none() {
+                self.stats.frames_late += 1;
+                continue;
+            }
+            let interval = self.pre.cut(frame.t, s)?;
+            if let Some(pose) = self.on_frame(frame, interval) {
+                step.frames.push(pose);
+            }
+        }
+        self.pre.push(s)?;
+        self.stats.imu_samples += 1;
+        step.imu_pose = self.propagated();
+        Ok(step)
+    }
+
+    /// Starts (or restarts) the linear window at `t`, from `from` (the state to restart from,
+    /// in the output frame) or the static initialization.
+    pub(super) fn begin_start(&mut self, t: Timestamp, from: Option<NavState>) {
+        self.moving_since = Some(t);
+        self.start.clear();
+        self.since_keyframe = None;
+        self.window = None;
+        self.last_try = None;
+        self.failing_since = None;
+        let g = STANDARD_GRAVITY_M_S2;
+        let prior = match (from, self.static_init) {
+            (Some(x), _) => Some(StartPrior {
+                gravity_in_b0: x.world_from_body.inverse() * Vector3::new(0.0, 0.0, g),
+                gravity_sigma_m_s2: 0.2,
+                velocity_in_b0: x.world_from_body.inverse() * x.v_b_in_w,
+                velocity_sigma_m_s: 0.5,
+                gyro_bias_rad_s: x.gyro_bias_rad_s,
+            }),
+            (None, Some(init)) => Some(StartPrior {
+                gravity_in_b0: init.specific_force_m_s2.normalize() * g,
+                gravity_sigma_m_s2: 0.2,
+                velocity_in_b0: Vector3::zeros(),
+                velocity_sigma_m_s: 0.3,
+                gyro_bias_rad_s: init.gyro_bias_rad_s,
+            }),
+            (None, None) => None,
+        };
+        if let Some(x) = from {
+            self.pre.set_bias(x.biases());
+            // The new window's level `b0` frame is placed at this state (module doc).
+            self.anchor =
+                Isometry3::from_parts(Translation3::from(x.p_b_in_w), heading(&x.world_from_body));
+        }
+        self.linear = Some(match prior {
+            Some(p) => Wins::with_start(self.linear_config.clone(), p),
+            None => Wins::new(self.linear_config.clone()),
+        });
+    }
+
+    /// One frame: into the start window or the nonlinear window; the pose when tracking.
+    fn on_frame(&mut self, frame: PendingFrame, interval: Preintegrated) -> Option<PoseEstimate> {
+        self.stats.bearings += frame.bearings.len() as u64;
+        self.stats.frames += 1;
+        // Frames at rest carry no geometry.
+        self.moving_since?;
+        let t = frame.t;
+        // Keyframes only at frames of bearings: the start takes their states from the linear
+        // window, which has a frame at each of those.
+        let may_be_keyframe = !frame.bearings.is_empty();
+        let (is_keyframe, from_prev) = match self.since_keyframe.take() {
+            None if may_be_keyframe => (true, None),
+            None => return None,
+            Some(mut acc) => {
+                if acc.append(&interval).is_err() {
+                    acc = interval;
+                }
+                if may_be_keyframe && acc.dt_s() >= self.config.keyframe_period_s - 1e-9 {
+                    (true, Some(acc))
+                } else {
+                    self.since_keyframe = Some(acc);
+                    (false, None)
+                }
+            }
+        };
+        if is_keyframe {
+            self.since_keyframe = Some(Preintegrated::empty(t, self.pre.bias()));
+        }
+        let partial = self
+            .since_keyframe
+            .clone()
+            .unwrap_or_else(|| Preintegrated::empty(t, self.pre.bias()));
+        let sub = SubFrame {
+            partial,
+            bearings: frame.bearings,
+            altitude_m: frame.altitude_m,
+        };
+        if self.window.is_some() {
+            return self.track(t, is_keyframe, from_prev, sub);
+        }
+        if is_keyframe {
+            self.start.push_back(StartKeyframe {
+                t,
+                from_prev,
+                frames: vec![sub],
+            });
+            while self
+                .start
+                .front()
+                .is_some_and(|k| t.secs_since(k.t) > self.config.max_start_window_s)
+            {
+                self.start.pop_front();
+                if let Some(f) = self.start.front_mut() {
+                    f.from_prev = None;
+                }
+            }
+            self.maybe_start(t);
+        } else if let Some(k) = self.start.back_mut() {
+            k.frames.push(sub);
+        }
+        self.window.as_ref()?;
+        self.pose_now(t)
+    }
+
+    /// A frame while tracking: a keyframe is solved and checked.
+    fn track(
+        &mut self,
+        t: Timestamp,
+        is_keyframe: bool,
+        from_prev: Option<Preintegrated>,
+        sub: SubFrame,
+    ) -> Option<PoseEstimate> {
+        let window = self.window.as_mut()?;
+        if !is_keyframe {
+            window.push_frame(sub);
+            return self.pose_now(t);
+        }
+        let newest = *window.newest()?;
+        let g = STANDARD_GRAVITY_M_S2;
+        let Some(from_prev) = from_prev else {
+            return self.pose_now(t);
+        };
+        let p = pose_at(&newest, &from_prev, g);
+        let x = NavState {
+            t,
+            world_from_body: p.world_from_body,
+            p_b_in_w: p.p_b_in_w,
+            v_b_in_w: p.v_b_in_w,
+            ..newest
+        };
+        if window.push_keyframe(x, from_prev, vec![sub]).is_none() {
+            self.stats.frames_refused += 1;
+            return self.pose_now(t);
+        }
+        let solved = window.optimize(self.config.iterations);
+        while window.len() > self.config.max_keyframes {
+            window.marginalize_oldest();
+        }
+        match solved {
+            Ok(_) => self.check_health(t),
+            Err(_) => {
+                self.stats.solve_failures += 1;
+                self.lose(t);
+            }
+        }
+        self.pose_now(t)
+    }
+
+    /// The newest keyframe (and the frames since) as the pose at `t`, with its covariance.
+    fn pose_now(&self, t: Timestamp) -> Option<PoseEstimate> {
+        let w = self.window.as_ref()?;
+        let x = w.newest()?;
+        let partial = self.since_keyframe.as_ref()?;
+        if partial.end != t {
+            return None;
+        }
+        Some(self.output(x, partial, w.newest_covariance()))
+    }
+
+    /// The pose at the end of `partial` after keyframe `x`, in the output frame.
+    fn output(
+        &self,
+        x: &NavState,
+        partial: &Preintegrated,
+        cov_x: &super::state::Mat15,
+    ) -> PoseEstimate {
+        let g = STANDARD_GRAVITY_M_S2;
+        let p = pose_at(x, partial, g);
+        let (j_rot, j_pos, _) = pose_at_jacobians(x, partial, g);
+        let mut j = nalgebra::SMatrix::<f64, 6, 15>::zeros();
+        j.fixed_view_mut::<3, 15>(0, 0).copy_from(&j_rot);
+        j.fixed_view_mut::<3, 15>(3, 0).copy_from(&j_pos);
+        let mut cov: Matrix6<f64> = j * cov_x * j.transpose();
+        // The IMU's own noise over the partial interval: [δα, δβ, δθ] → (θ, p).
+        let r = x.world_from_body.to_rotation_matrix().into_inner();
+        let c = &partial.covariance;
+        let mut add = Matrix6::zeros();
+        add.fixed_view_mut::<3, 3>(THETA, THETA)
+            .copy_from(&c.fixed_view::<3, 3>(6, 6));
+        add.fixed_view_mut::<3, 3>(POS, POS)
+            .copy_from(&(r * c.fixed_view::<3, 3>(0, 0) * r.transpose()));
+        cov += add;
+        // Into the output frame: positions rotate with the anchor; δθ is body-side.
+        let ra: Matrix3<f64> = self.anchor.rotation.to_rotation_matrix().into_inner();
+        let mut rot6 = Matrix6::identity();
+        rot6.fixed_view_mut::<3, 3>(POS, POS).copy_from(&ra);
+        let cov = rot6 * cov * rot6.transpose();
+        PoseEstimate {
+            t: partial.end,
+            p_b_in_w: self.anchor.transform_point(&p.p_b_in_w.into()).coords,
+            v_b_in_w: self.anchor.rotation * p.v_b_in_w,
+            world_from_body: self.anchor.rotation * p.world_from_body,
+            p_b_in_b0: p.p_b_in_w,
+            b0_from_body: p.world_from_body,
+            converged: true,
+            covariance: Some(cov),
+        }
+    }
+
+    /// The newest pose propagated to the last IMU sample.
+    fn propagated(&self) -> Option<PoseEstimate> {
+        let w = self.window.as_ref()?;
+        let x = w.newest()?;
+        let mut partial = self.since_keyframe.clone()?;
+        let run = self.pre.running();
+        if run.start != partial.end {
+            return None;
+        }
+        partial.append(run).ok()?;
+        Some(self.output(x, &partial, w.newest_covariance()))
+    }
+}
+
+/// The rotation about z with the heading of `r` (its x axis on the horizontal plane); identity
+/// when that axis is vertical.
+pub(super) fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let x = r * Vector3::x();
+    if x.xy().norm() < 1e-6 {
+        return UnitQuaternion::identity();
+    }
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x))
+}

@@ -1,0 +1,37 @@
+//! The 6-DoF nonlinear sliding-window estimator, started by the paper's linear one.
+//!
+//! State per keyframe `k` ([`state::NavState`]): attitude `R_k` on SO(3), position, velocity,
+//! gyro and accelerometer biases, in a gravity-aligned world frame `w` (z up); every AP's position
+//! in 3-D; the barometer's offset when there is one. The error state of a keyframe is
+//! `[δθ, δp, δv, δb_g, δb_a]` with `R = R̂ Exp(δθ)` (15 numbers).
+//!
+//! Factors, each with an analytic Jacobian beside its finite-difference test:
+//! - [`imu_factor`]: IMU preintegration on the manifold with first-order bias correction;
+//! - [`cone_factor`]: the exact AoA model of a linear array, `sin θ = ŷ_a · unit(c − p_array)`,
+//!   with the lever arm: no front/back decision and no assumption on the AP's height; a robust
+//!   (Cauchy) loss so that one reflection cannot drag the solution;
+//! - [`baro_factor`]: the barometer's altitude, `z + o`, with the offset `o` a state;
+//! - the marginalization prior ([`window`]), with first-estimate Jacobians.
+//!
+//! Measurements between keyframes are tied to the keyframe before them through the partial
+//! preintegration to their instant ([`state::pose_at`]), so keyframes can be sparser than the
+//! bearings. [`estimator::NonlinearEstimator`] runs the start (static initialization, the paper's linear
+//! window, the χ² acceptance) and the loss test.
+
+pub mod baro_factor;
+pub mod chi2;
+pub mod cone_factor;
+pub mod config;
+pub mod estimator;
+pub mod imu_factor;
+pub mod rest;
+mod solve;
+mod start;
+pub mod state;
+pub mod window;
+
+pub use config::NonlinearConfig;
+pub use estimator::NonlinearEstimator;
+pub use solve::{SolveError, SolveReport};
+pub use start::passes_chi2;
+pub use window::{FitStats, NonlinearWindow, SubFrame};

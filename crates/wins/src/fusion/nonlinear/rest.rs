@@ -1,0 +1,202 @@
+//! Static initialization: while the IMU is at rest it measures gravity and its gyro bias, so
+//! roll, pitch and the gyro bias are known before the first motion (yaw and position are the
+//! gauge).
+//!
+//! A sample is at rest when the gyro's norm and the specific force's distance to gravity stay
+//! within [`NonlinearConfig::rest_max_gyro_rad_s`] and
+//! [`NonlinearConfig::rest_max_accel_deviation_m_s2`], averaged over [`SMOOTHING_S`] (a single
+//! noisy sample of a MEMS IMU must not end the rest). The averages exclude the last
+//! [`ONSET_MARGIN_S`] before the motion was detected: a smooth take-off starts below any
+//! threshold.
+
+use std::collections::VecDeque;
+
+use nalgebra::{UnitQuaternion, Vector3};
+
+use super::config::NonlinearConfig;
+use crate::imu::ImuSample;
+use crate::time::Timestamp;
+
+/// Averaging window of the rest test, s.
+pub const SMOOTHING_S: f64 = 0.1;
+/// Samples this close before the detected motion are left out of the rest's averages, s.
+pub const ONSET_MARGIN_S: f64 = 0.3;
+
+/// What a rest gave.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticInit {
+    /// When the motion was detected.
+    pub t: Timestamp,
+    /// Gyro bias (mean rate at rest), rad/s.
+    pub gyro_bias_rad_s: Vector3<f64>,
+    /// Roll and pitch (yaw 0): the rotation taking the mean specific force to +z.
+    pub world_from_body: UnitQuaternion<f64>,
+    /// Mean specific force at rest (body), m/s².
+    pub specific_force_m_s2: Vector3<f64>,
+    /// Length of the rest used, s.
+    pub duration_s: f64,
+    /// Samples averaged.
+    pub samples: usize,
+}
+
+/// Watches the IMU for a rest followed by motion.
+#[derive(Clone, Debug)]
+pub struct RestDetector {
+    config: NonlinearConfig,
+    gravity_m_s2: f64,
+    /// Samples of the current rest (bounded by the start window's length).
+    rest: VecDeque<ImuSample>,
+    /// The last [`SMOOTHING_S`] of samples (the test's average).
+    recent: VecDeque<ImuSample>,
+    /// Motion seen without a rest before it.
+    moved: bool,
+}
+
+impl RestDetector {
+    /// A detector.
+    pub fn new(config: NonlinearConfig, gravity_m_s2: f64) -> Self {
+        Self {
+            config,
+            gravity_m_s2,
+            rest: VecDeque::new(),
+            recent: VecDeque::new(),
+            moved: false,
+        }
+    }
+
+    /// Whether the IMU has moved (with or without a rest before).
+    pub fn moved(&self) -> bool {
+        self.moved
+    }
+
+    /// Takes one sample; returns the static initialization when the first motion after a long
+    /// enough rest is detected.
+    pub fn push(&mut self, s: &ImuSample) -> Option<StaticInit> {
+        if self.moved {
+            return None;
+        }
+        self.recent.push_back(*s);
+        while self
+            .recent
+            .front()
+            .is_some_and(|f| s.t.secs_since(f.t) > SMOOTHING_S)
+        {
+            self.recent.pop_front();
+        }
+        let n = self.recent.len() as f64;
+        let w = self
+            .recent
+            .iter()
+            .map(|r| r.gyro_rad_s)
+            .sum::<Vector3<f64>>()
+            / n;
+        let f = self
+            .recent
+            .iter()
+            .map(|r| r.accel_m_s2)
+            .sum::<Vector3<f64>>()
+            / n;
+        let still = w.norm() < self.config.rest_max_gyro_rad_s
+            && (f.norm() - self.gravity_m_s2).abs() < self.config.rest_max_accel_deviation_m_s2;
+        if still {
+            self.rest.push_back(*s);
+            let keep = self.config.max_start_window_s;
+            while self
+                .rest
+                .front()
+                .is_some_and(|f| s.t.secs_since(f.t) > keep)
+            {
+                self.rest.pop_front();
+            }
+            return None;
+        }
+        self.moved = true;
+        let until = s.t.0 - (ONSET_MARGIN_S * 1e9) as i64;
+        let used: Vec<&ImuSample> = self.rest.iter().filter(|r| r.t.0 <= until).collect();
+        let (first, last) = (used.first()?, used.last()?);
+        let duration_s = last.t.secs_since(first.t);
+        if duration_s < self.config.rest_min_s {
+            return None;
+        }
+        let n = used.len() as f64;
+        let gyro = used.iter().map(|r| r.gyro_rad_s).sum::<Vector3<f64>>() / n;
+        let force = used.iter().map(|r| r.accel_m_s2).sum::<Vector3<f64>>() / n;
+        let level = UnitQuaternion::rotation_between(&force, &Vector3::z())
+            .unwrap_or_else(UnitQuaternion::identity);
+        Some(StaticInit {
+            t: s.t,
+            gyro_bias_rad_s: gyro,
+            world_from_body: level,
+            specific_force_m_s2: force,
+            duration_s,
+            samples: used.len(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::imu::STANDARD_GRAVITY_M_S2;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn a_tilted_rest_gives_roll_pitch_and_gyro_bias_then_motion_ends_it() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let noise = Normal::new(0.0, 0.02).unwrap();
+        let tilt = UnitQuaternion::from_euler_angles(0.05, -0.08, 1.0);
+        let bias = Vector3::new(0.004, -0.002, 0.003);
+        let g_in_b = tilt.inverse() * Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2);
+        let mut det = RestDetector::new(NonlinearConfig::default(), STANDARD_GRAVITY_M_S2);
+        let mut found = None;
+        for i in 0..800 {
+            let t = Timestamp(i * 5_000_000);
+            let moving = i >= 600;
+            let accel = g_in_b
+                + Vector3::from_fn(|_, _| noise.sample(&mut rng))
+                + if moving {
+                    Vector3::x() * 2.0
+                } else {
+                    Vector3::zeros()
+                };
+            let s = ImuSample {
+                t,
+                gyro_rad_s: bias + Vector3::from_fn(|_, _| noise.sample(&mut rng) * 0.1),
+                accel_m_s2: accel,
+            };
+            if let Some(init) = det.push(&s) {
+                found = Some(init);
+            }
+        }
+        let init = found.expect("the rest is found");
+        assert!(det.moved());
+        assert!((init.gyro_bias_rad_s - bias).norm() < 3e-4);
+        // Roll and pitch: the body's up direction in w is +z.
+        let up = init.world_from_body * g_in_b.normalize();
+        assert!((up - Vector3::z()).norm() < 3e-3, "{up}");
+        assert!(
+            init.duration_s > 2.5 && init.duration_s < 3.0,
+            "{}",
+            init.duration_s
+        );
+        assert!(init.t.0 >= 600 * 5_000_000);
+    }
+
+    #[test]
+    fn motion_from_the_start_gives_no_static_initialization() {
+        let mut det = RestDetector::new(NonlinearConfig::default(), STANDARD_GRAVITY_M_S2);
+        let mut any = false;
+        for i in 0..400 {
+            let s = ImuSample {
+                t: Timestamp(i * 5_000_000),
+                gyro_rad_s: Vector3::new(0.0, 0.0, 0.5),
+                accel_m_s2: Vector3::new(1.0, 0.0, STANDARD_GRAVITY_M_S2),
+            };
+            any |= det.push(&s).is_some();
+        }
+        assert!(!any);
+        assert!(det.moved());
+    }
+}

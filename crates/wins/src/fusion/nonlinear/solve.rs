@@ -1,0 +1,219 @@
+//! Levenberg–Marquardt over the window and the marginalization of the oldest keyframe.
+
+use std::collections::VecDeque;
+
+use nalgebra::{DMatrix, Vector3};
+
+use super::state::{NavState, STATE_DIM};
+use super::window::{Keyframe, NonlinearWindow};
+use crate::fusion::window::arrow::ArrowSystem;
+
+/// Why a solve failed (the estimate is left as it was).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SolveError {
+    /// The normal equations stayed indefinite under every damping tried.
+    #[error("the normal equations are not positive definite")]
+    NotPositiveDefinite,
+    /// A state became non-finite.
+    #[error("the estimate is not finite")]
+    NotFinite,
+}
+
+/// LM damping at the first iteration, relative to the diagonal.
+const LAMBDA_START: f64 = 1e-4;
+/// An iteration whose increment is below this (relative to the state's scale) ends the solve.
+const STEP_TOLERANCE: f64 = 1e-7;
+
+/// What a solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveReport {
+    /// Accepted iterations.
+    pub iterations: usize,
+    /// Cost before and after (`Σ ρ` + prior, twice the LM objective).
+    pub cost_before: f64,
+    /// See `cost_before`.
+    pub cost_after: f64,
+}
+
+struct Snapshot {
+    x: Vec<NavState>,
+    aps: Vec<Vector3<f64>>,
+    baro: Option<f64>,
+}
+
+impl NonlinearWindow {
+    fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            x: self.keyframes.iter().map(|k| k.x).collect(),
+            aps: self.aps.clone(),
+            baro: self.baro.map(|b| b.0),
+        }
+    }
+
+    fn restore(&mut self, s: &Snapshot) {
+        for (k, x) in self.keyframes.iter_mut().zip(&s.x) {
+            k.x = *x;
+        }
+        self.aps.clone_from(&s.aps);
+        if let (Some(b), Some(o)) = (&mut self.baro, s.baro) {
+            b.0 = o;
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.keyframes.iter().all(|k| k.x.is_finite())
+            && self.aps.iter().all(|c| c.iter().all(|v| v.is_finite()))
+            && self.baro.is_none_or(|b| b.0.is_finite())
+    }
+
+    /// Up to `iterations` Levenberg–Marquardt steps (a step that raises the cost is undone and
+    /// the damping raised); the newest keyframe's and the border's covariances are kept from the
+    /// last factorization.
+    pub fn optimize(&mut self, iterations: usize) -> Result<SolveReport, SolveError> {
+        let (mut sys, mut cost, _) = self.build(true);
+        let mut report = SolveReport {
+            cost_before: cost,
+            cost_after: cost,
+            iterations: 0,
+        };
+        let mut lambda = LAMBDA_START;
+        let mut tries = 0;
+        while report.iterations < iterations && tries < 3 * iterations + 5 {
+            tries += 1;
+            let Some(sol) = damped(&sys, lambda).into_solution() else {
+                lambda *= 10.0;
+                if lambda > 1e6 {
+                    return Err(SolveError::NotPositiveDefinite);
+                }
+                continue;
+            };
+            let before = self.snapshot();
+            self.apply(&sol.frames, &sol.border);
+            let (new_sys, new_cost, _) = self.build(true);
+            if self.is_finite() && new_cost.is_finite() && new_cost <= cost * (1.0 + 1e-12) {
+                self.last_covariance = sol.last_frame_covariance;
+                self.border_covariance = sol.border_covariance;
+                sys = new_sys;
+                cost = new_cost;
+                report.iterations += 1;
+                lambda = (lambda / 3.0).max(1e-9);
+                let step = sol.frames.iter().map(|d| d.amax()).fold(0.0, f64::max);
+                if step < STEP_TOLERANCE && sol.border.amax() < STEP_TOLERANCE {
+                    break;
+                }
+            } else {
+                self.restore(&before);
+                lambda *= 4.0;
+                if lambda > 1e6 {
+                    break;
+                }
+            }
+        }
+        if !self.is_finite() {
+            return Err(SolveError::NotFinite);
+        }
+        report.cost_after = cost;
+        Ok(report)
+    }
+
+    /// Marginalizes the oldest keyframe into the prior on `[next keyframe, border]` (module doc
+    /// of [`super::window`]): the Schur complement of only the factors that touch it, with the
+    /// states it leaves in the prior frozen at their current estimate for every later Jacobian.
+    pub fn marginalize_oldest(&mut self) {
+        if self.keyframes.len() < 2 {
+            return;
+        }
+        // Freeze the linearization points of what enters the prior.
+        if let Some(k1) = self.keyframes.get_mut(1) {
+            k1.lin.get_or_insert(k1.x);
+        }
+        let mut has_altitude = false;
+        if let Some(k0) = self.keyframes.front() {
+            for f in &k0.frames {
+                has_altitude |= f.altitude_m.is_some();
+                for b in &f.bearings {
+                    if let (Some(c), Some(lin)) = (self.aps.get(b.ap), self.ap_lin.get_mut(b.ap)) {
+                        lin.get_or_insert(*c);
+                    }
+                }
+            }
+        }
+        if let Some(b) = &mut self.baro
+            && (has_altitude || self.prior_h.nrows() > STATE_DIM)
+        {
+            b.1.get_or_insert(b.0);
+        }
+        // The local problem: the oldest keyframe, the next one without its own measurements.
+        let mut rest: VecDeque<Keyframe> = std::mem::take(&mut self.keyframes);
+        let (Some(k0), Some(k1)) = (rest.pop_front(), rest.front().cloned()) else {
+            return;
+        };
+        let dt_s = k1.x.t.secs_since(k0.x.t);
+        self.keyframes = VecDeque::from([
+            k0,
+            Keyframe {
+                frames: Vec::new(),
+                ..k1
+            },
+        ]);
+        let (sys, _, _) = self.build(true);
+        self.keyframes = rest;
+        let (h, rhs) = sys.to_dense();
+        let dim = h.nrows();
+        let s = STATE_DIM;
+        let r = dim - s;
+        let h00 = h.view((0, 0), (s, s)).into_owned();
+        let h0r = h.view((0, s), (s, r)).into_owned();
+        let inv00 = match h00.clone().cholesky() {
+            Some(c) => c.inverse(),
+            None => h00
+                .pseudo_inverse(1e-12)
+                .unwrap_or_else(|_| DMatrix::zeros(s, s)),
+        };
+        let k = h0r.transpose() * &inv00;
+        let mut new_h = h.view((s, s), (r, r)).into_owned() - &k * &h0r;
+        new_h = (&new_h + new_h.transpose()) * 0.5;
+        // rhs = −gradient at the current estimate; move it to the frozen points.
+        let new_rhs = rhs.rows(s, r).into_owned() - &k * rhs.rows(0, s);
+        let e = self.prior_delta();
+        let e = e.rows(0, r.min(e.nrows())).into_owned();
+        self.prior_g = -new_rhs - &new_h * e;
+        self.prior_h = new_h;
+        self.marginalized += 1;
+        self.inflate_baro_offset(dt_s);
+    }
+
+    /// The barometer offset wanders (a random walk): its prior variance grows by `q Δt`
+    /// (Woodbury on the information form, mean kept).
+    fn inflate_baro_offset(&mut self, dt_s: f64) {
+        let q = self.config.baro_offset_walk_m_sqrt_s.powi(2) * dt_s.max(0.0);
+        let i = STATE_DIM;
+        if self.baro.is_none() || q <= 0.0 || self.prior_h.nrows() <= i {
+            return;
+        }
+        let hu = self.prior_h.column(i).into_owned();
+        let d = 1.0 / q + hu[i];
+        if d <= 0.0 {
+            return;
+        }
+        let ug = self.prior_g[i];
+        self.prior_h -= &hu * hu.transpose() / d;
+        self.prior_g -= &hu * (ug / d);
+    }
+}
+
+/// `sys` with `λ · diag` added (at least a tiny absolute floor, for directions nothing
+/// constrains).
+fn damped(sys: &ArrowSystem<STATE_DIM>, lambda: f64) -> ArrowSystem<STATE_DIM> {
+    let mut d = sys.clone();
+    for b in &mut d.diag {
+        for i in 0..STATE_DIM {
+            b[(i, i)] += lambda * b[(i, i)] + 1e-12;
+        }
+    }
+    for i in 0..d.corner.nrows() {
+        let v = d.corner[(i, i)];
+        d.corner[(i, i)] += lambda * v + 1e-12;
+    }
+    d
+}

@@ -1,0 +1,497 @@
+//! The nonlinear sliding window: keyframes, APs, the barometer offset and the marginalization
+//! prior, solved by Levenberg–Marquardt on the block-arrow normal equations
+//! ([`crate::fusion::window::arrow`] with 15-state frames).
+//!
+//! **Border**: `[o (when there is a barometer), c_0, c_1, …]`, so an AP seen later appends.
+//!
+//! **First-estimate Jacobians** (Huang, Mourikis, Roumeliotis 2008; OpenVINS): once a state
+//! takes part in the marginalization prior (the second keyframe when the oldest leaves, every AP
+//! and the barometer offset the leaving keyframe saw), its linearization point is frozen: every
+//! factor's Jacobian with respect to it is evaluated there, while residuals use the current
+//! estimate. Every factor then sees each state at one point, so the window's information has the
+//! nullspace of the true system (translation and yaw about the vertical, 4 directions) and the
+//! prior gains no information it does not have ([`Self::nullspace`], tested).
+//!
+//! The prior is `½ δᵀ H δ + gᵀ δ` with `δ = x ⊟ x_lin` over `[first keyframe, border]`.
+
+use std::collections::VecDeque;
+
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, SMatrix, Vector3};
+
+use super::baro_factor::{baro_jacobian, baro_residual};
+use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
+use super::config::NonlinearConfig;
+use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
+use super::state::{BA, BG, Mat15, NavState, POS, STATE_DIM, THETA, VEL, Vec15};
+use crate::fusion::bearing::Bearing;
+use crate::fusion::window::arrow::ArrowSystem;
+use crate::imu::Preintegrated;
+use crate::rig::ImuNoise;
+
+/// Measurements at one instant inside a keyframe's interval.
+#[derive(Clone, Debug)]
+pub struct SubFrame {
+    /// IMU from the keyframe to this instant (empty at the keyframe itself).
+    pub partial: Preintegrated,
+    /// Bearings measured then.
+    pub bearings: Vec<Bearing>,
+    /// Barometer altitude then, m.
+    pub altitude_m: Option<f64>,
+}
+
+#[derive(Clone, Debug)]
+pub(super) struct Keyframe {
+    pub(super) x: NavState,
+    /// The frozen linearization point (first-estimate Jacobians), once in the prior.
+    pub(super) lin: Option<NavState>,
+    /// IMU interval from the previous keyframe and its information.
+    pub(super) from_prev: Option<(Preintegrated, Mat15)>,
+    pub(super) frames: Vec<SubFrame>,
+}
+
+impl Keyframe {
+    pub(super) fn lin_or_current(&self, fej: bool) -> NavState {
+        match self.lin {
+            Some(l) if fej => l,
+            _ => self.x,
+        }
+    }
+}
+
+/// Residual statistics of the window at its estimate (whitened: in units of each σ).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FitStats {
+    /// Σ rᵀ Λ r over the IMU factors.
+    pub imu_chi2: f64,
+    /// Number of IMU residual components (15 per factor).
+    pub imu_dof: usize,
+    /// Number of AoA residuals.
+    pub bearings: usize,
+    /// Σ e² over the AoA residuals.
+    pub bearing_chi2: f64,
+    /// Σ ρ(e²) over the AoA residuals (Cauchy).
+    pub bearing_robust: f64,
+    /// AoA residuals with |e| > 3.
+    pub bearing_outliers: usize,
+    /// Barometer residuals and their Σ e².
+    pub baro: usize,
+    /// See `baro`.
+    pub baro_chi2: f64,
+}
+
+/// The window (module doc).
+#[derive(Clone, Debug)]
+pub struct NonlinearWindow {
+    pub(super) config: NonlinearConfig,
+    pub(super) gravity_m_s2: f64,
+    pub(super) imu_noise: ImuNoise,
+    pub(super) body_from_array: Isometry3<f64>,
+    pub(super) keyframes: VecDeque<Keyframe>,
+    pub(super) aps: Vec<Vector3<f64>>,
+    pub(super) ap_lin: Vec<Option<Vector3<f64>>>,
+    /// Barometer offset and its frozen point, when the window has a barometer.
+    pub(super) baro: Option<(f64, Option<f64>)>,
+    pub(super) prior_h: DMatrix<f64>,
+    pub(super) prior_g: DVector<f64>,
+    /// First-estimate Jacobians on (off only to show what they prevent).
+    pub(super) fej: bool,
+    pub(super) last_covariance: Mat15,
+    pub(super) border_covariance: DMatrix<f64>,
+    pub(super) marginalized: usize,
+    pub(super) skipped_bearings: u64,
+}
+
+/// Cauchy loss `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight
+/// `ρ'(s) = 1 / (1 + s/c²)`.
+pub fn cauchy(s: f64, c: f64) -> (f64, f64) {
+    let c2 = c * c;
+    (c2 * (s / c2).ln_1p(), 1.0 / (1.0 + s / c2))
+}
+
+impl NonlinearWindow {
+    /// A window starting at keyframe `x0` with a prior on it (`prior_h`, 15 × 15, information of
+    /// `x0 ⊟ x0`; the gauge and what the start knows), APs at `aps`, and a barometer offset when
+    /// `baro_offset_m` is given.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        config: NonlinearConfig,
+        gravity_m_s2: f64,
+        imu_noise: ImuNoise,
+        body_from_array: Isometry3<f64>,
+        x0: NavState,
+        frames0: Vec<SubFrame>,
+        prior_h: &Mat15,
+        aps: Vec<Vector3<f64>>,
+        baro_offset_m: Option<f64>,
+    ) -> Self {
+        let nb = usize::from(baro_offset_m.is_some());
+        let dim = STATE_DIM + nb + 3 * aps.len();
+        let mut h = DMatrix::zeros(dim, dim);
+        h.view_mut((0, 0), (STATE_DIM, STATE_DIM))
+            .copy_from(prior_h);
+        let n_aps = aps.len();
+        Self {
+            config,
+            gravity_m_s2,
+            imu_noise,
+            body_from_array,
+            keyframes: VecDeque::from([Keyframe {
+                x: x0,
+                lin: Some(x0),
+                from_prev: None,
+                frames: frames0,
+            }]),
+            ap_lin: vec![None; n_aps],
+            aps,
+            baro: baro_offset_m.map(|o| (o, None)),
+            prior_h: h,
+            prior_g: DVector::zeros(dim),
+            fej: true,
+            last_covariance: Mat15::identity(),
+            border_covariance: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
+            marginalized: 0,
+            skipped_bearings: 0,
+        }
+    }
+
+    /// The same window with first-estimate Jacobians off (every Jacobian at the current
+    /// estimate): only to show what they prevent.
+    pub fn without_fej(mut self) -> Self {
+        self.fej = false;
+        self
+    }
+
+    /// Replaces every keyframe's state by `f(state)` and every AP by `g(AP)` (tests: a start
+    /// away from the truth).
+    #[doc(hidden)]
+    pub fn perturb_for_test(
+        &mut self,
+        f: &dyn Fn(&NavState) -> NavState,
+        g: &dyn Fn(Vector3<f64>) -> Vector3<f64>,
+    ) {
+        for k in &mut self.keyframes {
+            k.x = f(&k.x);
+        }
+        for c in &mut self.aps {
+            *c = g(*c);
+        }
+    }
+
+    /// Border offset of AP `l`.
+    pub(super) fn ap_offset(&self, l: usize) -> usize {
+        usize::from(self.baro.is_some()) + 3 * l
+    }
+
+    /// Border size (barometer offset and AP coordinates).
+    pub fn border_dim(&self) -> usize {
+        usize::from(self.baro.is_some()) + 3 * self.aps.len()
+    }
+
+    /// Appends keyframe `x` (its initial value, usually the IMU's prediction) with the IMU
+    /// interval from the newest keyframe and the measurements tied to it. `None` when the
+    /// interval's covariance cannot be inverted.
+    pub fn push_keyframe(
+        &mut self,
+        x: NavState,
+        from_prev: Preintegrated,
+        frames: Vec<SubFrame>,
+    ) -> Option<()> {
+        let info = imu_information(&from_prev, &self.imu_noise)?;
+        self.keyframes.push_back(Keyframe {
+            x,
+            lin: None,
+            from_prev: Some((from_prev, info)),
+            frames,
+        });
+        Some(())
+    }
+
+    /// Adds measurements to the newest keyframe's interval.
+    pub fn push_frame(&mut self, frame: SubFrame) {
+        if let Some(k) = self.keyframes.back_mut() {
+            k.frames.push(frame);
+        }
+    }
+
+    /// Keyframes, oldest first.
+    pub fn keyframes(&self) -> impl Iterator<Item = &NavState> + '_ {
+        self.keyframes.iter().map(|k| &k.x)
+    }
+
+    /// The newest keyframe.
+    pub fn newest(&self) -> Option<&NavState> {
+        self.keyframes.back().map(|k| &k.x)
+    }
+
+    /// Number of keyframes.
+    pub fn len(&self) -> usize {
+        self.keyframes.len()
+    }
+
+    /// Whether there is no keyframe (never, once built).
+    pub fn is_empty(&self) -> bool {
+        self.keyframes.is_empty()
+    }
+
+    /// AP positions in `w`, m.
+    pub fn aps(&self) -> &[Vector3<f64>] {
+        &self.aps
+    }
+
+    /// The barometer offset, m.
+    pub fn baro_offset_m(&self) -> Option<f64> {
+        self.baro.map(|b| b.0)
+    }
+
+    /// Marginal covariance of the newest keyframe's error state (last solve).
+    pub fn newest_covariance(&self) -> &Mat15 {
+        &self.last_covariance
+    }
+
+    /// AP `l`'s marginal position covariance (last solve), m².
+    pub fn ap_covariance(&self, l: usize) -> Option<Matrix3<f64>> {
+        let o = self.ap_offset(l);
+        (l < self.aps.len() && self.border_covariance.nrows() >= o + 3)
+            .then(|| self.border_covariance.fixed_view::<3, 3>(o, o).into_owned())
+    }
+
+    /// AP `l`'s largest marginal σ (largest eigenvalue of its block), m.
+    pub fn ap_sigma_m(&self, l: usize) -> Option<f64> {
+        self.ap_covariance(l)
+            .map(|p| p.symmetric_eigenvalues().max().max(0.0).sqrt())
+    }
+
+    /// Keyframes marginalized so far.
+    pub fn marginalized(&self) -> usize {
+        self.marginalized
+    }
+
+    /// Bearings to an AP without a state (not counted in the solve).
+    pub fn skipped_bearings(&self) -> u64 {
+        self.skipped_bearings
+    }
+
+    /// The normal equations at the current estimate (Jacobians at the linearization points) over
+    /// every keyframe, and the cost `2 × (½ Σ ρ)`, with LM damping `lambda` on the diagonal.
+    pub(super) fn build(&self, with_prior: bool) -> (ArrowSystem<STATE_DIM>, f64, FitStats) {
+        let n = self.keyframes.len();
+        let m = self.border_dim();
+        let mut sys = ArrowSystem::<STATE_DIM>::zeros(n, m);
+        let mut cost = 0.0;
+        let mut stats = FitStats::default();
+        let g = self.gravity_m_s2;
+        for (k, kf) in self.keyframes.iter().enumerate() {
+            let lin_k = kf.lin_or_current(self.fej);
+            if let (Some((pre, info)), Some(prev)) = (&kf.from_prev, k.checked_sub(1)) {
+                let p = &self.keyframes[prev];
+                let r = imu_residual(pre, g, &p.x, &kf.x);
+                let (ji, jj) = imu_jacobians(pre, g, &p.lin_or_current(self.fej), &lin_k);
+                let ji_t_info = ji.transpose() * info;
+                let jj_t_info = jj.transpose() * info;
+                sys.diag[prev] += ji_t_info * ji;
+                sys.diag[k] += jj_t_info * jj;
+                sys.lower[prev] += jj_t_info * ji;
+                sys.rhs_frames[prev] -= ji_t_info * r;
+                sys.rhs_frames[k] -= jj_t_info * r;
+                let c = (r.transpose() * info * r)[0];
+                cost += c;
+                stats.imu_chi2 += c;
+                stats.imu_dof += STATE_DIM;
+            }
+            self.add_measurements(k, kf, &lin_k, &mut sys, &mut cost, &mut stats);
+        }
+        if with_prior {
+            cost += self.add_prior(&mut sys);
+        }
+        (sys, cost, stats)
+    }
+
+    /// The AoA and barometer factors of keyframe `k`.
+    fn add_measurements(
+        &self,
+        k: usize,
+        kf: &Keyframe,
+        lin_k: &NavState,
+        sys: &mut ArrowSystem<STATE_DIM>,
+        cost: &mut f64,
+        stats: &mut FitStats,
+    ) {
+        let g = self.gravity_m_s2;
+        for f in &kf.frames {
+            for b in &f.bearings {
+                let Some(c) = self.aps.get(b.ap) else {
+                    continue;
+                };
+                let c_lin = match self.ap_lin[b.ap] {
+                    Some(l) if self.fej => l,
+                    _ => *c,
+                };
+                let s_meas = b.aoa_rad.sin();
+                let Some(r) = cone_residual(&kf.x, &f.partial, g, &self.body_from_array, c, s_meas)
+                else {
+                    continue;
+                };
+                let Some(j) =
+                    cone_jacobian(lin_k, &f.partial, g, &self.body_from_array, &c_lin, s_meas)
+                else {
+                    continue;
+                };
+                let sigma = sin_sigma(b.aoa_rad, b.sigma_rad);
+                let e2 = (r / sigma).powi(2);
+                let (rho, w) = cauchy(e2, self.config.cauchy_scale);
+                *cost += rho;
+                stats.bearings += 1;
+                stats.bearing_chi2 += e2;
+                stats.bearing_robust += rho;
+                stats.bearing_outliers += usize::from(e2 > 9.0);
+                let info = w / (sigma * sigma);
+                let jx = j.d_state;
+                let jc = j.d_ap;
+                sys.diag[k] += jx.transpose() * jx * info;
+                sys.rhs_frames[k] -= jx.transpose() * (info * r);
+                let o = self.ap_offset(b.ap);
+                let xc = jx.transpose() * jc * info;
+                let mut fb = sys.frame_border[k].columns_mut(o, 3);
+                fb += xc;
+                let mut corner = sys.corner.view_mut((o, o), (3, 3));
+                corner += jc.transpose() * jc * info;
+                let mut rb = sys.rhs_border.rows_mut(o, 3);
+                rb -= jc.transpose() * (info * r);
+            }
+            if let (Some(h), Some((o, o_lin))) = (f.altitude_m, self.baro) {
+                let r = baro_residual(&kf.x, &f.partial, g, o, h);
+                let o_lin = match o_lin {
+                    Some(l) if self.fej => l,
+                    _ => o,
+                };
+                let (jx, jo) = baro_jacobian(lin_k, &f.partial, g, o_lin, h);
+                let info = self.config.baro_sigma_m.powi(-2);
+                let e2 = r * r * info;
+                *cost += e2;
+                stats.baro += 1;
+                stats.baro_chi2 += e2;
+                sys.diag[k] += jx.transpose() * jx * info;
+                sys.rhs_frames[k] -= jx.transpose() * (info * r);
+                let mut fb = sys.frame_border[k].column_mut(0);
+                fb += jx.transpose() * (jo * info);
+                sys.corner[(0, 0)] += jo * jo * info;
+                sys.rhs_border[0] -= jo * info * r;
+            }
+        }
+    }
+
+    /// `δ = x ⊟ x_lin` over `[first keyframe, border]` (border entries without a frozen point:
+    /// 0).
+    pub(super) fn prior_delta(&self) -> DVector<f64> {
+        let mut e = DVector::zeros(STATE_DIM + self.border_dim());
+        if let Some(k0) = self.keyframes.front() {
+            let lin = k0.lin.unwrap_or(k0.x);
+            e.rows_mut(0, STATE_DIM).copy_from(&k0.x.boxminus(&lin));
+        }
+        if let Some((o, Some(l))) = self.baro {
+            e[STATE_DIM] = o - l;
+        }
+        for (l, (c, lin)) in self.aps.iter().zip(&self.ap_lin).enumerate() {
+            if let Some(lin) = lin {
+                let o = STATE_DIM + self.ap_offset(l);
+                e.rows_mut(o, 3).copy_from(&(c - lin));
+            }
+        }
+        e
+    }
+
+    /// Adds the prior to `sys`; returns its cost `δᵀHδ + 2gᵀδ`.
+    fn add_prior(&self, sys: &mut ArrowSystem<STATE_DIM>) -> f64 {
+        let dim = self.prior_h.nrows();
+        let full = STATE_DIM + self.border_dim();
+        let mut e = self.prior_delta();
+        e = e.rows(0, dim.min(full)).into_owned();
+        let he = &self.prior_h * &e;
+        let grad = &he + &self.prior_g;
+        let s = STATE_DIM;
+        let mb = dim - s;
+        if sys.frames() == 0 {
+            return 0.0;
+        }
+        sys.diag[0] += self.prior_h.fixed_view::<STATE_DIM, STATE_DIM>(0, 0);
+        if mb > 0 {
+            let mut fb = sys.frame_border[0].columns_mut(0, mb);
+            fb += self.prior_h.view((0, s), (s, mb));
+            let mut corner = sys.corner.view_mut((0, 0), (mb, mb));
+            corner += self.prior_h.view((s, s), (mb, mb));
+            let mut rb = sys.rhs_border.rows_mut(0, mb);
+            rb -= grad.rows(s, mb);
+        }
+        sys.rhs_frames[0] -= grad.fixed_rows::<STATE_DIM>(0);
+        e.dot(&he) + 2.0 * e.dot(&self.prior_g)
+    }
+
+    /// Applies an increment (frames then border).
+    pub(super) fn apply(&mut self, frames: &[Vec15], border: &DVector<f64>) {
+        for (kf, d) in self.keyframes.iter_mut().zip(frames) {
+            kf.x = kf.x.boxplus(d);
+        }
+        let nb = usize::from(self.baro.is_some());
+        if let Some((o, _)) = &mut self.baro {
+            *o += border[0];
+        }
+        for (l, c) in self.aps.iter_mut().enumerate() {
+            *c += border.fixed_rows::<3>(nb + 3 * l);
+        }
+    }
+
+    /// Residual statistics at the current estimate.
+    pub fn fit(&self) -> FitStats {
+        self.build(false).2
+    }
+
+    /// The information matrix of the window (dense, frames then border), with or without the
+    /// prior, at the linearization points (for the observability test).
+    pub fn information(&self, with_prior: bool) -> DMatrix<f64> {
+        self.build(with_prior).0.to_dense().0
+    }
+
+    /// The 4 directions no data can see, at the linearization points: translation along x, y,
+    /// z (the barometer offset moving against z) and yaw about the vertical (`δθ_k = R_kᵀ e_z`,
+    /// `δp = e_z × p`, `δv = e_z × v`, `δc = e_z × c`), as columns over (frames, border).
+    pub fn nullspace(&self) -> DMatrix<f64> {
+        let n = self.keyframes.len();
+        let nb = usize::from(self.baro.is_some());
+        let dim = n * STATE_DIM + self.border_dim();
+        let mut nsp = DMatrix::zeros(dim, 4);
+        let ez = Vector3::z();
+        for (k, kf) in self.keyframes.iter().enumerate() {
+            let x = kf.lin_or_current(self.fej);
+            let o = k * STATE_DIM;
+            for a in 0..3 {
+                nsp[(o + POS + a, a)] = 1.0;
+            }
+            let yaw: SMatrix<f64, 15, 1> = {
+                let mut y = Vec15::zeros();
+                y.fixed_rows_mut::<3>(THETA)
+                    .copy_from(&(x.world_from_body.inverse() * ez));
+                y.fixed_rows_mut::<3>(POS).copy_from(&ez.cross(&x.p_b_in_w));
+                y.fixed_rows_mut::<3>(VEL).copy_from(&ez.cross(&x.v_b_in_w));
+                let _ = (BG, BA);
+                y
+            };
+            nsp.view_mut((o, 3), (STATE_DIM, 1)).copy_from(&yaw);
+        }
+        let bo = n * STATE_DIM;
+        if nb == 1 {
+            nsp[(bo, 2)] = -1.0;
+        }
+        for (l, c) in self.aps.iter().enumerate() {
+            let c = match self.ap_lin[l] {
+                Some(lin) if self.fej => lin,
+                _ => *c,
+            };
+            let o = bo + self.ap_offset(l);
+            for a in 0..3 {
+                nsp[(o + a, a)] = 1.0;
+            }
+            nsp.view_mut((o, 3), (3, 1)).copy_from(&ez.cross(&c));
+        }
+        nsp
+    }
+}
