@@ -373,7 +373,7 @@ impl Wins {
 
 /// The rotation about z with the heading of `r` (its x axis projected on the horizontal plane);
 /// identity when that axis is vertical.
-fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+pub(crate) fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
     let x = r * Vector3::x();
     if x.xy().norm() < 1e-6 {
         return UnitQuaternion::identity();

@@ -265,6 +265,21 @@ mod tests {
     }
 
     #[test]
+    fn the_estimator_is_chosen_by_name_and_an_unknown_one_is_refused() {
+        use crate::fusion::choice::EstimatorKind;
+        assert_eq!(Config::default().estimator, EstimatorKind::Paper);
+        let c = Config::from_toml_str("estimator = \"nonlinear\"\n", "t").unwrap();
+        assert_eq!(c.estimator, EstimatorKind::Nonlinear);
+        assert!(Config::from_toml_str("estimator = \"kalman\"\n", "t").is_err());
+        let Err(ConfigError::Invalid { problems, .. }) =
+            Config::from_toml_str("[nonlinear]\nmax_keyframes = 1\n", "t")
+        else {
+            panic!("accepted");
+        };
+        assert_eq!(problems.0[0].key, "nonlinear.max_keyframes", "{problems}");
+    }
+
+    #[test]
     fn missing_keys_take_the_defaults_and_integers_pass_for_floats() {
         let c = Config::from_toml_str("[pipeline]\ngate_deg = 7\n", "t").unwrap();
         assert_eq!(c.pipeline.gate_deg, 7.0);

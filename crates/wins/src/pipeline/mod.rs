@@ -11,7 +11,7 @@
 //! says so. A packet whose window holds no credible peak, or (after convergence) whose angle is
 //! further than [`PipelineConfig::gate_deg`] from the state's prediction, is dropped and counted.
 //! Accepted bearings join the frame at the next grid time (`slot`), moved to that instant by
-//! the gyro (and the velocity once known); the frame is solved by [`Wins`] when the IMU stream
+//! the gyro (and the velocity once known); the frame is solved by the estimator ([`Estimator`]) when the IMU stream
 //! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed
 //! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
 

@@ -19,14 +19,16 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, Vector3};
 
 use super::config::NonlinearConfig;
 use super::rest::{RestDetector, StaticInit};
 use super::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
 use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
-use crate::fusion::estimator::{PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats};
+use crate::fusion::estimator::{
+    PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats, heading,
+};
 use crate::fusion::window::StartPrior;
 use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
@@ -468,14 +470,4 @@ impl NonlinearEstimator {
         partial.append(run).ok()?;
         Some(self.output(x, &partial, w.newest_covariance()))
     }
-}
-
-/// The rotation about z with the heading of `r` (its x axis on the horizontal plane); identity
-/// when that axis is vertical.
-pub(super) fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
-    let x = r * Vector3::x();
-    if x.xy().norm() < 1e-6 {
-        return UnitQuaternion::identity();
-    }
-    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x))
 }

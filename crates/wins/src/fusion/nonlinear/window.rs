@@ -10,7 +10,7 @@
 //! factor's Jacobian with respect to it is evaluated there, while residuals use the current
 //! estimate. Every factor then sees each state at one point, so the window's information has the
 //! nullspace of the true system (translation and yaw about the vertical, 4 directions) and the
-//! prior gains no information it does not have ([`Self::nullspace`], tested).
+//! prior gains no information it does not have ([`NonlinearWindow::nullspace`], tested).
 //!
 //! The prior is `½ δᵀ H δ + gᵀ δ` with `δ = x ⊟ x_lin` over `[first keyframe, border]`.
 
