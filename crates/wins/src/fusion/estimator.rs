@@ -214,15 +214,8 @@ impl Wins {
 
     /// Queues a frame at `t` with its bearings; it is solved when the IMU stream passes `t`.
     pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
-        let last = self.pre.last_sample().map(|s| s.t);
-        let newest = self.pending.back().map(|(p, _)| *p).or(last);
-        if let Some(l) = newest.filter(|l| t < *l) {
-            self.stats.frames_late += 1;
-            return Err(WinsError::LateFrame {
-                t_ns: t.0,
-                last_ns: l.0,
-            });
-        }
+        let newest = self.pending.back().map(|(p, _)| *p);
+        check_frame_order(t, newest, &self.pre, &mut self.stats)?;
         self.pending.push_back((t, bearings));
         Ok(())
     }
@@ -368,6 +361,27 @@ impl Wins {
             b0_from_bk: r * d_r,
         };
         Some(self.to_world(&moved))
+    }
+}
+
+/// Refuses (and counts in `frames_late`) a frame at `t` older than the newest queued frame or,
+/// with none queued, than the last IMU sample `pre` integrated.
+pub(crate) fn check_frame_order(
+    t: Timestamp,
+    newest_queued: Option<Timestamp>,
+    pre: &Preintegrator,
+    stats: &mut WinsStats,
+) -> Result<(), WinsError> {
+    let newest = newest_queued.or(pre.last_sample().map(|s| s.t));
+    match newest.filter(|l| t < *l) {
+        Some(l) => {
+            stats.frames_late += 1;
+            Err(WinsError::LateFrame {
+                t_ns: t.0,
+                last_ns: l.0,
+            })
+        }
+        None => Ok(()),
     }
 }
 

@@ -27,7 +27,7 @@ use super::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
 use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::estimator::{
-    PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats, heading,
+    PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats, check_frame_order, heading,
 };
 use crate::fusion::window::StartPrior;
 use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
@@ -198,16 +198,8 @@ impl NonlinearEstimator {
     }
 
     fn check_order(&mut self, t: Timestamp) -> Result<(), WinsError> {
-        let last = self.pre.last_sample().map(|s| s.t);
-        let newest = self.pending.back().map(|p| p.t).or(last);
-        if let Some(l) = newest.filter(|l| t < *l) {
-            self.stats.frames_late += 1;
-            return Err(WinsError::LateFrame {
-                t_ns: t.0,
-                last_ns: l.0,
-            });
-        }
-        Ok(())
+        let newest = self.pending.back().map(|p| p.t);
+        check_frame_order(t, newest, &self.pre, &mut self.stats)
     }
 
     /// Integrates one IMU sample, processing every queued frame it passes.
@@ -359,7 +351,6 @@ impl NonlinearEstimator {
         } else if let Some(k) = self.start.back_mut() {
             k.frames.push(sub);
         }
-        self.window.as_ref()?;
         self.pose_now(t)
     }
 

@@ -16,13 +16,13 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, SMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
 
 use super::baro_factor::{baro_jacobian, baro_residual};
 use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
 use super::config::NonlinearConfig;
 use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
-use super::state::{BA, BG, Mat15, NavState, POS, STATE_DIM, THETA, VEL, Vec15};
+use super::state::{Mat15, NavState, POS, STATE_DIM, THETA, VEL, Vec15};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::window::arrow::ArrowSystem;
 use crate::imu::Preintegrated;
@@ -272,7 +272,7 @@ impl NonlinearWindow {
     }
 
     /// The normal equations at the current estimate (Jacobians at the linearization points) over
-    /// every keyframe, and the cost `2 × (½ Σ ρ)`, with LM damping `lambda` on the diagonal.
+    /// every keyframe, the cost `2 × (½ Σ ρ)` and the residual statistics.
     pub(super) fn build(&self, with_prior: bool) -> (ArrowSystem<STATE_DIM>, f64, FitStats) {
         let n = self.keyframes.len();
         let m = self.border_dim();
@@ -327,14 +327,20 @@ impl NonlinearWindow {
                     _ => *c,
                 };
                 let s_meas = b.aoa_rad.sin();
-                let Some(r) = cone_residual(&kf.x, &f.partial, g, &self.body_from_array, c, s_meas)
-                else {
-                    continue;
-                };
                 let Some(j) =
                     cone_jacobian(lin_k, &f.partial, g, &self.body_from_array, &c_lin, s_meas)
                 else {
                     continue;
+                };
+                // The residual at the current estimate: the Jacobian's own unless a frozen point
+                // differs from it.
+                let r = if *lin_k == kf.x && c_lin == *c {
+                    j.residual
+                } else {
+                    match cone_residual(&kf.x, &f.partial, g, &self.body_from_array, c, s_meas) {
+                        Some(r) => r,
+                        None => continue,
+                    }
                 };
                 let sigma = sin_sigma(b.aoa_rad, b.sigma_rad);
                 let e2 = (r / sigma).powi(2);
@@ -466,13 +472,12 @@ impl NonlinearWindow {
             for a in 0..3 {
                 nsp[(o + POS + a, a)] = 1.0;
             }
-            let yaw: SMatrix<f64, 15, 1> = {
+            let yaw = {
                 let mut y = Vec15::zeros();
                 y.fixed_rows_mut::<3>(THETA)
                     .copy_from(&(x.world_from_body.inverse() * ez));
                 y.fixed_rows_mut::<3>(POS).copy_from(&ez.cross(&x.p_b_in_w));
                 y.fixed_rows_mut::<3>(VEL).copy_from(&ez.cross(&x.v_b_in_w));
-                let _ = (BG, BA);
                 y
             };
             nsp.view_mut((o, 3), (STATE_DIM, 1)).copy_from(&yaw);
