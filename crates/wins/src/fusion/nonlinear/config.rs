@@ -26,7 +26,9 @@ pub struct NonlinearConfig {
     /// Significance of the χ² tests (start acceptance and loss): a correct solution fails with
     /// this probability.
     pub chi2_significance: f64,
-    /// A start is accepted only when every AP's largest marginal position σ is below this, m.
+    /// A start is accepted only when every AP's largest horizontal marginal σ is below this, m
+    /// (its height is weakly seen when it is near the array's: see
+    /// [`super::NonlinearWindow::ap_horizontal_sigma_m`]).
     pub max_ap_sigma_m: f64,
     /// … and below this fraction of its smallest range from the start's keyframes (a wrong scale
     /// puts the AP close, where its bearings pin it: a linearized σ alone then looks fine).
@@ -42,6 +44,10 @@ pub struct NonlinearConfig {
     pub start_after_motion_s: f64,
     /// Time between start attempts, s.
     pub start_retry_s: f64,
+    /// The inertial start (the IMU's dead reckoning from the rest or the last good state, the APs
+    /// triangulated against it) is tried up to this long after that state, s; then only the
+    /// linear window's proposal.
+    pub inertial_start_max_s: f64,
     /// The start window keeps at most this many seconds of keyframes.
     pub max_start_window_s: f64,
     /// The loss test runs over the bearings of this many seconds.
@@ -66,6 +72,7 @@ impl Default for NonlinearConfig {
             rest_min_s: 1.0,
             start_after_motion_s: 4.0,
             start_retry_s: 1.0,
+            inertial_start_max_s: 15.0,
             max_start_window_s: 30.0,
             loss_window_s: 2.0,
         }
@@ -148,6 +155,13 @@ impl NonlinearConfig {
             600.0,
         );
         p.in_range(prefix, "start_retry_s", self.start_retry_s, 0.05, 600.0);
+        p.in_range(
+            prefix,
+            "inertial_start_max_s",
+            self.inertial_start_max_s,
+            0.0,
+            600.0,
+        );
         p.in_range(
             prefix,
             "max_start_window_s",

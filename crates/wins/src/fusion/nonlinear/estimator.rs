@@ -47,6 +47,8 @@ pub(super) struct StartKeyframe {
     pub(super) t: Timestamp,
     pub(super) from_prev: Option<Preintegrated>,
     pub(super) frames: Vec<SubFrame>,
+    /// The state the IMU alone gives here, from the start's reference state.
+    pub(super) dead_reckoned: Option<NavState>,
 }
 
 /// The estimator (module doc).
@@ -64,6 +66,16 @@ pub struct NonlinearEstimator {
     pub(super) moving_since: Option<Timestamp>,
     pub(super) linear: Option<Wins>,
     pub(super) start: VecDeque<StartKeyframe>,
+    /// The known state the start leaves from (the end of a rest, or a lost window's last good
+    /// state), in the window's frame; `None` when there is none or it is too old.
+    pub(super) reference: Option<NavState>,
+    /// Whether `reference` is the end of the rest (its accelerometer bias then is the rest's).
+    pub(super) reference_is_rest: bool,
+    /// The IMU's dead reckoning from `reference` to the newest frame.
+    dead_reckoned: Option<NavState>,
+    /// The IMU between the last frames before the motion was detected (the motion starts before
+    /// the detector can see it).
+    rest_intervals: VecDeque<Preintegrated>,
     /// IMU since the newest keyframe.
     since_keyframe: Option<Preintegrated>,
     pub(super) window: Option<NonlinearWindow>,
@@ -99,6 +111,10 @@ impl NonlinearEstimator {
             moving_since: None,
             linear: None,
             start: VecDeque::new(),
+            reference: None,
+            reference_is_rest: false,
+            dead_reckoned: None,
+            rest_intervals: VecDeque::new(),
             since_keyframe: None,
             window: None,
             anchor: Isometry3::identity(),
@@ -214,7 +230,7 @@ impl NonlinearEstimator {
                 self.static_init = Some(init);
                 self.pre.set_bias(ImuBiases {
                     gyro_rad_s: init.gyro_bias_rad_s,
-                    accel_m_s2: Vector3::zeros(),
+                    accel_m_s2: init.accel_bias_m_s2,
                 });
             }
             if self.rest.moved() {
@@ -279,6 +295,39 @@ impl NonlinearEstimator {
             }),
             (None, None) => None,
         };
+        self.reference = match (from, self.static_init) {
+            (Some(x), _) => {
+                // In the new window's frame: level, placed at x, heading removed (module doc).
+                let h = heading(&x.world_from_body).inverse();
+                Some(NavState {
+                    t,
+                    world_from_body: h * x.world_from_body,
+                    p_b_in_w: Vector3::zeros(),
+                    v_b_in_w: h * x.v_b_in_w,
+                    ..x
+                })
+            }
+            (None, Some(init)) => Some(NavState {
+                t: init.rest_end,
+                world_from_body: init.world_from_body,
+                p_b_in_w: Vector3::zeros(),
+                v_b_in_w: Vector3::zeros(),
+                gyro_bias_rad_s: init.gyro_bias_rad_s,
+                accel_bias_m_s2: init.accel_bias_m_s2,
+            }),
+            (None, None) => None,
+        };
+        self.reference_is_rest = from.is_none() && self.reference.is_some();
+        self.dead_reckoned = self.reference;
+        if self.reference_is_rest {
+            // From the rest's end through the frames the detector needed to see the motion.
+            let intervals = std::mem::take(&mut self.rest_intervals);
+            for i in intervals {
+                if self.reference.is_some_and(|r| i.start >= r.t) {
+                    self.dead_reckon(i.end, &i);
+                }
+            }
+        }
         if let Some(x) = from {
             self.pre.set_bias(x.biases());
             // The new window's level `b0` frame is placed at this state (module doc).
@@ -295,9 +344,23 @@ impl NonlinearEstimator {
     fn on_frame(&mut self, frame: PendingFrame, interval: Preintegrated) -> Option<PoseEstimate> {
         self.stats.bearings += frame.bearings.len() as u64;
         self.stats.frames += 1;
-        // Frames at rest carry no geometry.
-        self.moving_since?;
+        // Frames at rest carry no geometry; their IMU is kept for the motion's onset.
+        if self.moving_since.is_none() {
+            let keep_s = 2.0 * super::rest::ONSET_MARGIN_S + 0.2;
+            while self
+                .rest_intervals
+                .front()
+                .is_some_and(|i| frame.t.secs_since(i.end) > keep_s)
+            {
+                self.rest_intervals.pop_front();
+            }
+            self.rest_intervals.push_back(interval);
+            return None;
+        }
         let t = frame.t;
+        if self.window.is_none() {
+            self.dead_reckon(t, &interval);
+        }
         // Keyframes only at frames of bearings: the start takes their states from the linear
         // window, which has a frame at each of those.
         let may_be_keyframe = !frame.bearings.is_empty();
@@ -336,6 +399,7 @@ impl NonlinearEstimator {
                 t,
                 from_prev,
                 frames: vec![sub],
+                dead_reckoned: self.dead_reckoned,
             });
             while self
                 .start
@@ -352,6 +416,31 @@ impl NonlinearEstimator {
             k.frames.push(sub);
         }
         self.pose_now(t)
+    }
+
+    /// Carries the dead reckoning to `t` over `interval`; past
+    /// [`NonlinearConfig::inertial_start_max_s`] from the reference it is dropped (the linear
+    /// window's proposal remains).
+    fn dead_reckon(&mut self, t: Timestamp, interval: &Preintegrated) {
+        let Some(x) = self.dead_reckoned else {
+            return;
+        };
+        if self
+            .reference
+            .is_none_or(|r| t.secs_since(r.t) > self.config.inertial_start_max_s)
+        {
+            self.reference = None;
+            self.dead_reckoned = None;
+            return;
+        }
+        let p = pose_at(&x, interval, STANDARD_GRAVITY_M_S2);
+        self.dead_reckoned = Some(NavState {
+            t,
+            world_from_body: p.world_from_body,
+            p_b_in_w: p.p_b_in_w,
+            v_b_in_w: p.v_b_in_w,
+            ..x
+        });
     }
 
     /// A frame while tracking: a keyframe is solved and checked.

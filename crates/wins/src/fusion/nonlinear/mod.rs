@@ -28,6 +28,7 @@ pub mod rest;
 mod solve;
 mod start;
 pub mod state;
+pub mod triangulate;
 pub mod window;
 
 pub use config::NonlinearConfig;

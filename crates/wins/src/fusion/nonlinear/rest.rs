@@ -27,12 +27,18 @@ pub const ONSET_MARGIN_S: f64 = 0.3;
 pub struct StaticInit {
     /// When the motion was detected.
     pub t: Timestamp,
+    /// The last sample of the rest used (the body was still until then; the motion started
+    /// between this and `t`).
+    pub rest_end: Timestamp,
     /// Gyro bias (mean rate at rest), rad/s.
     pub gyro_bias_rad_s: Vector3<f64>,
     /// Roll and pitch (yaw 0): the rotation taking the mean specific force to +z.
     pub world_from_body: UnitQuaternion<f64>,
     /// Mean specific force at rest (body), m/s².
     pub specific_force_m_s2: Vector3<f64>,
+    /// The accelerometer bias along gravity, `(|f| − g) f̂` (body), m/s²: the only part a rest
+    /// shows (a bias across gravity is indistinguishable from a tilt).
+    pub accel_bias_m_s2: Vector3<f64>,
     /// Length of the rest used, s.
     pub duration_s: f64,
     /// Samples averaged.
@@ -125,9 +131,11 @@ impl RestDetector {
             .unwrap_or_else(UnitQuaternion::identity);
         Some(StaticInit {
             t: s.t,
+            rest_end: last.t,
             gyro_bias_rad_s: gyro,
             world_from_body: level,
             specific_force_m_s2: force,
+            accel_bias_m_s2: force.normalize() * (force.norm() - self.gravity_m_s2),
             duration_s,
             samples: used.len(),
         })
@@ -148,6 +156,7 @@ mod tests {
         let noise = Normal::new(0.0, 0.02).unwrap();
         let tilt = UnitQuaternion::from_euler_angles(0.05, -0.08, 1.0);
         let bias = Vector3::new(0.004, -0.002, 0.003);
+        let accel_bias = Vector3::new(0.01, 0.02, -0.03);
         let g_in_b = tilt.inverse() * Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2);
         let mut det = RestDetector::new(NonlinearConfig::default(), STANDARD_GRAVITY_M_S2);
         let mut found = None;
@@ -155,6 +164,7 @@ mod tests {
             let t = Timestamp(i * 5_000_000);
             let moving = i >= 600;
             let accel = g_in_b
+                + accel_bias
                 + Vector3::from_fn(|_, _| noise.sample(&mut rng))
                 + if moving {
                     Vector3::x() * 2.0
@@ -175,7 +185,12 @@ mod tests {
         assert!((init.gyro_bias_rad_s - bias).norm() < 3e-4);
         // Roll and pitch: the body's up direction in w is +z.
         let up = init.world_from_body * g_in_b.normalize();
-        assert!((up - Vector3::z()).norm() < 3e-3, "{up}");
+        assert!((up - Vector3::z()).norm() < 6e-3, "{up}");
+        // The accelerometer bias along gravity, not across it.
+        let along = g_in_b.normalize();
+        let seen = init.accel_bias_m_s2.dot(&along);
+        assert!((seen - accel_bias.dot(&along)).abs() < 2e-3, "{seen}");
+        assert!((init.accel_bias_m_s2 - along * seen).norm() < 1e-3);
         assert!(
             init.duration_s > 2.5 && init.duration_s < 3.0,
             "{}",

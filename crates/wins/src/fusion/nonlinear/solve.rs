@@ -19,8 +19,15 @@ pub enum SolveError {
     NotFinite,
 }
 
-/// LM damping at the first iteration, relative to the diagonal.
-const LAMBDA_START: f64 = 1e-4;
+/// LM damping after the first rejected step, relative to the diagonal. The solve starts
+/// undamped (Gauss–Newton): the IMU factors make the window stiff (their information is many
+/// orders above the bearings'), and a damping relative to the diagonal would freeze exactly the
+/// motions only the bearings see, the trajectory's shifts the IMU cannot.
+const LAMBDA_FIRST: f64 = 1e-6;
+/// Fractions of a step tried before the damping is raised.
+const STEP_FRACTIONS: [f64; 4] = [1.0, 0.5, 0.25, 0.125];
+/// Below this the damping returns to 0.
+const LAMBDA_MIN: f64 = 1e-7;
 /// An iteration whose increment is below this (relative to the state's scale) ends the solve.
 const STEP_TOLERANCE: f64 = 1e-7;
 
@@ -76,38 +83,67 @@ impl NonlinearWindow {
             cost_after: cost,
             iterations: 0,
         };
-        let mut lambda = LAMBDA_START;
+        let mut lambda = 0.0;
         let mut tries = 0;
+        let mut covariance_at = None;
         while report.iterations < iterations && tries < 3 * iterations + 5 {
             tries += 1;
             let Some(sol) = damped(&sys, lambda).into_solution() else {
-                lambda *= 10.0;
+                lambda = (lambda * 10.0).max(LAMBDA_FIRST);
                 if lambda > 1e6 {
                     return Err(SolveError::NotPositiveDefinite);
                 }
                 continue;
             };
             let before = self.snapshot();
-            self.apply(&sol.frames, &sol.border);
-            let (new_sys, new_cost, _) = self.build(true);
-            if self.is_finite() && new_cost.is_finite() && new_cost <= cost * (1.0 + 1e-12) {
-                self.last_covariance = sol.last_frame_covariance;
-                self.border_covariance = sol.border_covariance;
-                sys = new_sys;
-                cost = new_cost;
-                report.iterations += 1;
-                lambda = (lambda / 3.0).max(1e-9);
-                let step = sol.frames.iter().map(|d| d.amax()).fold(0.0, f64::max);
-                if step < STEP_TOLERANCE && sol.border.amax() < STEP_TOLERANCE {
+            // Along the step, shortened while the cost rises (the direction keeps the
+            // Gauss–Newton shape, which damping would not).
+            let mut accepted = None;
+            for alpha in STEP_FRACTIONS {
+                if alpha == 1.0 {
+                    self.apply(&sol.frames, &sol.border);
+                } else {
+                    let frames: Vec<_> = sol.frames.iter().map(|d| d * alpha).collect();
+                    self.apply(&frames, &(&sol.border * alpha));
+                }
+                let (new_sys, new_cost, _) = self.build(true);
+                if self.is_finite() && new_cost.is_finite() && new_cost <= cost * (1.0 + 1e-12) {
+                    accepted = Some((new_sys, new_cost, alpha));
                     break;
                 }
-            } else {
                 self.restore(&before);
-                lambda *= 4.0;
+            }
+            let Some((new_sys, new_cost, alpha)) = accepted else {
+                lambda = (lambda * 10.0).max(LAMBDA_FIRST);
                 if lambda > 1e6 {
                     break;
                 }
+                continue;
+            };
+            if lambda == 0.0 {
+                self.last_covariance = sol.last_frame_covariance;
+                self.border_covariance = sol.border_covariance;
+                covariance_at = Some(report.iterations + 1);
             }
+            sys = new_sys;
+            cost = new_cost;
+            report.iterations += 1;
+            lambda /= 10.0;
+            if lambda < LAMBDA_MIN {
+                lambda = 0.0;
+            }
+            let step = sol.frames.iter().map(|d| d.amax()).fold(0.0, f64::max) * alpha;
+            if step < STEP_TOLERANCE && sol.border.amax() * alpha < STEP_TOLERANCE {
+                break;
+            }
+        }
+        // The covariances of the last undamped factorization; refactor when the last accepted
+        // step was damped or none was taken.
+        if covariance_at != Some(report.iterations)
+            && let Some(sol) = damped(&sys, 0.0).into_solution()
+        {
+            self.last_covariance = sol.last_frame_covariance;
+            self.border_covariance = sol.border_covariance;
         }
         if !self.is_finite() {
             return Err(SolveError::NotFinite);

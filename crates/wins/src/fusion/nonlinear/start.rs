@@ -7,7 +7,9 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use super::chi2::chi2_upper;
 use super::estimator::NonlinearEstimator;
+use super::cone_factor::sin_sigma;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
+use super::triangulate::{Sight, triangulate};
 use super::window::{FitStats, NonlinearWindow};
 use crate::fusion::window::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -19,12 +21,51 @@ const GAUGE_POSITION_SIGMA_M: f64 = 1e-3;
 const GAUGE_YAW_SIGMA_RAD: f64 = 1e-3;
 /// 1σ of the start's roll and pitch from the linear solution's gravity, rad (loose: the IMU
 /// factors level the window).
-const START_TILT_SIGMA_RAD: f64 = 0.05;
-/// 1σ of the gyro bias after a static initialization, rad/s.
-const STATIC_GYRO_BIAS_SIGMA_RAD_S: f64 = 2e-3;
+const LINEAR_TILT_SIGMA_RAD: f64 = 0.05;
+/// 1σ of the rest's mean specific force, m/s² (beyond its white noise: vibration, the bias's
+/// wander, a not quite still body).
+const REST_FORCE_SIGMA_M_S2: f64 = 2e-3;
+/// 1σ floor of the gyro bias after a static initialization, rad/s.
+const REST_GYRO_BIAS_SIGMA_RAD_S: f64 = 2e-4;
 /// A start whose APs come closer than this to a keyframe is refused, m (a collapsed AP fits its
 /// bearings trivially).
 const MIN_AP_RANGE_M: f64 = 0.3;
+
+/// 1σ of a dead-reckoned state's roll/pitch (rad) and velocity (m/s), `elapsed_s` after the
+/// state it left from: a rest (at zero velocity; its tilt is left to the rest's specific force,
+/// [`RestForce`], which ties it to the accelerometer bias) or a lost window's last good state;
+/// then what the IMU adds (a tilt error of a few mrad integrates to ~0.03 m/s per second).
+fn dead_reckoned_sigmas(from_rest: bool, elapsed_s: f64) -> (f64, f64) {
+    if from_rest {
+        (LINEAR_TILT_SIGMA_RAD, 0.01 + 0.03 * elapsed_s)
+    } else {
+        (0.01 + 1e-3 * elapsed_s, 0.1 + 0.03 * elapsed_s)
+    }
+}
+
+/// A starting point for the nonlinear window over the start keyframes from `first` on.
+struct Proposal {
+    first: usize,
+    states: Vec<NavState>,
+    aps: Vec<Vector3<f64>>,
+    /// σ of the first state's roll and pitch, rad.
+    tilt_sigma_rad: f64,
+    /// σ of the first state's velocity, m/s (infinite: unknown).
+    velocity_sigma_m_s: f64,
+    /// The rest the states leave from, when they do.
+    rest: Option<RestForce>,
+}
+
+/// What a rest measured, seen from the first start keyframe: the mean specific force
+/// `f = R_restᵀ g_w + b_a` (its attitude and the accelerometer bias along gravity together; the
+/// bias across gravity and the tilt are one unknown), and the body's turn since.
+#[derive(Clone, Copy, Debug)]
+struct RestForce {
+    /// `R_restᵀ R_k0`: the first keyframe's body axes in the rest's body.
+    rest_from_body: Matrix3<f64>,
+    /// Its duration, s.
+    duration_s: f64,
+}
 
 /// Whether residual statistics pass the χ² test at significance `alpha`: the whole cost (IMU,
 /// the AoA factors' robust cost, barometer) against χ² with as many degrees of freedom as
@@ -67,16 +108,81 @@ impl NonlinearEstimator {
         }
     }
 
-    /// The nonlinear window over the start, initialized from the linear solution and iterated;
-    /// `None` when it is not accepted.
+    /// The nonlinear window over the start, initialized from a proposal (the inertial one when
+    /// the start has a known state to leave from, else the linear window's) and iterated; `None`
+    /// when it is not accepted.
     fn start_window(&self) -> Option<NonlinearWindow> {
-        self.start_window_scaled(1.0)
-            .and_then(|(w, _, ok)| ok.then_some(w))
+        let proposal = self.propose_inertial().or_else(|| self.propose_linear())?;
+        self.refine(proposal)
     }
 
-    /// [`Self::start_window`] from the linear solution scaled by `scale` about its first frame:
-    /// the window, its cost, and whether it is accepted.
-    fn start_window_scaled(&self, scale: f64) -> Option<(NonlinearWindow, f64, bool)> {
+    /// The inertial proposal: every start keyframe's dead-reckoned state, and every AP
+    /// triangulated against those poses ([`super::triangulate`]).
+    fn propose_inertial(&self) -> Option<Proposal> {
+        let reference = self.reference.as_ref()?;
+        let states: Vec<NavState> = self.start.iter().map(|k| k.dead_reckoned).collect::<Option<_>>()?;
+        let g = STANDARD_GRAVITY_M_S2;
+        let body_from_array = self.linear_config.window.body_from_array;
+        let mut sights: Vec<Vec<Sight>> = Vec::new();
+        for (k, x) in self.start.iter().zip(&states) {
+            for f in &k.frames {
+                if f.bearings.is_empty() {
+                    continue;
+                }
+                let pose = pose_at(x, &f.partial, g);
+                let world_from_array = pose.world_from_body * body_from_array.rotation;
+                let p_a_in_w = pose.p_b_in_w + pose.world_from_body * body_from_array.translation.vector;
+                for b in &f.bearings {
+                    if sights.len() <= b.ap {
+                        sights.resize(b.ap + 1, Vec::new());
+                    }
+                    sights[b.ap].push(Sight {
+                        p_a_in_w,
+                        world_from_array: world_from_array.to_rotation_matrix(),
+                        sin_measured: b.aoa_rad.sin(),
+                        sigma: sin_sigma(b.aoa_rad, b.sigma_rad),
+                    });
+                }
+            }
+        }
+        // The APs in order, up to the first that cannot be placed yet (the window numbers them
+        // contiguously; a later one joins at a later attempt).
+        let aps: Vec<Vector3<f64>> = sights
+            .iter()
+            .map_while(|s| triangulate(s, self.config.cauchy_scale).map(|t| t.c_in_w))
+            .collect();
+        if aps.is_empty() {
+            return None;
+        }
+        if std::env::var("WINS_DR").is_ok() {
+            for x in states.iter().step_by(10) {
+                eprintln!("dr {:.2} {:.3} {:.3} {:.3} {:.3} {:.3} {:.3}", x.t.0 as f64 * 1e-9, x.p_b_in_w.x, x.p_b_in_w.y, x.p_b_in_w.z, x.v_b_in_w.x, x.v_b_in_w.y, x.v_b_in_w.z);
+            }
+        }
+        let elapsed = states.first()?.t.secs_since(reference.t).max(0.0);
+        let x0_rotation = states.first()?.world_from_body;
+        let (tilt_sigma_rad, velocity_sigma_m_s) =
+            dead_reckoned_sigmas(self.reference_is_rest, elapsed);
+        Some(Proposal {
+            first: 0,
+            states,
+            aps,
+            tilt_sigma_rad,
+            velocity_sigma_m_s,
+            rest: self
+                .static_init
+                .filter(|_| self.reference_is_rest)
+                .map(|s| RestForce {
+                    rest_from_body: (reference.world_from_body.inverse() * x0_rotation)
+                        .to_rotation_matrix()
+                        .into_inner(),
+                    duration_s: s.duration_s,
+                }),
+        })
+    }
+
+    /// The linear proposal: the linear window's frames, levelled (its mean gravity to −z).
+    fn propose_linear(&self) -> Option<Proposal> {
         let linear = self.linear.as_ref()?.window();
         if linear.num_aps() == 0 || linear.max_ap_sigma_m() >= self.candidate_ap_sigma_m {
             return None;
@@ -95,48 +201,66 @@ impl NonlinearEstimator {
         let w_from_b0 = UnitQuaternion::rotation_between(&up, &Vector3::z())?;
         let bg = linear.gyro_bias_rad_s();
         let ba = linear.accel_bias_m_s2();
-        let state_of = |f: &FrameEstimate| {
-            let r = w_from_b0 * f.b0_from_bk;
-            NavState {
-                t: f.t,
-                world_from_body: r,
-                p_b_in_w: w_from_b0 * f.p_in_b0 * scale,
-                v_b_in_w: r * f.v_in_bk * scale,
-                gyro_bias_rad_s: bg,
-                accel_bias_m_s2: ba,
-            }
-        };
         // The longest run of start keyframes the linear window still has.
         let first = self
             .start
             .iter()
             .rposition(|k| !frames.contains_key(&k.t.0))
             .map_or(0, |i| i + 1);
-        let mut keys = self.start.iter().skip(first);
-        let k0 = keys.next()?;
-        let x0 = state_of(frames.get(&k0.t.0)?);
-        let aps: Vec<Vector3<f64>> = (0..linear.num_aps())
-            .filter_map(|l| linear.ap_in_b0(l).map(|c| w_from_b0 * c * scale))
+        let states = self
+            .start
+            .iter()
+            .skip(first)
+            .map(|k| {
+                let f = frames.get(&k.t.0)?;
+                let r = w_from_b0 * f.b0_from_bk;
+                Some(NavState {
+                    t: f.t,
+                    world_from_body: r,
+                    p_b_in_w: w_from_b0 * f.p_in_b0,
+                    v_b_in_w: r * f.v_in_bk,
+                    gyro_bias_rad_s: bg,
+                    accel_bias_m_s2: ba,
+                })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let aps = (0..linear.num_aps())
+            .filter_map(|l| linear.ap_in_b0(l).map(|c| w_from_b0 * c))
             .collect();
+        Some(Proposal {
+            first,
+            states,
+            aps,
+            tilt_sigma_rad: LINEAR_TILT_SIGMA_RAD,
+            velocity_sigma_m_s: f64::INFINITY,
+            rest: None,
+        })
+    }
+
+    /// The nonlinear window over a proposal, iterated; `None` when it is not accepted.
+    fn refine(&self, proposal: Proposal) -> Option<NonlinearWindow> {
+        let Proposal {
+            first,
+            states,
+            aps,
+            tilt_sigma_rad,
+            velocity_sigma_m_s,
+            rest,
+        } = proposal;
+        let keys: Vec<_> = self.start.iter().skip(first).collect();
+        let aps0 = aps.clone();
+        let (k0, x0) = (keys.first()?, *states.first()?);
         let g = STANDARD_GRAVITY_M_S2;
         let baro = self.has_baro.then(|| {
-            let d: Vec<f64> = self
-                .start
+            let d: Vec<f64> = keys
                 .iter()
-                .skip(first)
-                .filter_map(|k| {
-                    let x = state_of(frames.get(&k.t.0)?);
-                    Some(
-                        k.frames
-                            .iter()
-                            .filter_map(|f| {
-                                f.altitude_m
-                                    .map(|h| h - pose_at(&x, &f.partial, g).p_b_in_w.z)
-                            })
-                            .collect::<Vec<_>>(),
-                    )
+                .zip(&states)
+                .flat_map(|(k, x)| {
+                    k.frames.iter().filter_map(|f| {
+                        f.altitude_m
+                            .map(|h| h - pose_at(x, &f.partial, g).p_b_in_w.z)
+                    })
                 })
-                .flatten()
                 .collect();
             if d.is_empty() {
                 0.0
@@ -151,53 +275,93 @@ impl NonlinearEstimator {
             self.linear_config.window.body_from_array,
             x0,
             k0.frames.clone(),
-            &self.start_prior(&x0),
+            &self.start_prior(&x0, tilt_sigma_rad, velocity_sigma_m_s, rest.as_ref()),
             aps,
             baro,
         );
-        for k in keys {
-            let x = state_of(frames.get(&k.t.0)?);
-            w.push_keyframe(x, k.from_prev.clone()?, k.frames.clone())?;
+        if std::env::var("WINS_NOFEJ").is_ok() {
+            w = w.without_fej();
         }
-        let report = w.optimize(self.config.iterations_at_start).ok()?;
+        for (k, x) in keys.iter().zip(&states).skip(1) {
+            w.push_keyframe(*x, k.from_prev.clone()?, k.frames.clone())?;
+        }
+        let rep = w.optimize(self.config.iterations_at_start).ok()?;
+        if std::env::var("WINS_DEBUG").is_ok() {
+            let c = w.ap_covariance(0);
+            let h = w.information(true);
+            let n = h.nrows();
+            let dense = h.clone().try_inverse().map(|p| p.view((n - 3, n - 3), (3, 3)).symmetric_eigen().eigenvalues.clone_owned());
+            eprintln!("opt {:?} cov {:?} dense {:?} o {:?}", rep, c.map(|c| c.symmetric_eigen().eigenvalues), dense, w.baro_offset_m());
+        }
         let fit = w.fit();
         let ap_ok = (0..w.aps().len()).all(|l| {
             let range = w
                 .keyframes()
                 .map(|x| (w.aps()[l] - x.p_b_in_w).norm())
                 .fold(f64::INFINITY, f64::min);
-            w.ap_sigma_m(l).is_some_and(|s| {
+            w.ap_horizontal_sigma_m(l).is_some_and(|s| {
                 s < self.config.max_ap_sigma_m && s < self.config.max_ap_sigma_fraction * range
             }) && range > MIN_AP_RANGE_M
         });
-        let ok = ap_ok && passes_chi2(&fit, w.border_dim(), self.config.chi2_significance);
-        Some((w, report.cost_after, ok))
+        if std::env::var("WINS_DEBUG").is_ok() {
+            let dof = (fit.bearings + fit.baro).saturating_sub(w.border_dim());
+            eprintln!(
+                "start t={:.2} n={} inertial={} aps0={:?} aps={:?} sig={:?} imu={:.1} brob={:.1} bchi={:.1} nb={} out={} baro={:.1} thr={:.1} apok={}",
+                x0.t.0 as f64 * 1e-9, keys.len(), velocity_sigma_m_s.is_finite(),
+                aps0.iter().map(|c| format!("{:.2},{:.2},{:.2}", c.x, c.y, c.z)).collect::<Vec<_>>(),
+                w.aps().iter().map(|c| format!("{:.2},{:.2},{:.2}", c.x, c.y, c.z)).collect::<Vec<_>>(),
+                (0..w.aps().len()).map(|l| (w.ap_sigma_m(l), w.ap_horizontal_sigma_m(l))).collect::<Vec<_>>(),
+                fit.imu_chi2, fit.bearing_robust, fit.bearing_chi2, fit.bearings, fit.bearing_outliers, fit.baro_chi2,
+                chi2_upper(dof as f64, self.config.chi2_significance), ap_ok
+            );
+        }
+        (ap_ok && passes_chi2(&fit, w.border_dim(), self.config.chi2_significance)).then_some(w)
     }
 
-    /// The prior on the start's first keyframe: the gauge (position, yaw), a loose roll and
-    /// pitch, and the biases' spreads (the gyro's from the rest when there was one).
-    fn start_prior(&self, x0: &NavState) -> Mat15 {
+    /// The prior on the start's first keyframe: the gauge (position, yaw), the roll and pitch
+    /// (σ `tilt_sigma_rad`), the velocity (σ `velocity_sigma_m_s`; at most 100 m/s), the biases'
+    /// spreads (the gyro's from the rest when there was one), and the rest's specific force when
+    /// `x0` leaves from a rest: `r = ΔR R̂ᵀ g_w + b_a − f`, with
+    /// `∂r/∂δθ = ΔR [R̂ᵀ g_w]×` and `∂r/∂δb_a = I` (zero at `x0`, which was levelled on it).
+    fn start_prior(
+        &self,
+        x0: &NavState,
+        tilt_sigma_rad: f64,
+        velocity_sigma_m_s: f64,
+        rest: Option<&RestForce>,
+    ) -> Mat15 {
         let mut h = Mat15::zeros();
         let r: Matrix3<f64> = x0.world_from_body.to_rotation_matrix().into_inner();
         // δθ is body-side: a world-frame tilt/yaw information Λ_w becomes Rᵀ Λ_w R.
         let lw = Matrix3::from_diagonal(&Vector3::new(
-            START_TILT_SIGMA_RAD.powi(-2),
-            START_TILT_SIGMA_RAD.powi(-2),
+            tilt_sigma_rad.powi(-2),
+            tilt_sigma_rad.powi(-2),
             GAUGE_YAW_SIGMA_RAD.powi(-2),
         ));
         h.fixed_view_mut::<3, 3>(THETA, THETA)
             .copy_from(&(r.transpose() * lw * r));
         let noise = &self.linear_config.imu_noise;
-        let gyro_sigma = if self.static_init.is_some() {
-            STATIC_GYRO_BIAS_SIGMA_RAD_S
-        } else {
-            noise.gyro_turn_on_bias_rad_s.max(1e-4)
+        let gyro_sigma = match self.static_init {
+            Some(s) => (3.0 * noise.gyro_noise_density_rad_s_sqrt_hz / s.duration_s.max(0.1).sqrt())
+                .max(REST_GYRO_BIAS_SIGMA_RAD_S),
+            None => noise.gyro_turn_on_bias_rad_s.max(1e-4),
         };
         for i in 0..3 {
             h[(POS + i, POS + i)] = GAUGE_POSITION_SIGMA_M.powi(-2);
-            h[(VEL + i, VEL + i)] = 1e-4;
+            h[(VEL + i, VEL + i)] = velocity_sigma_m_s.max(1e-3).powi(-2).max(1e-4);
             h[(BG + i, BG + i)] = gyro_sigma.powi(-2);
-            h[(BA + i, BA + i)] = noise.accel_turn_on_bias_m_s2.max(1e-3).powi(-2);
+        }
+        let ba_info = Matrix3::identity() * noise.accel_turn_on_bias_m_s2.max(1e-3).powi(-2);
+        h.fixed_view_mut::<3, 3>(BA, BA).copy_from(&ba_info);
+        if let Some(rest) = rest {
+            let white = noise.accel_noise_density_m_s2_sqrt_hz / rest.duration_s.max(0.1).sqrt();
+            let info = (white.powi(2) + REST_FORCE_SIGMA_M_S2.powi(2)).recip();
+            let g_in_b = r.transpose() * Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2);
+            let mut j = nalgebra::SMatrix::<f64, 3, 15>::zeros();
+            j.fixed_view_mut::<3, 3>(0, THETA)
+                .copy_from(&(rest.rest_from_body * g_in_b.cross_matrix()));
+            j.fixed_view_mut::<3, 3>(0, BA).copy_from(&Matrix3::identity());
+            h += j.transpose() * j * info;
         }
         h
     }
@@ -207,6 +371,19 @@ impl NonlinearEstimator {
         let Some(w) = &self.window else {
             return;
         };
+        if std::env::var("WINS_DEBUG").is_ok() {
+            let fit = w.fit();
+            let x = w.newest().copied().unwrap_or_else(|| *w.keyframes().next().unwrap());
+            let dof = (fit.bearings + fit.baro).saturating_sub(w.border_dim());
+            let (r, p, y) = x.world_from_body.euler_angles();
+            eprintln!(
+                "trk o={:?} t={:.2} p={:.2},{:.2},{:.2} rpy={:.1},{:.1},{:.1} ap={:?} imu={:.1} brob={:.1} nb={} out={} baro={:.1} thr={:.1} bg={:.4?} ba={:.3?}",
+                w.baro_offset_m(), x.t.0 as f64 * 1e-9, x.p_b_in_w.x, x.p_b_in_w.y, x.p_b_in_w.z, r.to_degrees(), p.to_degrees(), y.to_degrees(),
+                w.aps().iter().map(|c| format!("{:.2},{:.2},{:.2}", c.x, c.y, c.z)).collect::<Vec<_>>(),
+                fit.imu_chi2, fit.bearing_robust, fit.bearings, fit.bearing_outliers, fit.baro_chi2,
+                chi2_upper(dof as f64, self.config.chi2_significance), x.gyro_bias_rad_s.as_slice(), x.accel_bias_m_s2.as_slice()
+            );
+        }
         if passes_chi2(&w.fit(), w.border_dim(), self.config.chi2_significance) {
             self.failing_since = None;
             self.last_good = w.newest().copied();

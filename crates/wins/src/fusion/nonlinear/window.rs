@@ -261,6 +261,21 @@ impl NonlinearWindow {
             .map(|p| p.symmetric_eigenvalues().max().max(0.0).sqrt())
     }
 
+    /// AP `l`'s largest horizontal marginal σ (of its x–y block), m. An AP near the array's
+    /// height is seen at an elevation `e ≈ 0`, where the cone angle changes only to second order
+    /// with `e` (`sin θ = cos e sin φ`): its height is weakly determined, and matters as little
+    /// to the bearings.
+    pub fn ap_horizontal_sigma_m(&self, l: usize) -> Option<f64> {
+        self.ap_covariance(l).map(|p| {
+            p.fixed_view::<2, 2>(0, 0)
+                .into_owned()
+                .symmetric_eigenvalues()
+                .max()
+                .max(0.0)
+                .sqrt()
+        })
+    }
+
     /// Keyframes marginalized so far.
     pub fn marginalized(&self) -> usize {
         self.marginalized
