@@ -1,6 +1,7 @@
-//! The estimator a run uses (`estimator` in the configuration): the paper's linear window
-//! ([`super::estimator::Wins`], the default) or the nonlinear one ([`super::nonlinear`]),
-//! behind one push API so that a sweep can compare them side by side.
+//! The estimator a run uses (`estimator` in the configuration): the nonlinear one
+//! ([`super::nonlinear`], the default) or the paper's linear window
+//! ([`super::estimator::Wins`]), behind one push API so that a sweep can compare them side by
+//! side.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -15,11 +16,11 @@ use crate::time::Timestamp;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum EstimatorKind {
-    /// The 6-DoF nonlinear sliding window started by the linear one (experimental: its start
-    /// does not yet find the right solution on most flights; docs/ESTIMATOR.md).
-    Nonlinear,
-    /// The paper's linear sliding window (Sec. V), the default.
+    /// The 6-DoF nonlinear sliding window, started from the rest (or, airborne, from the
+    /// linear window), the default (docs/ESTIMATOR.md).
     #[default]
+    Nonlinear,
+    /// The paper's linear sliding window (Sec. V).
     Paper,
 }
 

@@ -267,7 +267,9 @@ mod tests {
     #[test]
     fn the_estimator_is_chosen_by_name_and_an_unknown_one_is_refused() {
         use crate::fusion::choice::EstimatorKind;
-        assert_eq!(Config::default().estimator, EstimatorKind::Paper);
+        assert_eq!(Config::default().estimator, EstimatorKind::Nonlinear);
+        let c = Config::from_toml_str("estimator = \"paper\"\n", "t").unwrap();
+        assert_eq!(c.estimator, EstimatorKind::Paper);
         let c = Config::from_toml_str("estimator = \"nonlinear\"\n", "t").unwrap();
         assert_eq!(c.estimator, EstimatorKind::Nonlinear);
         assert!(Config::from_toml_str("estimator = \"kalman\"\n", "t").is_err());

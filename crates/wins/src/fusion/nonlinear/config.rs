@@ -80,6 +80,12 @@ impl Default for NonlinearConfig {
 }
 
 impl NonlinearConfig {
+    /// Whether an AP's horizontal σ passes the start's bounds at its smallest `range_m` from the
+    /// keyframes ([`Self::max_ap_sigma_m`], [`Self::max_ap_sigma_fraction`]).
+    pub fn ap_sigma_ok(&self, sigma_m: f64, range_m: f64) -> bool {
+        sigma_m < self.max_ap_sigma_m && sigma_m < self.max_ap_sigma_fraction * range_m
+    }
+
     /// Every setting in its range, under `prefix`.
     pub fn problems(&self, prefix: &str) -> Problems {
         let mut p = Problems::new();

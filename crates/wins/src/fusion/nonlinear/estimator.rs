@@ -76,6 +76,8 @@ pub struct NonlinearEstimator {
     /// The IMU between the last frames before the motion was detected (the motion starts before
     /// the detector can see it).
     rest_intervals: VecDeque<Preintegrated>,
+    /// Bearings of APs the window does not hold yet, against its estimate ([`super::late_ap`]).
+    pub(super) late_sights: Vec<Vec<super::triangulate::Sight>>,
     /// IMU since the newest keyframe.
     since_keyframe: Option<Preintegrated>,
     pub(super) window: Option<NonlinearWindow>,
@@ -115,6 +117,7 @@ impl NonlinearEstimator {
             reference_is_rest: false,
             dead_reckoned: None,
             rest_intervals: VecDeque::new(),
+            late_sights: Vec::new(),
             since_keyframe: None,
             window: None,
             anchor: Isometry3::identity(),
@@ -170,15 +173,15 @@ impl NonlinearEstimator {
 
     /// AP `l` in the frame poses are given in (`b0` of [`PoseEstimate`]), while tracking.
     pub fn ap_in_b0(&self, l: usize) -> Option<Vector3<f64>> {
-        self.window.as_ref()?.aps().get(l).copied()
+        self.window.as_ref()?.ap(l)
     }
 
     /// AP `l` in the output frame `w`, and its largest σ, while tracking.
     pub fn ap_in_w(&self, l: usize) -> Option<(Vector3<f64>, f64)> {
         let w = self.window.as_ref()?;
-        let c = w.aps().get(l)?;
+        let c = w.ap(l)?;
         let sigma = w.ap_sigma_m(l).unwrap_or(f64::INFINITY);
-        Some((self.anchor.transform_point(&(*c).into()).coords, sigma))
+        Some((self.anchor.transform_point(&c.into()).coords, sigma))
     }
 
     /// Queues a frame of bearings at `t`.
@@ -273,6 +276,7 @@ impl NonlinearEstimator {
     pub(super) fn begin_start(&mut self, t: Timestamp, from: Option<NavState>) {
         self.moving_since = Some(t);
         self.start.clear();
+        self.late_sights.clear();
         self.since_keyframe = None;
         self.window = None;
         self.last_try = None;
@@ -474,9 +478,17 @@ impl NonlinearEstimator {
             return self.pose_now(t);
         }
         let solved = window.optimize(self.config.iterations);
-        while window.len() > self.config.max_keyframes {
-            window.marginalize_oldest();
+        while self
+            .window
+            .as_ref()
+            .is_some_and(|w| w.len() > self.config.max_keyframes)
+        {
+            self.keep_late_sights();
+            if let Some(w) = &mut self.window {
+                w.marginalize_oldest();
+            }
         }
+        self.place_late_aps();
         match solved {
             Ok(_) => self.check_health(t),
             Err(_) => {

@@ -18,12 +18,14 @@
 //! bearings. [`estimator::NonlinearEstimator`] runs the start (static initialization, the paper's linear
 //! window, the χ² acceptance) and the loss test.
 
+mod aps;
 pub mod baro_factor;
 pub mod chi2;
 pub mod cone_factor;
 pub mod config;
 pub mod estimator;
 pub mod imu_factor;
+mod late_ap;
 pub mod rest;
 mod solve;
 mod start;

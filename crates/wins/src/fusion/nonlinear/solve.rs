@@ -19,15 +19,19 @@ pub enum SolveError {
     NotFinite,
 }
 
-/// LM damping after the first rejected step, relative to the diagonal. The solve starts
-/// undamped (Gauss–Newton): the IMU factors make the window stiff (their information is many
-/// orders above the bearings'), and a damping relative to the diagonal would freeze exactly the
+/// LM damping of a new window, and after a rejected undamped step, relative to the diagonal.
+/// Each accepted step divides it by 10 down to 0 (Gauss–Newton), and the next solve starts where
+/// the last ended: the IMU factors make the window stiff (their information is many orders above
+/// the bearings'), and a damping relative to the diagonal that stayed on would freeze exactly the
 /// motions only the bearings see, the trajectory's shifts the IMU cannot.
-const LAMBDA_FIRST: f64 = 1e-6;
+pub(super) const LAMBDA_FIRST: f64 = 1e-4;
 /// Fractions of a step tried before the damping is raised.
 const STEP_FRACTIONS: [f64; 4] = [1.0, 0.5, 0.25, 0.125];
+/// The largest change of one iteration per error-state block `[δθ, δp, δv, δb_g, δb_a]` (rad,
+/// m, m/s, rad/s, m/s²); the border (AP coordinates, the barometer offset) takes the position's.
+const MAX_STEP: [f64; 5] = [0.2, 2.0, 2.0, 0.02, 0.5];
 /// Below this the damping returns to 0.
-const LAMBDA_MIN: f64 = 1e-7;
+const LAMBDA_MIN: f64 = 1e-9;
 /// An iteration whose increment is below this (relative to the state's scale) ends the solve.
 const STEP_TOLERANCE: f64 = 1e-7;
 
@@ -83,7 +87,7 @@ impl NonlinearWindow {
             cost_after: cost,
             iterations: 0,
         };
-        let mut lambda = 0.0;
+        let mut lambda = self.lambda;
         let mut tries = 0;
         let mut covariance_at = None;
         while report.iterations < iterations && tries < 3 * iterations + 5 {
@@ -96,10 +100,19 @@ impl NonlinearWindow {
                 continue;
             };
             let before = self.snapshot();
+            // A trust region: an undamped step along a direction the data barely see can be
+            // huge at no cost; no iteration moves a state further than [`MAX_STEP`].
+            let reach = sol
+                .frames
+                .iter()
+                .flat_map(|d| d.iter().enumerate().map(|(i, v)| v.abs() / MAX_STEP[i / 3]))
+                .chain(sol.border.iter().map(|v| v.abs() / MAX_STEP[1]))
+                .fold(0.0, f64::max);
+            let cap = if reach > 1.0 { reach.recip() } else { 1.0 };
             // Along the step, shortened while the cost rises (the direction keeps the
             // Gauss–Newton shape, which damping would not).
             let mut accepted = None;
-            for alpha in STEP_FRACTIONS {
+            for alpha in STEP_FRACTIONS.map(|a| a * cap) {
                 if alpha == 1.0 {
                     self.apply(&sol.frames, &sol.border);
                 } else {
@@ -130,7 +143,7 @@ impl NonlinearWindow {
             report.iterations += 1;
             lambda /= 10.0;
             if lambda < LAMBDA_MIN {
-                lambda = 0.0;
+                lambda = LAMBDA_MIN;
             }
             let step = sol.frames.iter().map(|d| d.amax()).fold(0.0, f64::max) * alpha;
             if step < STEP_TOLERANCE && sol.border.amax() * alpha < STEP_TOLERANCE {
@@ -145,6 +158,7 @@ impl NonlinearWindow {
             self.last_covariance = sol.last_frame_covariance;
             self.border_covariance = sol.border_covariance;
         }
+        self.lambda = lambda;
         if !self.is_finite() {
             return Err(SolveError::NotFinite);
         }
@@ -168,7 +182,11 @@ impl NonlinearWindow {
             for f in &k0.frames {
                 has_altitude |= f.altitude_m.is_some();
                 for b in &f.bearings {
-                    if let (Some(c), Some(lin)) = (self.aps.get(b.ap), self.ap_lin.get_mut(b.ap)) {
+                    if let (Some(c), Some(lin), Some(true)) = (
+                        self.aps.get(b.ap),
+                        self.ap_lin.get_mut(b.ap),
+                        self.placed.get(b.ap),
+                    ) {
                         lin.get_or_insert(*c);
                     }
                 }

@@ -5,9 +5,10 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
+use super::aps::horizontal_sigma_m;
 use super::chi2::chi2_upper;
-use super::estimator::NonlinearEstimator;
 use super::cone_factor::sin_sigma;
+use super::estimator::NonlinearEstimator;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use super::triangulate::{Sight, triangulate};
 use super::window::{FitStats, NonlinearWindow};
@@ -47,7 +48,8 @@ fn dead_reckoned_sigmas(from_rest: bool, elapsed_s: f64) -> (f64, f64) {
 struct Proposal {
     first: usize,
     states: Vec<NavState>,
-    aps: Vec<Vector3<f64>>,
+    /// The APs, `None` where not placed yet.
+    aps: Vec<Option<Vector3<f64>>>,
     /// σ of the first state's roll and pitch, rad.
     tilt_sigma_rad: f64,
     /// σ of the first state's velocity, m/s (infinite: unknown).
@@ -93,12 +95,18 @@ impl NonlinearEstimator {
         self.last_try = Some(t);
         match self.start_window() {
             Some(w) => {
-                let mut w = w;
-                while w.len() > self.config.max_keyframes {
-                    w.marginalize_oldest();
-                }
-                self.last_good = w.newest().copied();
                 self.window = Some(w);
+                while self
+                    .window
+                    .as_ref()
+                    .is_some_and(|w| w.len() > self.config.max_keyframes)
+                {
+                    self.keep_late_sights();
+                    if let Some(w) = &mut self.window {
+                        w.marginalize_oldest();
+                    }
+                }
+                self.last_good = self.window.as_ref().and_then(|w| w.newest().copied());
                 self.linear = None;
                 self.start.clear();
                 self.epoch += 1;
@@ -120,7 +128,11 @@ impl NonlinearEstimator {
     /// triangulated against those poses ([`super::triangulate`]).
     fn propose_inertial(&self) -> Option<Proposal> {
         let reference = self.reference.as_ref()?;
-        let states: Vec<NavState> = self.start.iter().map(|k| k.dead_reckoned).collect::<Option<_>>()?;
+        let states: Vec<NavState> = self
+            .start
+            .iter()
+            .map(|k| k.dead_reckoned)
+            .collect::<Option<_>>()?;
         let g = STANDARD_GRAVITY_M_S2;
         let body_from_array = self.linear_config.window.body_from_array;
         let mut sights: Vec<Vec<Sight>> = Vec::new();
@@ -131,7 +143,8 @@ impl NonlinearEstimator {
                 }
                 let pose = pose_at(x, &f.partial, g);
                 let world_from_array = pose.world_from_body * body_from_array.rotation;
-                let p_a_in_w = pose.p_b_in_w + pose.world_from_body * body_from_array.translation.vector;
+                let p_a_in_w =
+                    pose.p_b_in_w + pose.world_from_body * body_from_array.translation.vector;
                 for b in &f.bearings {
                     if sights.len() <= b.ap {
                         sights.resize(b.ap + 1, Vec::new());
@@ -145,19 +158,22 @@ impl NonlinearEstimator {
                 }
             }
         }
-        // The APs in order, up to the first that cannot be placed yet (the window numbers them
-        // contiguously; a later one joins at a later attempt).
-        let aps: Vec<Vector3<f64>> = sights
+        // Every AP its sights place well enough; the others wait (placeholders).
+        let aps: Vec<Option<Vector3<f64>>> = sights
             .iter()
-            .map_while(|s| triangulate(s, self.config.cauchy_scale).map(|t| t.c_in_w))
+            .map(|s| {
+                let t = triangulate(s, self.config.cauchy_scale)?;
+                let range = s
+                    .iter()
+                    .map(|s| (t.c_in_w - s.p_a_in_w).norm())
+                    .fold(f64::INFINITY, f64::min);
+                self.config
+                    .ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
+                    .then_some(t.c_in_w)
+            })
             .collect();
-        if aps.is_empty() {
+        if aps.iter().all(Option::is_none) {
             return None;
-        }
-        if std::env::var("WINS_DR").is_ok() {
-            for x in states.iter().step_by(10) {
-                eprintln!("dr {:.2} {:.3} {:.3} {:.3} {:.3} {:.3} {:.3}", x.t.0 as f64 * 1e-9, x.p_b_in_w.x, x.p_b_in_w.y, x.p_b_in_w.z, x.v_b_in_w.x, x.v_b_in_w.y, x.v_b_in_w.z);
-            }
         }
         let elapsed = states.first()?.t.secs_since(reference.t).max(0.0);
         let x0_rotation = states.first()?.world_from_body;
@@ -188,9 +204,10 @@ impl NonlinearEstimator {
             return None;
         }
         let frames: HashMap<i64, FrameEstimate> = linear.frames().map(|f| (f.t.0, f)).collect();
-        // Level: the mean upward gravity in b0 to +z.
-        let up: Vector3<f64> = frames
-            .values()
+        // Level: the mean upward gravity in b0 to +z (summed in the frames' order: the result
+        // must not depend on a hash order).
+        let up: Vector3<f64> = linear
+            .frames()
             .map(|f| f.b0_from_bk * f.g_in_bk)
             .sum::<Vector3<f64>>();
         let n = frames.len().max(1) as f64;
@@ -225,7 +242,7 @@ impl NonlinearEstimator {
             })
             .collect::<Option<Vec<_>>>()?;
         let aps = (0..linear.num_aps())
-            .filter_map(|l| linear.ap_in_b0(l).map(|c| w_from_b0 * c))
+            .map(|l| linear.ap_in_b0(l).map(|c| w_from_b0 * c))
             .collect();
         Some(Proposal {
             first,
@@ -248,7 +265,6 @@ impl NonlinearEstimator {
             rest,
         } = proposal;
         let keys: Vec<_> = self.start.iter().skip(first).collect();
-        let aps0 = aps.clone();
         let (k0, x0) = (keys.first()?, *states.first()?);
         let g = STANDARD_GRAVITY_M_S2;
         let baro = self.has_baro.then(|| {
@@ -279,42 +295,20 @@ impl NonlinearEstimator {
             aps,
             baro,
         );
-        if std::env::var("WINS_NOFEJ").is_ok() {
-            w = w.without_fej();
-        }
         for (k, x) in keys.iter().zip(&states).skip(1) {
             w.push_keyframe(*x, k.from_prev.clone()?, k.frames.clone())?;
         }
-        let rep = w.optimize(self.config.iterations_at_start).ok()?;
-        if std::env::var("WINS_DEBUG").is_ok() {
-            let c = w.ap_covariance(0);
-            let h = w.information(true);
-            let n = h.nrows();
-            let dense = h.clone().try_inverse().map(|p| p.view((n - 3, n - 3), (3, 3)).symmetric_eigen().eigenvalues.clone_owned());
-            eprintln!("opt {:?} cov {:?} dense {:?} o {:?}", rep, c.map(|c| c.symmetric_eigen().eigenvalues), dense, w.baro_offset_m());
-        }
+        w.optimize(self.config.iterations_at_start).ok()?;
         let fit = w.fit();
-        let ap_ok = (0..w.aps().len()).all(|l| {
+        let ap_ok = (0..w.aps().len()).filter(|&l| w.is_placed(l)).all(|l| {
             let range = w
                 .keyframes()
                 .map(|x| (w.aps()[l] - x.p_b_in_w).norm())
                 .fold(f64::INFINITY, f64::min);
-            w.ap_horizontal_sigma_m(l).is_some_and(|s| {
-                s < self.config.max_ap_sigma_m && s < self.config.max_ap_sigma_fraction * range
-            }) && range > MIN_AP_RANGE_M
+            w.ap_horizontal_sigma_m(l)
+                .is_some_and(|s| self.config.ap_sigma_ok(s, range))
+                && range > MIN_AP_RANGE_M
         });
-        if std::env::var("WINS_DEBUG").is_ok() {
-            let dof = (fit.bearings + fit.baro).saturating_sub(w.border_dim());
-            eprintln!(
-                "start t={:.2} n={} inertial={} aps0={:?} aps={:?} sig={:?} imu={:.1} brob={:.1} bchi={:.1} nb={} out={} baro={:.1} thr={:.1} apok={}",
-                x0.t.0 as f64 * 1e-9, keys.len(), velocity_sigma_m_s.is_finite(),
-                aps0.iter().map(|c| format!("{:.2},{:.2},{:.2}", c.x, c.y, c.z)).collect::<Vec<_>>(),
-                w.aps().iter().map(|c| format!("{:.2},{:.2},{:.2}", c.x, c.y, c.z)).collect::<Vec<_>>(),
-                (0..w.aps().len()).map(|l| (w.ap_sigma_m(l), w.ap_horizontal_sigma_m(l))).collect::<Vec<_>>(),
-                fit.imu_chi2, fit.bearing_robust, fit.bearing_chi2, fit.bearings, fit.bearing_outliers, fit.baro_chi2,
-                chi2_upper(dof as f64, self.config.chi2_significance), ap_ok
-            );
-        }
         (ap_ok && passes_chi2(&fit, w.border_dim(), self.config.chi2_significance)).then_some(w)
     }
 
@@ -342,8 +336,9 @@ impl NonlinearEstimator {
             .copy_from(&(r.transpose() * lw * r));
         let noise = &self.linear_config.imu_noise;
         let gyro_sigma = match self.static_init {
-            Some(s) => (3.0 * noise.gyro_noise_density_rad_s_sqrt_hz / s.duration_s.max(0.1).sqrt())
-                .max(REST_GYRO_BIAS_SIGMA_RAD_S),
+            Some(s) => (3.0 * noise.gyro_noise_density_rad_s_sqrt_hz
+                / s.duration_s.max(0.1).sqrt())
+            .max(REST_GYRO_BIAS_SIGMA_RAD_S),
             None => noise.gyro_turn_on_bias_rad_s.max(1e-4),
         };
         for i in 0..3 {
@@ -360,7 +355,8 @@ impl NonlinearEstimator {
             let mut j = nalgebra::SMatrix::<f64, 3, 15>::zeros();
             j.fixed_view_mut::<3, 3>(0, THETA)
                 .copy_from(&(rest.rest_from_body * g_in_b.cross_matrix()));
-            j.fixed_view_mut::<3, 3>(0, BA).copy_from(&Matrix3::identity());
+            j.fixed_view_mut::<3, 3>(0, BA)
+                .copy_from(&Matrix3::identity());
             h += j.transpose() * j * info;
         }
         h
@@ -371,19 +367,6 @@ impl NonlinearEstimator {
         let Some(w) = &self.window else {
             return;
         };
-        if std::env::var("WINS_DEBUG").is_ok() {
-            let fit = w.fit();
-            let x = w.newest().copied().unwrap_or_else(|| *w.keyframes().next().unwrap());
-            let dof = (fit.bearings + fit.baro).saturating_sub(w.border_dim());
-            let (r, p, y) = x.world_from_body.euler_angles();
-            eprintln!(
-                "trk o={:?} t={:.2} p={:.2},{:.2},{:.2} rpy={:.1},{:.1},{:.1} ap={:?} imu={:.1} brob={:.1} nb={} out={} baro={:.1} thr={:.1} bg={:.4?} ba={:.3?}",
-                w.baro_offset_m(), x.t.0 as f64 * 1e-9, x.p_b_in_w.x, x.p_b_in_w.y, x.p_b_in_w.z, r.to_degrees(), p.to_degrees(), y.to_degrees(),
-                w.aps().iter().map(|c| format!("{:.2},{:.2},{:.2}", c.x, c.y, c.z)).collect::<Vec<_>>(),
-                fit.imu_chi2, fit.bearing_robust, fit.bearings, fit.bearing_outliers, fit.baro_chi2,
-                chi2_upper(dof as f64, self.config.chi2_significance), x.gyro_bias_rad_s.as_slice(), x.accel_bias_m_s2.as_slice()
-            );
-        }
         if passes_chi2(&w.fit(), w.border_dim(), self.config.chi2_significance) {
             self.failing_since = None;
             self.last_good = w.newest().copied();

@@ -33,7 +33,9 @@ impl Sight {
     /// The residual `ŷ_a · unit(d_a) − sin θ` for an AP at `c`, and `∂r/∂c`; `None` at the
     /// array centre.
     fn residual(&self, c: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
-        let d_a = self.world_from_array.inverse_transform_vector(&(c - self.p_a_in_w));
+        let d_a = self
+            .world_from_array
+            .inverse_transform_vector(&(c - self.p_a_in_w));
         let n = d_a.norm();
         if n < 1e-9 {
             return None;
@@ -146,7 +148,10 @@ pub fn triangulate(sights: &[Sight], cauchy_scale: f64) -> Option<Triangulated> 
     let mut starts: Vec<Vector3<f64>> = Vec::with_capacity(REFINED);
     for (_, c) in scored {
         // Distinct basins: skip a candidate near one already taken.
-        if starts.iter().all(|s| (s - c).norm() > 0.2 * (s - centre).norm()) {
+        if starts
+            .iter()
+            .all(|s| (s - c).norm() > 0.2 * (s - centre).norm())
+        {
             starts.push(c);
         }
         if starts.len() == REFINED {
@@ -214,13 +219,25 @@ mod tests {
             };
             let yaw = 2.2 + 0.5 * (t * 1.2).sin();
             let outlier = if i % 10 == 3 { 0.7 } else { 0.0 };
-            sights.push(sight(p, yaw, &c, { let n: f64 = StandardNormal.sample(&mut rng); n } * 2f64.to_radians() + outlier));
+            sights.push(sight(
+                p,
+                yaw,
+                &c,
+                {
+                    let n: f64 = StandardNormal.sample(&mut rng);
+                    n
+                } * 2f64.to_radians()
+                    + outlier,
+            ));
         }
         let t = triangulate(&sights, 2.0).unwrap();
         let err = (t.c_in_w - c).norm();
         assert!(err < 0.5, "AP off by {err} m at {:?}", t.c_in_w);
         let sigma = t.covariance.symmetric_eigenvalues().max().sqrt();
-        assert!(err < 4.0 * sigma + 0.05, "error {err} m against σ {sigma} m");
+        assert!(
+            err < 4.0 * sigma + 0.05,
+            "error {err} m against σ {sigma} m"
+        );
     }
 
     #[test]

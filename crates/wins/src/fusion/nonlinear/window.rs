@@ -16,7 +16,7 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use super::baro_factor::{baro_jacobian, baro_residual};
 use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
@@ -89,6 +89,9 @@ pub struct NonlinearWindow {
     pub(super) keyframes: VecDeque<Keyframe>,
     pub(super) aps: Vec<Vector3<f64>>,
     pub(super) ap_lin: Vec<Option<Vector3<f64>>>,
+    /// Whether AP `l` is placed; an AP not yet placed holds a placeholder (its bearings are
+    /// skipped and a vanishing prior keeps the system regular): [`super::aps`].
+    pub(super) placed: Vec<bool>,
     /// Barometer offset and its frozen point, when the window has a barometer.
     pub(super) baro: Option<(f64, Option<f64>)>,
     pub(super) prior_h: DMatrix<f64>,
@@ -99,6 +102,8 @@ pub struct NonlinearWindow {
     pub(super) border_covariance: DMatrix<f64>,
     pub(super) marginalized: usize,
     pub(super) skipped_bearings: u64,
+    /// The Levenberg–Marquardt damping the last solve ended with (the next one starts there).
+    pub(super) lambda: f64,
 }
 
 /// Cauchy loss `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight
@@ -110,8 +115,8 @@ pub fn cauchy(s: f64, c: f64) -> (f64, f64) {
 
 impl NonlinearWindow {
     /// A window starting at keyframe `x0` with a prior on it (`prior_h`, 15 × 15, information of
-    /// `x0 ⊟ x0`; the gauge and what the start knows), APs at `aps`, and a barometer offset when
-    /// `baro_offset_m` is given.
+    /// `x0 ⊟ x0`; the gauge and what the start knows), APs at `aps` (`None`: not placed yet), and
+    /// a barometer offset when `baro_offset_m` is given.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: NonlinearConfig,
@@ -121,7 +126,7 @@ impl NonlinearWindow {
         x0: NavState,
         frames0: Vec<SubFrame>,
         prior_h: &Mat15,
-        aps: Vec<Vector3<f64>>,
+        aps: Vec<Option<Vector3<f64>>>,
         baro_offset_m: Option<f64>,
     ) -> Self {
         let nb = usize::from(baro_offset_m.is_some());
@@ -129,6 +134,13 @@ impl NonlinearWindow {
         let mut h = DMatrix::zeros(dim, dim);
         h.view_mut((0, 0), (STATE_DIM, STATE_DIM))
             .copy_from(prior_h);
+        for (l, c) in aps.iter().enumerate() {
+            if c.is_none() {
+                let o = STATE_DIM + nb + 3 * l;
+                h.view_mut((o, o), (3, 3))
+                    .fill_diagonal(super::aps::PLACEHOLDER_INFORMATION);
+            }
+        }
         let n_aps = aps.len();
         Self {
             config,
@@ -142,7 +154,11 @@ impl NonlinearWindow {
                 frames: frames0,
             }]),
             ap_lin: vec![None; n_aps],
-            aps,
+            placed: aps.iter().map(Option::is_some).collect(),
+            aps: aps
+                .into_iter()
+                .map(|c| c.unwrap_or_else(Vector3::zeros))
+                .collect(),
             baro: baro_offset_m.map(|o| (o, None)),
             prior_h: h,
             prior_g: DVector::zeros(dim),
@@ -151,6 +167,7 @@ impl NonlinearWindow {
             border_covariance: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
             marginalized: 0,
             skipped_bearings: 0,
+            lambda: super::solve::LAMBDA_FIRST,
         }
     }
 
@@ -248,34 +265,6 @@ impl NonlinearWindow {
         &self.last_covariance
     }
 
-    /// AP `l`'s marginal position covariance (last solve), m².
-    pub fn ap_covariance(&self, l: usize) -> Option<Matrix3<f64>> {
-        let o = self.ap_offset(l);
-        (l < self.aps.len() && self.border_covariance.nrows() >= o + 3)
-            .then(|| self.border_covariance.fixed_view::<3, 3>(o, o).into_owned())
-    }
-
-    /// AP `l`'s largest marginal σ (largest eigenvalue of its block), m.
-    pub fn ap_sigma_m(&self, l: usize) -> Option<f64> {
-        self.ap_covariance(l)
-            .map(|p| p.symmetric_eigenvalues().max().max(0.0).sqrt())
-    }
-
-    /// AP `l`'s largest horizontal marginal σ (of its x–y block), m. An AP near the array's
-    /// height is seen at an elevation `e ≈ 0`, where the cone angle changes only to second order
-    /// with `e` (`sin θ = cos e sin φ`): its height is weakly determined, and matters as little
-    /// to the bearings.
-    pub fn ap_horizontal_sigma_m(&self, l: usize) -> Option<f64> {
-        self.ap_covariance(l).map(|p| {
-            p.fixed_view::<2, 2>(0, 0)
-                .into_owned()
-                .symmetric_eigenvalues()
-                .max()
-                .max(0.0)
-                .sqrt()
-        })
-    }
-
     /// Keyframes marginalized so far.
     pub fn marginalized(&self) -> usize {
         self.marginalized
@@ -334,7 +323,7 @@ impl NonlinearWindow {
         let g = self.gravity_m_s2;
         for f in &kf.frames {
             for b in &f.bearings {
-                let Some(c) = self.aps.get(b.ap) else {
+                let Some(c) = self.aps.get(b.ap).filter(|_| self.placed[b.ap]) else {
                     continue;
                 };
                 let c_lin = match self.ap_lin[b.ap] {

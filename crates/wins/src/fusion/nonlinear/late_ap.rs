@@ -1,0 +1,79 @@
+//! APs first seen (or first placeable) after the start: their bearings are kept against the
+//! window's own estimate of each keyframe as it leaves the window, and the AP is triangulated
+//! from them ([`super::triangulate`]) and joins the window once its horizontal σ passes the same
+//! bounds as a start's APs.
+
+use super::aps::horizontal_sigma_m;
+use super::cone_factor::sin_sigma;
+use super::estimator::NonlinearEstimator;
+use super::state::pose_at;
+use super::triangulate::{Sight, triangulate};
+use crate::imu::STANDARD_GRAVITY_M_S2;
+
+/// At most this many sights are kept per AP (the oldest leave first).
+const MAX_SIGHTS: usize = 3000;
+/// A placement is tried every this many new sights.
+const TRY_EVERY: usize = 25;
+
+impl NonlinearEstimator {
+    /// Keeps the bearings of APs the window does not hold yet from its oldest keyframe (about to
+    /// leave it), at that keyframe's estimate.
+    pub(super) fn keep_late_sights(&mut self) {
+        let Some(w) = &self.window else {
+            return;
+        };
+        let Some(kf) = w.keyframes.front() else {
+            return;
+        };
+        let body_from_array = self.linear_config.window.body_from_array;
+        for f in &kf.frames {
+            for b in f.bearings.iter().filter(|b| !w.is_placed(b.ap)) {
+                let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
+                let world_from_array = pose.world_from_body * body_from_array.rotation;
+                if self.late_sights.len() <= b.ap {
+                    self.late_sights.resize(b.ap + 1, Vec::new());
+                }
+                let sights = &mut self.late_sights[b.ap];
+                if sights.len() >= MAX_SIGHTS {
+                    sights.remove(0);
+                }
+                sights.push(Sight {
+                    p_a_in_w: pose.p_b_in_w
+                        + pose.world_from_body * body_from_array.translation.vector,
+                    world_from_array: world_from_array.to_rotation_matrix(),
+                    sin_measured: b.aoa_rad.sin(),
+                    sigma: sin_sigma(b.aoa_rad, b.sigma_rad),
+                });
+            }
+        }
+    }
+
+    /// Places every AP the window lacks whose sights allow it.
+    pub(super) fn place_late_aps(&mut self) {
+        let Some(w) = &mut self.window else {
+            return;
+        };
+        for (l, sights) in self.late_sights.iter_mut().enumerate() {
+            if w.is_placed(l) || sights.is_empty() || sights.len() % TRY_EVERY != 0 {
+                continue;
+            }
+            let Some(t) = triangulate(sights, self.config.cauchy_scale) else {
+                continue;
+            };
+            let range = sights
+                .iter()
+                .map(|s| (t.c_in_w - s.p_a_in_w).norm())
+                .fold(f64::INFINITY, f64::min);
+            if !self
+                .config
+                .ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
+            {
+                continue;
+            }
+            if let Some(info) = t.covariance.try_inverse() {
+                w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
+                sights.clear();
+            }
+        }
+    }
+}
