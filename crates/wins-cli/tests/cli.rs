@@ -199,14 +199,7 @@ fn simulate_rejects_unknown_scenarios_and_bad_files_with_a_message() {
 fn demo_and_run_write_the_run_directory() {
     let dir = std::env::temp_dir().join(format!("wins-cli-demo-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = wins(&[
-        "demo",
-        "--airborne",
-        "--duration",
-        "20",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let out = wins(&["demo", "--duration", "20", "--out", dir.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

@@ -4,7 +4,7 @@
 //!   gravity and bearing rows, and the gyro bias from it.
 //! - [`bearing`]: the AoA measurement as the fusion stages take it (cone angle plus side).
 //! - [`window`]: the linear sliding-window estimator (Sec. V), initialization-free.
-//! - [`nonlinear`]: the 6-DoF nonlinear sliding window started by the linear one (experimental).
+//! - [`nonlinear`]: the 6-DoF nonlinear sliding window, the default estimator.
 //! - [`estimator`]: [`estimator::Wins`], the push API (IMU samples and bearings in, poses out).
 //! - [`choice`]: which of the two a run uses (`estimator = "nonlinear"` or `"paper"`).
 //! - [`ekf`]: the feasibility-study EKF baseline (Sec. III), needs an initial state.

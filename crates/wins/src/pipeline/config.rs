@@ -21,8 +21,8 @@ use crate::fusion::window::WindowConfig;
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Config {
-    /// The estimator: `"paper"` (the paper's linear window, default) or `"nonlinear"` (the 6-DoF
-    /// sliding window started by the linear one; experimental).
+    /// The estimator: `"nonlinear"` (the 6-DoF sliding window, default) or `"paper"` (the
+    /// paper's linear window, for comparison).
     pub estimator: EstimatorKind,
     /// The AoA stage: MUSIC grid, PAoA half-width, SpotFi clustering.
     pub aoa: AoaConfig,

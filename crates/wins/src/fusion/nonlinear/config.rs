@@ -13,7 +13,7 @@ pub struct NonlinearConfig {
     pub keyframe_period_s: f64,
     /// Keyframes in the window; older ones are marginalized into the prior.
     pub max_keyframes: usize,
-    /// Gauss–Newton (Levenberg–Marquardt) iterations per keyframe once converged.
+    /// Solver iterations per keyframe once converged.
     pub iterations: usize,
     /// Iterations over the whole start window when the linear solution is refined.
     pub iterations_at_start: usize,

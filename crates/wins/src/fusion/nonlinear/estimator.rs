@@ -1,17 +1,22 @@
 //! The nonlinear estimator as a push API (IMU samples, bearings and barometer samples in; poses
 //! out), and its start and recovery:
 //!
-//! 1. **Rest** ([`super::rest`]): while the IMU is still, the gyro bias, roll and pitch.
-//! 2. **Linear start**: from the first motion, the paper's linear window
-//!    ([`crate::fusion::estimator::Wins`], started from the rest's gravity, velocity and gyro bias
-//!    when there was one) solves positions, velocities, gravity and APs from zeros. Its own
-//!    convergence test is off: it only proposes.
-//! 3. **Acceptance** (`start`): every [`NonlinearConfig::start_retry_s`] the linear solution,
-//!    levelled, initializes the nonlinear window over the whole start (one keyframe per
+//! 1. **Rest** ([`super::rest`]): while the IMU is still, the gyro bias, roll, pitch and the
+//!    accelerometer bias along gravity.
+//! 2. **Proposal**: from the rest's end (or a lost window's last good state) the IMU alone
+//!    carries the trajectory (dead reckoning), and the APs are triangulated against it
+//!    ([`super::triangulate`]): the inertial proposal, for up to
+//!    [`NonlinearConfig::inertial_start_max_s`]. Without such a state (a flight started in the
+//!    air) the paper's linear window ([`crate::fusion::estimator::Wins`]) solves positions,
+//!    velocities, gravity and APs from zeros and proposes its solution; its own convergence test
+//!    is off.
+//! 3. **Acceptance** (`start`): every [`NonlinearConfig::start_retry_s`] the proposal
+//!    initializes the nonlinear window over the whole start (one keyframe per
 //!    [`NonlinearConfig::keyframe_period_s`]), which is iterated. It is accepted only when its
-//!    AoA and IMU residuals pass χ² tests at [`NonlinearConfig::chi2_significance`] and every AP's
-//!    marginal σ is below [`NonlinearConfig::max_ap_sigma_m`]; then the window is marginalized
-//!    down to [`NonlinearConfig::max_keyframes`] and the output starts, converged.
+//!    residuals pass the χ² test at [`NonlinearConfig::chi2_significance`] and every placed AP's
+//!    horizontal σ is within [`NonlinearConfig::max_ap_sigma_m`] and its fraction of the range;
+//!    then the window is marginalized down to [`NonlinearConfig::max_keyframes`] and the output
+//!    starts, converged. APs placed later join from [`super::late_ap`].
 //! 4. **Tracking**: one solve per keyframe. The same χ² tests over the window's residuals decide
 //!    loss: failing for [`NonlinearConfig::loss_window_s`] in a row restarts at 2 from the last
 //!    keyframe that passed, propagated by the IMU to now; the output frame is kept (the new

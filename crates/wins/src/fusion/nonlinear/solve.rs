@@ -1,4 +1,5 @@
-//! Levenberg–Marquardt over the window and the marginalization of the oldest keyframe.
+//! The window's solve (Gauss–Newton with a line search and a trust region, damped only after a
+//! rejected step) and the marginalization of the oldest keyframe.
 
 use std::collections::VecDeque;
 
@@ -77,9 +78,9 @@ impl NonlinearWindow {
             && self.baro.is_none_or(|b| b.0.is_finite())
     }
 
-    /// Up to `iterations` Levenberg–Marquardt steps (a step that raises the cost is undone and
-    /// the damping raised); the newest keyframe's and the border's covariances are kept from the
-    /// last factorization.
+    /// Up to `iterations` solver steps (a step that raises the cost at every fraction tried is
+    /// undone and the damping raised); the newest keyframe's and the border's covariances come
+    /// from the last undamped factorization.
     pub fn optimize(&mut self, iterations: usize) -> Result<SolveReport, SolveError> {
         let (mut sys, mut cost, _) = self.build(true);
         let mut report = SolveReport {
