@@ -16,7 +16,7 @@
 //!    residuals pass the χ² test at [`NonlinearConfig::chi2_significance`] and every placed AP's
 //!    horizontal σ is within [`NonlinearConfig::max_ap_sigma_m`] and its fraction of the range;
 //!    then the window is marginalized down to [`NonlinearConfig::max_keyframes`] and the output
-//!    starts, converged. APs placed later join from [`super::late_ap`].
+//!    starts, converged. APs placed later join from `late_ap`.
 //! 4. **Tracking**: one solve per keyframe. The same χ² tests over the window's residuals decide
 //!    loss: failing for [`NonlinearConfig::loss_window_s`] in a row restarts at 2 from the last
 //!    keyframe that passed, propagated by the IMU to now; the output frame is kept (the new

@@ -1,5 +1,5 @@
 //! The nonlinear sliding window: keyframes, APs, the barometer offset and the marginalization
-//! prior, solved ([`super::solve`]) on the block-arrow normal equations
+//! prior, solved (`solve`) on the block-arrow normal equations
 //! ([`crate::fusion::window::arrow`] with 15-state frames).
 //!
 //! **Border**: `[o (when there is a barometer), c_0, c_1, …]`, so an AP seen later appends.
