@@ -483,16 +483,7 @@ impl NonlinearEstimator {
             return self.pose_now(t);
         }
         let solved = window.optimize(self.config.iterations);
-        while self
-            .window
-            .as_ref()
-            .is_some_and(|w| w.len() > self.config.max_keyframes)
-        {
-            self.keep_late_sights();
-            if let Some(w) = &mut self.window {
-                w.marginalize_oldest();
-            }
-        }
+        self.trim_window();
         self.place_late_aps();
         match solved {
             Ok(_) => self.check_health(t),

@@ -4,7 +4,6 @@
 //! bounds as a start's APs.
 
 use super::aps::horizontal_sigma_m;
-use super::cone_factor::sin_sigma;
 use super::estimator::NonlinearEstimator;
 use super::state::pose_at;
 use super::triangulate::{Sight, triangulate};
@@ -16,6 +15,21 @@ const MAX_SIGHTS: usize = 3000;
 const TRY_EVERY: usize = 25;
 
 impl NonlinearEstimator {
+    /// Marginalizes the window down to [`super::NonlinearConfig::max_keyframes`], keeping the
+    /// bearings of APs it does not hold from each keyframe that leaves.
+    pub(super) fn trim_window(&mut self) {
+        while self
+            .window
+            .as_ref()
+            .is_some_and(|w| w.len() > self.config.max_keyframes)
+        {
+            self.keep_late_sights();
+            if let Some(w) = &mut self.window {
+                w.marginalize_oldest();
+            }
+        }
+    }
+
     /// Keeps the bearings of APs the window does not hold yet from its oldest keyframe (about to
     /// leave it), at that keyframe's estimate.
     pub(super) fn keep_late_sights(&mut self) {
@@ -29,7 +43,6 @@ impl NonlinearEstimator {
         for f in &kf.frames {
             for b in f.bearings.iter().filter(|b| !w.is_placed(b.ap)) {
                 let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
-                let world_from_array = pose.world_from_body * body_from_array.rotation;
                 if self.late_sights.len() <= b.ap {
                     self.late_sights.resize(b.ap + 1, Vec::new());
                 }
@@ -37,13 +50,7 @@ impl NonlinearEstimator {
                 if sights.len() >= MAX_SIGHTS {
                     sights.remove(0);
                 }
-                sights.push(Sight {
-                    p_a_in_w: pose.p_b_in_w
-                        + pose.world_from_body * body_from_array.translation.vector,
-                    world_from_array: world_from_array.to_rotation_matrix(),
-                    sin_measured: b.aoa_rad.sin(),
-                    sigma: sin_sigma(b.aoa_rad, b.sigma_rad),
-                });
+                sights.push(Sight::of(&pose, &body_from_array, b));
             }
         }
     }

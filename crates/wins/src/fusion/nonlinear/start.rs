@@ -7,7 +7,6 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use super::aps::horizontal_sigma_m;
 use super::chi2::chi2_upper;
-use super::cone_factor::sin_sigma;
 use super::estimator::NonlinearEstimator;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use super::triangulate::{Sight, triangulate};
@@ -96,16 +95,7 @@ impl NonlinearEstimator {
         match self.start_window() {
             Some(w) => {
                 self.window = Some(w);
-                while self
-                    .window
-                    .as_ref()
-                    .is_some_and(|w| w.len() > self.config.max_keyframes)
-                {
-                    self.keep_late_sights();
-                    if let Some(w) = &mut self.window {
-                        w.marginalize_oldest();
-                    }
-                }
+                self.trim_window();
                 self.last_good = self.window.as_ref().and_then(|w| w.newest().copied());
                 self.linear = None;
                 self.start.clear();
@@ -142,19 +132,11 @@ impl NonlinearEstimator {
                     continue;
                 }
                 let pose = pose_at(x, &f.partial, g);
-                let world_from_array = pose.world_from_body * body_from_array.rotation;
-                let p_a_in_w =
-                    pose.p_b_in_w + pose.world_from_body * body_from_array.translation.vector;
                 for b in &f.bearings {
                     if sights.len() <= b.ap {
                         sights.resize(b.ap + 1, Vec::new());
                     }
-                    sights[b.ap].push(Sight {
-                        p_a_in_w,
-                        world_from_array: world_from_array.to_rotation_matrix(),
-                        sin_measured: b.aoa_rad.sin(),
-                        sigma: sin_sigma(b.aoa_rad, b.sigma_rad),
-                    });
+                    sights[b.ap].push(Sight::of(&pose, &body_from_array, b));
                 }
             }
         }

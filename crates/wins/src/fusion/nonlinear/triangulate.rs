@@ -11,10 +11,13 @@
 //! refined by Gauss–Newton with the Cauchy weights; the lowest cost wins. The joint window then
 //! refines the trajectory, biases and APs together.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
 
+use super::cone_factor::sin_sigma;
+use super::state::PoseAt;
 use super::window::cauchy;
 use crate::aoa::steering::sin_aoa;
+use crate::fusion::bearing::Bearing;
 
 /// One cone angle seen from a known array pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,6 +33,17 @@ pub struct Sight {
 }
 
 impl Sight {
+    /// The bearing `b` seen from the body pose `pose` with the array at `body_from_array`.
+    pub fn of(pose: &PoseAt, body_from_array: &Isometry3<f64>, b: &Bearing) -> Self {
+        Self {
+            p_a_in_w: pose.p_b_in_w + pose.world_from_body * body_from_array.translation.vector,
+            world_from_array: (pose.world_from_body * body_from_array.rotation)
+                .to_rotation_matrix(),
+            sin_measured: b.aoa_rad.sin(),
+            sigma: sin_sigma(b.aoa_rad, b.sigma_rad),
+        }
+    }
+
     /// The residual `ŷ_a · unit(d_a) − sin θ` for an AP at `c`, and `∂r/∂c`; `None` at the
     /// array centre.
     fn residual(&self, c: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
