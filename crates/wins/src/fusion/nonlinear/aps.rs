@@ -7,10 +7,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::state::STATE_DIM;
-use super::window::NonlinearWindow;
-
-/// Prior information on each coordinate of a placeholder, 1/m² (σ = 1000 m).
-pub const PLACEHOLDER_INFORMATION: f64 = 1e-6;
+use super::window::{NonlinearWindow, PLACEHOLDER_INFORMATION};
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
 pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {

@@ -24,11 +24,11 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, Vector3};
+use nalgebra::{Isometry3, Translation3, Vector3};
 
 use super::config::NonlinearConfig;
 use super::rest::{RestDetector, StaticInit};
-use super::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
+use super::state::{NavState, pose_at};
 use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::estimator::{
@@ -64,7 +64,7 @@ pub struct NonlinearEstimator {
     /// The linear solution is tried when its APs' largest σ is below this, m.
     pub(super) candidate_ap_sigma_m: f64,
     pub(super) has_baro: bool,
-    pre: Preintegrator,
+    pub(super) pre: Preintegrator,
     pending: VecDeque<PendingFrame>,
     rest: RestDetector,
     pub(super) static_init: Option<StaticInit>,
@@ -84,7 +84,7 @@ pub struct NonlinearEstimator {
     /// Bearings of APs the window does not hold yet, against its estimate ([`super::late_ap`]).
     pub(super) late_sights: Vec<Vec<super::triangulate::Sight>>,
     /// IMU since the newest keyframe.
-    since_keyframe: Option<Preintegrated>,
+    pub(super) since_keyframe: Option<Preintegrated>,
     pub(super) window: Option<NonlinearWindow>,
     /// Output `w` from the window's `w`.
     pub(super) anchor: Isometry3<f64>,
@@ -493,69 +493,5 @@ impl NonlinearEstimator {
             }
         }
         self.pose_now(t)
-    }
-
-    /// The newest keyframe (and the frames since) as the pose at `t`, with its covariance.
-    fn pose_now(&self, t: Timestamp) -> Option<PoseEstimate> {
-        let w = self.window.as_ref()?;
-        let x = w.newest()?;
-        let partial = self.since_keyframe.as_ref()?;
-        if partial.end != t {
-            return None;
-        }
-        Some(self.output(x, partial, w.newest_covariance()))
-    }
-
-    /// The pose at the end of `partial` after keyframe `x`, in the output frame.
-    fn output(
-        &self,
-        x: &NavState,
-        partial: &Preintegrated,
-        cov_x: &super::state::Mat15,
-    ) -> PoseEstimate {
-        let g = STANDARD_GRAVITY_M_S2;
-        let p = pose_at(x, partial, g);
-        let (j_rot, j_pos, _) = pose_at_jacobians(x, partial, g);
-        let mut j = nalgebra::SMatrix::<f64, 6, 15>::zeros();
-        j.fixed_view_mut::<3, 15>(0, 0).copy_from(&j_rot);
-        j.fixed_view_mut::<3, 15>(3, 0).copy_from(&j_pos);
-        let mut cov: Matrix6<f64> = j * cov_x * j.transpose();
-        // The IMU's own noise over the partial interval: [δα, δβ, δθ] → (θ, p).
-        let r = x.world_from_body.to_rotation_matrix().into_inner();
-        let c = &partial.covariance;
-        let mut add = Matrix6::zeros();
-        add.fixed_view_mut::<3, 3>(THETA, THETA)
-            .copy_from(&c.fixed_view::<3, 3>(6, 6));
-        add.fixed_view_mut::<3, 3>(POS, POS)
-            .copy_from(&(r * c.fixed_view::<3, 3>(0, 0) * r.transpose()));
-        cov += add;
-        // Into the output frame: positions rotate with the anchor; δθ is body-side.
-        let ra: Matrix3<f64> = self.anchor.rotation.to_rotation_matrix().into_inner();
-        let mut rot6 = Matrix6::identity();
-        rot6.fixed_view_mut::<3, 3>(POS, POS).copy_from(&ra);
-        let cov = rot6 * cov * rot6.transpose();
-        PoseEstimate {
-            t: partial.end,
-            p_b_in_w: self.anchor.transform_point(&p.p_b_in_w.into()).coords,
-            v_b_in_w: self.anchor.rotation * p.v_b_in_w,
-            world_from_body: self.anchor.rotation * p.world_from_body,
-            p_b_in_b0: p.p_b_in_w,
-            b0_from_body: p.world_from_body,
-            converged: true,
-            covariance: Some(cov),
-        }
-    }
-
-    /// The newest pose propagated to the last IMU sample.
-    fn propagated(&self) -> Option<PoseEstimate> {
-        let w = self.window.as_ref()?;
-        let x = w.newest()?;
-        let mut partial = self.since_keyframe.clone()?;
-        let run = self.pre.running();
-        if run.start != partial.end {
-            return None;
-        }
-        partial.append(run).ok()?;
-        Some(self.output(x, &partial, w.newest_covariance()))
     }
 }

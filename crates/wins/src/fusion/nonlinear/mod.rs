@@ -26,6 +26,7 @@ pub mod config;
 pub mod estimator;
 pub mod imu_factor;
 mod late_ap;
+mod output;
 pub mod rest;
 mod solve;
 mod start;

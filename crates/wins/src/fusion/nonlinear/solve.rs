@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use nalgebra::{DMatrix, Vector3};
 
 use super::state::{NavState, STATE_DIM};
-use super::window::{Keyframe, NonlinearWindow};
+use super::window::{Keyframe, LAMBDA_FIRST, NonlinearWindow};
 use crate::fusion::window::arrow::ArrowSystem;
 
 /// Why a solve failed (the estimate is left as it was).
@@ -20,12 +20,6 @@ pub enum SolveError {
     NotFinite,
 }
 
-/// LM damping of a new window, and after a rejected undamped step, relative to the diagonal.
-/// Each accepted step divides it by 10 down to 0 (Gauss–Newton), and the next solve starts where
-/// the last ended: the IMU factors make the window stiff (their information is many orders above
-/// the bearings'), and a damping relative to the diagonal that stayed on would freeze exactly the
-/// motions only the bearings see, the trajectory's shifts the IMU cannot.
-pub(super) const LAMBDA_FIRST: f64 = 1e-4;
 /// Fractions of a step tried before the damping is raised.
 const STEP_FRACTIONS: [f64; 4] = [1.0, 0.5, 0.25, 0.125];
 /// The largest change of one iteration per error-state block `[δθ, δp, δv, δb_g, δb_a]` (rad,

@@ -28,6 +28,16 @@ use crate::fusion::window::arrow::ArrowSystem;
 use crate::imu::Preintegrated;
 use crate::rig::ImuNoise;
 
+/// Prior information on each coordinate of an AP not yet placed, 1/m² (σ = 1000 m).
+pub const PLACEHOLDER_INFORMATION: f64 = 1e-6;
+
+/// LM damping of a new window, and after a rejected undamped step, relative to the diagonal.
+/// Each accepted step divides it by 10 down to 0 (Gauss–Newton), and the next solve starts where
+/// the last ended: the IMU factors make the window stiff (their information is many orders above
+/// the bearings'), and a damping relative to the diagonal that stayed on would freeze exactly the
+/// motions only the bearings see, the trajectory's shifts the IMU cannot.
+pub(super) const LAMBDA_FIRST: f64 = 1e-4;
+
 /// Measurements at one instant inside a keyframe's interval.
 #[derive(Clone, Debug)]
 pub struct SubFrame {
@@ -138,7 +148,7 @@ impl NonlinearWindow {
             if c.is_none() {
                 let o = STATE_DIM + nb + 3 * l;
                 h.view_mut((o, o), (3, 3))
-                    .fill_diagonal(super::aps::PLACEHOLDER_INFORMATION);
+                    .fill_diagonal(PLACEHOLDER_INFORMATION);
             }
         }
         let n_aps = aps.len();
@@ -167,7 +177,7 @@ impl NonlinearWindow {
             border_covariance: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
             marginalized: 0,
             skipped_bearings: 0,
-            lambda: super::solve::LAMBDA_FIRST,
+            lambda: LAMBDA_FIRST,
         }
     }
 
