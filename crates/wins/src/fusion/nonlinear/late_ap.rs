@@ -3,6 +3,8 @@
 //! from them ([`super::triangulate`]) and joins the window once its horizontal σ passes the same
 //! bounds as a start's APs.
 
+use std::collections::VecDeque;
+
 use super::aps::horizontal_sigma_m;
 use super::estimator::NonlinearEstimator;
 use super::state::pose_at;
@@ -11,8 +13,18 @@ use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// At most this many sights are kept per AP (the oldest leave first).
 const MAX_SIGHTS: usize = 3000;
-/// A placement is tried every this many new sights.
+/// A placement is tried when the sights kept so far are a multiple of this.
 const TRY_EVERY: usize = 25;
+
+/// The sights of one AP not placed yet.
+#[derive(Clone, Debug, Default)]
+pub(super) struct LateSights {
+    /// The newest [`MAX_SIGHTS`].
+    sights: VecDeque<Sight>,
+    /// Sights kept since the AP was first seen (the cadence of the attempts, also once the
+    /// oldest leave).
+    seen: usize,
+}
 
 impl NonlinearEstimator {
     /// Marginalizes the window down to [`super::NonlinearConfig::max_keyframes`], keeping the
@@ -44,13 +56,14 @@ impl NonlinearEstimator {
             for b in f.bearings.iter().filter(|b| !w.is_placed(b.ap)) {
                 let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
                 if self.late_sights.len() <= b.ap {
-                    self.late_sights.resize(b.ap + 1, Vec::new());
+                    self.late_sights.resize_with(b.ap + 1, LateSights::default);
                 }
-                let sights = &mut self.late_sights[b.ap];
-                if sights.len() >= MAX_SIGHTS {
-                    sights.remove(0);
+                let late = &mut self.late_sights[b.ap];
+                if late.sights.len() >= MAX_SIGHTS {
+                    late.sights.pop_front();
                 }
-                sights.push(Sight::of(&pose, &body_from_array, b));
+                late.sights.push_back(Sight::of(&pose, &body_from_array, b));
+                late.seen += 1;
             }
         }
     }
@@ -60,10 +73,11 @@ impl NonlinearEstimator {
         let Some(w) = &mut self.window else {
             return;
         };
-        for (l, sights) in self.late_sights.iter_mut().enumerate() {
-            if w.is_placed(l) || sights.is_empty() || sights.len() % TRY_EVERY != 0 {
+        for (l, late) in self.late_sights.iter_mut().enumerate() {
+            if w.is_placed(l) || late.seen == 0 || late.seen % TRY_EVERY != 0 {
                 continue;
             }
+            let sights = late.sights.make_contiguous();
             let Some(t) = triangulate(sights, self.config.cauchy_scale) else {
                 continue;
             };
@@ -79,7 +93,7 @@ impl NonlinearEstimator {
             }
             if let Some(info) = t.covariance.try_inverse() {
                 w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
-                sights.clear();
+                late.sights.clear();
             }
         }
     }
