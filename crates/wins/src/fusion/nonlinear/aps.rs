@@ -6,7 +6,9 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::config::NonlinearConfig;
 use super::state::STATE_DIM;
+use super::triangulate::{Sight, Triangulated, triangulate};
 use super::window::{NonlinearWindow, PLACEHOLDER_INFORMATION};
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
@@ -18,6 +20,22 @@ pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {
         .max()
         .max(0.0)
         .sqrt()
+}
+
+/// The AP `sights` see, triangulated, when its horizontal σ is within `config`'s bounds at its
+/// smallest range from the sights ([`NonlinearConfig::ap_sigma_ok`]).
+pub fn triangulate_within_bounds(
+    sights: &[Sight],
+    config: &NonlinearConfig,
+) -> Option<Triangulated> {
+    let t = triangulate(sights, config.cauchy_scale)?;
+    let range = sights
+        .iter()
+        .map(|s| (t.c_in_w - s.p_a_in_w).norm())
+        .fold(f64::INFINITY, f64::min);
+    config
+        .ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
+        .then_some(t)
 }
 
 impl NonlinearWindow {

@@ -5,10 +5,10 @@
 
 use std::collections::VecDeque;
 
-use super::aps::horizontal_sigma_m;
+use super::aps::triangulate_within_bounds;
 use super::estimator::NonlinearEstimator;
 use super::state::pose_at;
-use super::triangulate::{Sight, triangulate};
+use super::triangulate::Sight;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// At most this many sights are kept per AP (the oldest leave first).
@@ -78,19 +78,9 @@ impl NonlinearEstimator {
                 continue;
             }
             let sights = late.sights.make_contiguous();
-            let Some(t) = triangulate(sights, self.config.cauchy_scale) else {
+            let Some(t) = triangulate_within_bounds(sights, &self.config) else {
                 continue;
             };
-            let range = sights
-                .iter()
-                .map(|s| (t.c_in_w - s.p_a_in_w).norm())
-                .fold(f64::INFINITY, f64::min);
-            if !self
-                .config
-                .ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
-            {
-                continue;
-            }
             if let Some(info) = t.covariance.try_inverse() {
                 w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
                 late.sights.clear();

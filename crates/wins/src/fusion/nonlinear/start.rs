@@ -5,11 +5,11 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use super::aps::horizontal_sigma_m;
+use super::aps::triangulate_within_bounds;
 use super::chi2::chi2_upper;
 use super::estimator::NonlinearEstimator;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
-use super::triangulate::{Sight, triangulate};
+use super::triangulate::Sight;
 use super::window::{FitStats, NonlinearWindow};
 use crate::fusion::window::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -143,16 +143,7 @@ impl NonlinearEstimator {
         // Every AP its sights place well enough; the others wait (placeholders).
         let aps: Vec<Option<Vector3<f64>>> = sights
             .iter()
-            .map(|s| {
-                let t = triangulate(s, self.config.cauchy_scale)?;
-                let range = s
-                    .iter()
-                    .map(|s| (t.c_in_w - s.p_a_in_w).norm())
-                    .fold(f64::INFINITY, f64::min);
-                self.config
-                    .ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
-                    .then_some(t.c_in_w)
-            })
+            .map(|s| triangulate_within_bounds(s, &self.config).map(|t| t.c_in_w))
             .collect();
         if aps.iter().all(Option::is_none) {
             return None;
