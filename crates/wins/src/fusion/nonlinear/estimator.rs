@@ -82,7 +82,7 @@ pub struct NonlinearEstimator {
     /// the detector can see it).
     rest_intervals: VecDeque<Preintegrated>,
     /// Bearings of APs the window does not hold yet, against its estimate ([`super::late_ap`]).
-    pub(super) late_sights: Vec<super::late_ap::LateSights>,
+    pub(super) late_sights: Vec<super::triangulate::LateSights>,
     /// IMU since the newest keyframe.
     pub(super) since_keyframe: Option<Preintegrated>,
     pub(super) window: Option<NonlinearWindow>,

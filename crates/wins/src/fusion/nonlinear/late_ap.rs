@@ -3,28 +3,16 @@
 //! from them ([`super::triangulate`]) and joins the window once its horizontal σ passes the same
 //! bounds as a start's APs.
 
-use std::collections::VecDeque;
-
 use super::aps::triangulate_within_bounds;
 use super::estimator::NonlinearEstimator;
 use super::state::pose_at;
-use super::triangulate::Sight;
+use super::triangulate::{LateSights, Sight};
 use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// At most this many sights are kept per AP (the oldest leave first).
-const MAX_SIGHTS: usize = 3000;
+pub(super) const MAX_SIGHTS: usize = 3000;
 /// A placement is tried when the sights kept so far are a multiple of this.
 const TRY_EVERY: usize = 25;
-
-/// The sights of one AP not placed yet.
-#[derive(Clone, Debug, Default)]
-pub(super) struct LateSights {
-    /// The newest [`MAX_SIGHTS`].
-    sights: VecDeque<Sight>,
-    /// Sights kept since the AP was first seen (the cadence of the attempts, also once the
-    /// oldest leave).
-    seen: usize,
-}
 
 impl NonlinearEstimator {
     /// Marginalizes the window down to [`super::NonlinearConfig::max_keyframes`], keeping the

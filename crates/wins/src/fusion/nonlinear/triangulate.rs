@@ -11,6 +11,8 @@
 //! refined by Gauss–Newton with the Cauchy weights; the lowest cost wins. The joint window then
 //! refines the trajectory, biases and APs together.
 
+use std::collections::VecDeque;
+
 use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
 
 use super::cone_factor::sin_sigma;
@@ -58,6 +60,16 @@ impl Sight {
         let ds_dd = (Vector3::y() - d_a * (s / n)) / n;
         Some((s - self.sin_measured, self.world_from_array * ds_dd))
     }
+}
+
+/// The sights of one AP not placed yet.
+#[derive(Clone, Debug, Default)]
+pub(super) struct LateSights {
+    /// The newest ones (at most `late_ap::MAX_SIGHTS`).
+    pub(super) sights: VecDeque<Sight>,
+    /// Sights kept since the AP was first seen (the cadence of the attempts, also once the
+    /// oldest leave).
+    pub(super) seen: usize,
 }
 
 /// The solution for one AP.
