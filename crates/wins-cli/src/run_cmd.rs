@@ -155,7 +155,7 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
         writeln!(
             out,
             "{}: {} packets: {} fed, {} for SpotFi, dropped {} (no credible peak {}, gated {}, \
-             off track {}, side unknown {}, skipped {}); {} track losses",
+             off track {}, side unknown {}, skipped {}); {} track losses, {} side switches",
             s.name,
             s.packets,
             s.fed,
@@ -166,7 +166,8 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
             s.off_track,
             s.side_unknown,
             s.skipped,
-            s.track_losses
+            s.track_losses,
+            s.side_switches
         )?;
         if s.log_skips > 0 {
             writeln!(

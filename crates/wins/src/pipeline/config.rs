@@ -66,10 +66,17 @@ pub struct PipelineConfig {
     /// How far the track follows each accepted angle (1: to the raw angle, the paper's
     /// Algorithm 1; smaller: a first-order filter against multipath jitter).
     pub track_gain: f64,
+    /// Before convergence, how fast the track learns the rate of change of its angle not due
+    /// to the turns: the share of the innovation the rate takes per second, 1/s (0: no rate, a
+    /// first-order filter that trails a moving AP, the more the slower the packets come).
+    pub track_rate_gain_hz: f64,
     /// Before convergence the state cannot tell front from back: assume front (the paper's
     /// set-up), flagged in the packet log. `false` drops bearings until convergence, which
     /// never comes with one AP.
     pub assume_front_until_converged: bool,
+    /// Use the dataset's barometer (`baro.csv`) when it has one; `false` runs on the cone model
+    /// alone (the barometer's samples are counted in the run's warnings).
+    pub use_barometer: bool,
 }
 
 impl Default for PipelineConfig {
@@ -84,7 +91,9 @@ impl Default for PipelineConfig {
             track_gate_deg: 10.0,
             max_off_track_in_row: 10,
             track_gain: 0.3,
+            track_rate_gain_hz: 0.5,
             assume_front_until_converged: true,
+            use_barometer: true,
         }
     }
 }
@@ -119,6 +128,13 @@ impl PipelineConfig {
             prefix,
             "track_gain",
             format!("{} is not in (0, 1]", self.track_gain),
+        );
+        p.in_range(
+            prefix,
+            "track_rate_gain_hz",
+            self.track_rate_gain_hz,
+            0.0,
+            20.0,
         );
         p
     }

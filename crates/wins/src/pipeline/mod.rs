@@ -4,11 +4,14 @@
 //!
 //! Per packet of AP `l` (`track`): the first angle from SpotFi over the AP's first
 //! [`PipelineConfig::init_packets`] packets; then PAoA around a prediction, the previous angle
-//! turned by the gyro (not the state's direction to the AP: a wrong state would steer the window
-//! off the AP for good). The side of the linear array (front/back mirror) is resolved from the state once
-//! the window has converged; before that it is assumed in front
-//! ([`PipelineConfig::assume_front_until_converged`], the paper's ±90° set-up) and the packet log
-//! says so. A packet whose window holds no credible peak, or (after convergence) whose angle is
+//! turned by the gyro plus the translation part: before convergence the track's own learnt rate
+//! (an alpha-beta track: no lag at a slow packet rate), after it the exact part of the state's
+//! velocity at the state's range. The window is not centred on the state's direction to the AP:
+//! a wrong state would steer it off the AP for good. The side of the linear array (front/back
+//! mirror) is told by the turns (the side whose prediction follows the angles wins) and, once
+//! converged, by the state near the array's axis; until the turns tell, a track is assumed in
+//! front ([`PipelineConfig::assume_front_until_converged`], the paper's ±90° set-up) and the packet
+//! log says so. A packet whose window holds no credible peak, or (after convergence) whose angle is
 //! further than [`PipelineConfig::gate_deg`] from the state's prediction, is dropped and counted.
 //! Accepted bearings join the frame at the next grid time (`slot`), moved to that instant by
 //! the gyro (and the velocity once known); the frame is solved by the estimator ([`Estimator`]) when the IMU stream
@@ -34,15 +37,17 @@ use serde::Serialize;
 pub use self::config::{Config, ConfigError, PipelineConfig};
 use self::slot::{FrameSlot, PendingBearing, grid_time, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
-use self::track::{ArrayPose, Track, TrackState};
+use self::track::{ArrayPose, Track, TrackGains, TrackState};
 use crate::aoa::{AoaError, AoaEstimator};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
-use crate::fusion::choice::Estimator;
+use crate::fusion::choice::{Estimator, EstimatorKind};
 use crate::fusion::estimator::{PoseEstimate, Step, WinsConfig, WinsError};
 use crate::imu::ImuSample;
 use crate::rig::{Rig, RigError};
+use crate::so3::exp;
 use crate::time::Timestamp;
+use nalgebra::UnitQuaternion;
 
 /// Why the pipeline cannot be built or an input was refused.
 #[derive(Debug, thiserror::Error)]
@@ -80,7 +85,14 @@ pub struct Pipeline {
     tracks: Vec<Track>,
     slot: FrameSlot,
     history: VecDeque<ImuSample>,
+    /// The body's attitude integrated from the gyro (bias-corrected with the estimator's
+    /// estimate) in a fixed frame of its own: the tracks' rotation, available from the first
+    /// sample and unchanged by the estimator's restarts.
+    gyro_from_body: UnitQuaternion<f64>,
     latest: Option<PoseEstimate>,
+    /// Whether the tracks learn their rate and side from the angles (not with the paper's
+    /// estimator: its model puts every AP in front, and it is run with the paper's Algorithm 1).
+    learn_from_turns: bool,
     /// The estimator's frame changes seen so far (a start or restart gives a new `b0`).
     restarts_seen: u64,
     stats: PipelineStats,
@@ -129,7 +141,9 @@ impl Pipeline {
             rig,
             slot: FrameSlot::default(),
             history: VecDeque::new(),
+            gyro_from_body: UnitQuaternion::identity(),
             latest: None,
+            learn_from_turns: config.estimator != EstimatorKind::Paper,
             restarts_seen: 0,
             timing: StageTiming::default(),
         })
@@ -172,16 +186,20 @@ impl Pipeline {
         let step = step?;
         let restarts = self.wins.epoch();
         if restarts != self.restarts_seen {
-            // The tracks' poses are in the lost window's `b0`: the next prediction of each
-            // track uses no rotation (at most one packet's turn, well inside the PAoA window).
+            // The latest pose is in the lost window's `b0`.
             self.restarts_seen = restarts;
             self.latest = None;
-            for track in &mut self.tracks {
-                track.forget_pose();
-            }
         }
         if let Some(p) = step.imu_pose {
             self.latest = Some(p);
+        }
+        if let Some(previous) = self.history.back() {
+            let dt_s = s.t.secs_since(previous.t);
+            if dt_s > 0.0 {
+                let bias = self.wins.gyro_bias_rad_s();
+                self.gyro_from_body *= exp(&((previous.gyro_rad_s - bias) * dt_s));
+                self.gyro_from_body.renormalize_fast();
+            }
         }
         self.history.push_back(*s);
         let keep_from = self.slot.bearings.first().map_or(s.t.0, |b| b.t.0) - HISTORY_MARGIN_NS;
@@ -214,11 +232,12 @@ impl Pipeline {
         let now = self
             .latest
             .map(|p| ArrayPose::of_body(&p.b0_from_body, &p.p_b_in_b0, &self.rig.body_from_array));
+        let attitude = self.gyro_from_body * self.rig.body_from_array.rotation;
         let started = Instant::now();
         if let TrackState::Acquiring { .. } = track.state {
-            self.acquire(ap, record, now.as_ref(), &mut row);
+            self.acquire(ap, t, attitude, record, &mut row);
         } else {
-            self.follow(ap, t, record, now.as_ref(), converged, &mut row);
+            self.follow(ap, t, attitude, record, now.as_ref(), converged, &mut row);
         }
         self.timing.aoa_s += started.elapsed().as_secs_f64();
         self.stats.count(&row);
@@ -229,8 +248,9 @@ impl Pipeline {
     fn acquire(
         &mut self,
         ap: usize,
+        t: Timestamp,
+        attitude: UnitQuaternion<f64>,
         record: &CsiRecord,
-        now: Option<&ArrayPose>,
         row: &mut PacketLog,
     ) {
         row.status = PacketStatus::Acquisition;
@@ -247,7 +267,7 @@ impl Pipeline {
             Ok(direct) => {
                 row.aoa_deg = Some(direct.aoa_rad.to_degrees());
                 row.tof_ns = Some(direct.tof_s * 1e9);
-                self.tracks[ap].accept(direct.aoa_rad, now.copied());
+                self.tracks[ap].accept(direct.aoa_rad, t, attitude);
                 self.stats.per_ap[ap].acquisitions += 1;
             }
             Err(e) => {
@@ -258,10 +278,12 @@ impl Pipeline {
     }
 
     /// PAoA around the prediction, then into the frame slot.
+    #[allow(clippy::too_many_arguments)]
     fn follow(
         &mut self,
         ap: usize,
         t: Timestamp,
+        attitude: UnitQuaternion<f64>,
         record: &CsiRecord,
         now: Option<&ArrayPose>,
         converged: bool,
@@ -275,9 +297,18 @@ impl Pipeline {
         } else {
             None
         };
-        // Algorithm 1: the previous angle turned by the gyro. Not the state's direction to the
-        // AP: a wrong state would then steer the window away from the AP for good.
-        let prediction = self.tracks[ap].predict_by_rotation(now);
+        // Algorithm 1: the previous angle turned by the gyro, plus the translation part: the
+        // state's (its velocity and range) once converged, else the track's learnt rate. Not
+        // the state's direction to the AP: a wrong state would then steer the window away from
+        // the AP for good (measured: it did, on a busy AP).
+        let translation = from_state.zip(self.latest).map(|((_, range_m), p)| {
+            let v_b_in_b = p.world_from_body.inverse() * p.v_b_in_w;
+            (
+                self.rig.body_from_array.rotation.inverse() * v_b_in_b,
+                range_m,
+            )
+        });
+        let prediction = self.tracks[ap].predict(t, &attitude, translation);
         let Some(prediction) = prediction else {
             return;
         };
@@ -303,6 +334,19 @@ impl Pipeline {
         row.tof_ns = Some(peak.tof_s * 1e9);
         row.residual = Some(peak.residual);
         row.candidates = Some(result.candidates);
+        // The turns tell the side (the prediction of the other side follows the angles better).
+        let sigma_rad = self.config.bearing_sigma_deg.to_radians();
+        let (prediction, predicted) = if self.learn_from_turns
+            && self.tracks[ap].weigh_side(peak.aoa_rad, t, &attitude, translation, sigma_rad)
+        {
+            self.stats.per_ap[ap].side_switches += 1;
+            match self.tracks[ap].predict(t, &attitude, translation) {
+                Some(p) => (p, p.predicted_aoa_rad()),
+                None => (prediction, predicted),
+            }
+        } else {
+            (prediction, predicted)
+        };
         if (peak.aoa_rad - predicted).abs() > self.config.track_gate_deg.to_radians() {
             row.status = PacketStatus::OffTrack;
             if self.tracks[ap].off_track(self.config.max_off_track_in_row) {
@@ -311,12 +355,16 @@ impl Pipeline {
             }
             return;
         }
-        self.tracks[ap].update(
-            peak.aoa_rad,
-            &prediction,
-            self.config.track_gain,
-            now.copied(),
-        );
+        // Once converged the state gives the translation part: the track learns no rate.
+        let gains = TrackGains {
+            angle: self.config.track_gain,
+            rate_hz: if converged || !self.learn_from_turns {
+                0.0
+            } else {
+                self.config.track_rate_gain_hz
+            },
+        };
+        self.tracks[ap].update(peak.aoa_rad, &prediction, gains, t, attitude);
         // The side: continuous along the track (the AP crosses from front to back only through
         // the array's axis, |θ| → 90°); the state may switch it only there.
         let track = &mut self.tracks[ap];

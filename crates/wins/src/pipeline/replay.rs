@@ -127,7 +127,15 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
     };
     let flight_s = last.t.secs_since(first.t);
     let started = Instant::now();
-    let baro = &dataset.baro;
+    let (baro, mut warnings) = if config.pipeline.use_barometer || dataset.baro.is_empty() {
+        (&dataset.baro[..], Vec::new())
+    } else {
+        let ignored = format!(
+            "the barometer's {} samples were not used (pipeline.use_barometer = false)",
+            dataset.baro.len()
+        );
+        (&[][..], vec![ignored])
+    };
     let mut pipeline = Pipeline::with_baro(config, rig, !baro.is_empty())?;
     // (time, 0 = packet / 1 = barometer / 2 = IMU, AP, index): packets and barometer samples
     // before IMU samples at the same time.
@@ -194,6 +202,6 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         imu_refused,
         metrics: None,
         figures: None,
-        warnings: Vec::new(),
+        warnings: std::mem::take(&mut warnings),
     })
 }

@@ -117,6 +117,8 @@ pub struct ApStats {
     pub acquisition_failures: u64,
     /// Tracks lost after too many packets without a peak or off the track.
     pub track_losses: u64,
+    /// Times the track changed side from how its angles followed the turns.
+    pub side_switches: u64,
     /// Stretches of the AP's log the reader skipped (corrupt or truncated bytes, non-CSI
     /// records), filled in by the replay; their packets never reach the pipeline.
     pub log_skips: u64,

@@ -18,6 +18,7 @@ mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
 mod observability;
+mod pipeline_flights;
 mod pipeline_run;
 mod sanitize;
 mod sim_dataset;

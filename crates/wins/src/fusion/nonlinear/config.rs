@@ -72,7 +72,7 @@ impl Default for NonlinearConfig {
             rest_min_s: 1.0,
             start_after_motion_s: 4.0,
             start_retry_s: 1.0,
-            inertial_start_max_s: 15.0,
+            inertial_start_max_s: 25.0,
             max_start_window_s: 30.0,
             loss_window_s: 2.0,
         }

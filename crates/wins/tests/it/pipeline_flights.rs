@@ -1,0 +1,51 @@
+//! The default estimator on flights beyond the paper's: a busy AP, and a run without the
+//! barometer.
+
+use wins::Config;
+use wins::sim::{Scenario, simulate, write_dataset};
+
+use crate::pipeline_run::{median, metrics_over_seeds, worst};
+
+/// One AP heard at 10 packets/s (it is busy with other clients), from the ground, 60 s, seeds
+/// 1–3. The tracks learn the translation part of the angle's change, so the PAoA window keeps on
+/// the AP between packets 0.1 s apart (without it a third of the packets fell outside the window
+/// and no seed converged). Today (docs/ESTIMATOR.md): every seed converges at 22.2–22.6 s,
+/// position mean 0.17–0.69 m (median 0.46). Bounds: every seed converges, the median +20 %, the
+/// worst run +50 %.
+#[test]
+fn nonlinear_busy_ap_converges_over_three_seeds() {
+    let runs = metrics_over_seeds("busy-ap", 60.0, &[1, 2, 3], false, &Config::default());
+    let position = median(&runs, |m| m.position_error_mean_m);
+    assert!(position <= 0.55, "median position {position} m");
+    let worst_position = worst(&runs, |m| m.position_error_mean_m);
+    assert!(worst_position <= 1.04, "worst position {worst_position} m");
+    let converged = worst(&runs, |m| m.convergence_time_s);
+    assert!(converged <= 27.0, "latest convergence {converged} s");
+}
+
+/// `use_barometer = false` runs on the cones and the IMU alone and says so in the warnings; the
+/// paper's flight still converges without it (today position mean 0.60 m on seed 1; bound +20 %).
+#[test]
+fn without_the_barometer_the_run_says_so_and_converges() {
+    let dir = std::env::temp_dir().join(format!("wins-it-no-baro-{}", std::process::id()));
+    let mut s = Scenario::built_in("paper-circle").unwrap();
+    s.duration_s = 40.0;
+    let out = simulate(&s, &mut |_| {}).unwrap();
+    write_dataset(&dir, &s, &out).unwrap();
+    let mut config = Config::default();
+    config.pipeline.use_barometer = false;
+    let without = wins::run_dataset(&dir, &config).unwrap();
+    let with = wins::run_dataset(&dir, &Config::default()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        without
+            .warnings
+            .iter()
+            .any(|w| w.contains("barometer") && w.contains("not used")),
+        "{:?}",
+        without.warnings
+    );
+    assert!(!with.warnings.iter().any(|w| w.contains("barometer")));
+    let error = without.metrics.as_ref().map(|m| m.position_error_mean_m);
+    assert!(error.is_some_and(|e| e < 0.72), "{error:?}");
+}
