@@ -32,6 +32,7 @@ pub(crate) mod track;
 use std::collections::VecDeque;
 use std::time::Instant;
 
+use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
 pub use self::config::{Config, ConfigError, PipelineConfig};
@@ -47,7 +48,6 @@ use crate::imu::ImuSample;
 use crate::rig::{Rig, RigError};
 use crate::so3::exp;
 use crate::time::Timestamp;
-use nalgebra::UnitQuaternion;
 
 /// Why the pipeline cannot be built or an input was refused.
 #[derive(Debug, thiserror::Error)]
@@ -336,17 +336,17 @@ impl Pipeline {
         row.candidates = Some(result.candidates);
         // The turns tell the side (the prediction of the other side follows the angles better).
         let sigma_rad = self.config.bearing_sigma_deg.to_radians();
-        let (prediction, predicted) = if self.learn_from_turns
+        let prediction = if self.learn_from_turns
             && self.tracks[ap].weigh_side(peak.aoa_rad, t, &attitude, translation, sigma_rad)
         {
             self.stats.per_ap[ap].side_switches += 1;
-            match self.tracks[ap].predict(t, &attitude, translation) {
-                Some(p) => (p, p.predicted_aoa_rad()),
-                None => (prediction, predicted),
-            }
+            self.tracks[ap]
+                .predict(t, &attitude, translation)
+                .unwrap_or(prediction)
         } else {
-            (prediction, predicted)
+            prediction
         };
+        let predicted = prediction.predicted_aoa_rad();
         if (peak.aoa_rad - predicted).abs() > self.config.track_gate_deg.to_radians() {
             row.status = PacketStatus::OffTrack;
             if self.tracks[ap].off_track(self.config.max_off_track_in_row) {

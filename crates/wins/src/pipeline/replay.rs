@@ -127,7 +127,7 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
     };
     let flight_s = last.t.secs_since(first.t);
     let started = Instant::now();
-    let (baro, mut warnings) = if config.pipeline.use_barometer || dataset.baro.is_empty() {
+    let (baro, warnings) = if config.pipeline.use_barometer || dataset.baro.is_empty() {
         (&dataset.baro[..], Vec::new())
     } else {
         let ignored = format!(
@@ -202,6 +202,6 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         imu_refused,
         metrics: None,
         figures: None,
-        warnings: std::mem::take(&mut warnings),
+        warnings,
     })
 }

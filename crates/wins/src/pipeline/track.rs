@@ -1,10 +1,10 @@
 //! One AP's AoA track (paper Algorithm 1): the first angle from SpotFi over the AP's first
 //! packets, then PAoA per packet around a prediction: the previous angle turned by the gyro's
-//! rotation since, plus the track's own rate of change times the time since (an alpha-beta
-//! tracker: the translation part of the change, which needs the range the state does not have
-//! before convergence, is learnt from the angles themselves, so a slow packet rate leaves no lag).
-//! The estimated pose and AP give the side (front/back) and a gate once converged. A track that
-//! finds no credible peak for too long starts over from SpotFi.
+//! rotation since, plus the translation part. Once converged that part is the state's (its
+//! velocity at its range, paper `eqn:translation`); before, the range is not known and the track
+//! learns the part as a rate from the angles themselves (an alpha-beta tracker, so a slow packet
+//! rate leaves no lag). The estimated pose and AP give a gate once converged. A track that finds
+//! no credible peak for too long starts over from SpotFi.
 //!
 //! The rotation comes from the pipeline's own gyro attitude (integrated at every IMU sample, with
 //! the estimator's gyro bias once known), so the prediction turns with the array before the
@@ -13,7 +13,7 @@
 //! A turn moves the cone angle of an AP in front one way and of an AP behind the other way, so the
 //! prediction uses the track's side, and a turn through the array's axis carries the track to the
 //! other side. SpotFi's first angle cannot tell the side: a track starts in front (the paper's
-//! set-up) until the state says otherwise.
+//! set-up) until the turns ([`Track::weigh_side`]) or the state say otherwise.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
