@@ -9,10 +9,10 @@
 //!                                       ▲ predicted AoA ± 20° (previous angle turned by gyro) │
 //!  IMU 200 Hz ─► preintegration ────────┴─────────────────────────────────────────────────────┤
 //!                                                                                             ▼
-//!                    sliding-window estimator: p, v, g per frame, IMU biases, AP positions
-//!                    (initialization-free startup, then 30 frames with marginalization)
+//!        nonlinear sliding window: attitude, p, v, IMU biases per keyframe, APs in 3-D, baro
+//!        offset (started at rest and by the paper's linear window; marginalized with FEJ)
 //!                                                                                             │
-//!                                pose per frame, propagated at IMU rate ◄─────────────────────┘
+//!                  pose + covariance per frame, propagated at IMU rate ◄──────────────────────┘
 //! ```
 //!
 //! ## Using it
@@ -47,7 +47,7 @@
 //! # }
 //! ```
 //!
-//! The stages, bottom up: [`time`], [`so3`], [`check`] (settings' problems); [`rig`] (what
+//! The stages, bottom up: [`time`], [`so3`], [`check`] (settings' problems), [`chi2`] (quantiles); [`rig`] (what
 //! describes the hardware), [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and
 //! writer), [`imu`] (preintegration); [`dataset`] (the on-disk layout); [`aoa`] (sanitization,
 //! MUSIC over AoA and ToF, SpotFi, the IMU-guided PAoA; [`aoa::steering`] is the one steering
@@ -83,6 +83,7 @@
 
 pub mod aoa;
 pub mod check;
+pub mod chi2;
 pub mod csi;
 pub mod dataset;
 pub mod eval;

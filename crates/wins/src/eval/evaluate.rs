@@ -66,6 +66,8 @@ pub fn evaluate(
         max_time_diff_s: options.max_time_diff_s,
         ap_position_error_m: aps::ap_errors(aps, truth_aps, &alignment)?,
         aoa_error_median_deg: None,
+        position_nees_mean: None,
+        position_nees_within_95: None,
         packets_used: None,
         packets_dropped: None,
         realtime_factor: None,
@@ -105,7 +107,7 @@ fn aligned_errors(
         .collect()
 }
 
-fn associate_and_align(
+pub(super) fn associate_and_align(
     est: &[Pose],
     truth: &[Pose],
     options: &EvalOptions,

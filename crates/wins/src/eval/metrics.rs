@@ -103,6 +103,14 @@ pub struct Metrics {
     /// Run only (null from `wins eval`): median `|AoA − true direct-path AoA|` over the packets
     /// the estimator used, deg.
     pub aoa_error_median_deg: Option<f64>,
+    /// Run only: mean position NEES `eᵀ(RΣRᵀ)⁻¹e` over the associated poses, `Σ` the position
+    /// covariance the estimator reported with the pose ([`super::nees`]); 3 when the covariance
+    /// is honest, more when it is overconfident. Null when no pose carries a covariance.
+    #[serde(default)]
+    pub position_nees_mean: Option<f64>,
+    /// Run only: share of those poses whose NEES is within χ²(3)'s 95 % point (0.95 when honest).
+    #[serde(default)]
+    pub position_nees_within_95: Option<f64>,
     /// Run only: received CSI packets whose AoA entered the estimator.
     pub packets_used: Option<u64>,
     /// Run only: received CSI packets not used (no AoA found, outside the predicted window,
@@ -177,6 +185,14 @@ impl Metrics {
                 .map(|(name, e)| format!("{name} {e:.3} m"))
                 .collect();
             let _ = writeln!(s, "APs        {}", aps.join(", "));
+        }
+        if let (Some(mean), Some(within)) = (self.position_nees_mean, self.position_nees_within_95)
+        {
+            let _ = writeln!(
+                s,
+                "NEES       position: mean {mean:.2} (honest: 3), {:.0} % within χ²(3) 95 % (honest: 95 %)",
+                100.0 * within
+            );
         }
         let mut run = Vec::new();
         if let Some(a) = self.aoa_error_median_deg {

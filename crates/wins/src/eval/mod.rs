@@ -10,7 +10,8 @@
 //! `evo_ape tum TRUTH EST -a` and `rpe_*` equal `evo_rpe tum TRUTH EST --delta Δ --delta_unit f`
 //! (`scripts/evo_check.sh` checks both). Beside them, what a flight controller's user watches on a
 //! long flight (`drift`): the error in the last minute, the drift from an alignment fixed on the
-//! first minute, the heading drift rate and the position jumps. The definitions are on the fields
+//! first minute, the heading drift rate and the position jumps; and whether the covariance
+//! reported with the poses is honest (`nees`). The definitions are on the fields
 //! of [`Metrics`].
 
 pub(crate) mod align;
@@ -19,6 +20,7 @@ pub(crate) mod associate;
 pub(crate) mod drift;
 mod evaluate;
 pub(crate) mod metrics;
+pub mod nees;
 pub(crate) mod rpe;
 
 use serde::{Deserialize, Serialize};
@@ -29,6 +31,7 @@ pub use associate::{Association, associate};
 pub use drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
 pub use evaluate::{evaluate, position_error_series};
 pub use metrics::Metrics;
+pub use nees::{NEES_95_3DOF, NeesSummary, mean_nees_band, position_nees};
 pub use rpe::{RelativePoseError, relative_pose_errors};
 
 use crate::check::Problems;

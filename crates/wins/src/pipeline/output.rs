@@ -4,6 +4,7 @@
 //! |---|---|
 //! | `trajectory.tum` | body poses in `w` at every frame after convergence (TUM: `t x y z qx qy qz qw`) |
 //! | `trajectory_all.tum` | the same from the first frame (before convergence `w` is not yet fixed) |
+//! | `covariance.csv` | the covariance reported with each pose of `trajectory.tum` ([`write_covariance`]) |
 //! | `aps.csv` | estimated AP positions in `w` (`crate::eval::aps` format) |
 //! | `aoa.csv` | one row per packet ([`super::PacketLog`]) |
 //! | `stats.json` | packets used/dropped per AP and why, estimator counters, per-stage wall time |
@@ -18,13 +19,18 @@ use serde::Serialize;
 use super::replay::RunOutput;
 use super::{PacketStatus, PipelineStats, StageTiming};
 use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
-use crate::eval::{EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, write_estimated_aps};
+use crate::eval::{
+    EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
+};
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::time::NANOS_PER_SEC;
 
 /// Converged trajectory file.
 pub const TRAJECTORY_FILE: &str = "trajectory.tum";
 /// Whole trajectory file.
 pub const TRAJECTORY_ALL_FILE: &str = "trajectory_all.tum";
+/// Covariance of the converged poses.
+pub const COVARIANCE_FILE: &str = "covariance.csv";
 /// Estimated APs.
 pub const APS_FILE: &str = "aps.csv";
 /// Per-packet AoA log.
@@ -145,6 +151,17 @@ impl RunOutput {
             .collect();
         errors.sort_by(f64::total_cmp);
         m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
+        let cov: Vec<_> = self
+            .converged_frames()
+            .map(|p| {
+                p.covariance
+                    .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned())
+            })
+            .collect();
+        if let Some(n) = position_nees(&poses, &cov, &truth.poses, options)? {
+            m.position_nees_mean = Some(n.mean);
+            m.position_nees_within_95 = Some(n.within_95);
+        }
         m.packets_used = Some(self.stats.fed());
         m.packets_dropped = Some(self.stats.dropped());
         m.realtime_factor = Some(self.realtime_factor());
@@ -174,6 +191,9 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
     put(TRAJECTORY_FILE, &mut |w| {
         write_tum(w, &run.converged_poses())
     })?;
+    put(COVARIANCE_FILE, &mut |w| {
+        write_covariance(w, run.converged_frames())
+    })?;
     let all: Vec<Pose> = run.frames.iter().map(pose_of).collect();
     put(TRAJECTORY_ALL_FILE, &mut |w| write_tum(w, &all))?;
     put(APS_FILE, &mut |w| {
@@ -188,4 +208,42 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
         put(REPORT_FILE, &mut |w| w.write_all(m.report().as_bytes()))?;
     }
     Ok(written)
+}
+
+/// The names of the six error-state components of [`write_covariance`]'s columns.
+const COVARIANCE_AXES: [&str; 6] = ["x", "y", "z", "rx", "ry", "rz"];
+
+/// One row per pose: `t_s` (as in the TUM file), then the upper triangle, row by row, of the
+/// 6 × 6 covariance of `[δp, δθ]` (21 columns `c_x_x, c_x_y, …, c_rz_rz`: the order of
+/// MAVLink `ODOMETRY.pose_covariance`): position in `w`, m², and the attitude error on the
+/// body side (`R = R̂·Exp(δθ)`), rad². A pose without a covariance has empty cells.
+pub fn write_covariance<'a>(
+    out: &mut impl Write,
+    poses: impl Iterator<Item = &'a PoseEstimate>,
+) -> io::Result<()> {
+    // The upper triangle, row by row: (i, j) for i ≤ j.
+    let upper: Vec<(usize, usize)> = (0..6).flat_map(|i| (i..6).map(move |j| (i, j))).collect();
+    let mut header = vec!["t_s".to_string()];
+    header.extend(
+        upper
+            .iter()
+            .map(|&(i, j)| format!("c_{}_{}", COVARIANCE_AXES[i], COVARIANCE_AXES[j])),
+    );
+    writeln!(out, "{}", header.join(","))?;
+    // The estimate's order is [δθ, δp]: the position block first here.
+    let order = [3, 4, 5, 0, 1, 2];
+    for p in poses {
+        let t = p.t.as_nanos();
+        let mut row = vec![format!(
+            "{}.{:09}",
+            t.div_euclid(NANOS_PER_SEC),
+            t.rem_euclid(NANOS_PER_SEC)
+        )];
+        row.extend(upper.iter().map(|&(i, j)| {
+            p.covariance
+                .map_or(String::new(), |c| format!("{:e}", c[(order[i], order[j])]))
+        }));
+        writeln!(out, "{}", row.join(","))?;
+    }
+    Ok(())
 }

@@ -7,6 +7,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::RunRow;
+use crate::eval::mean_nees_band;
 
 /// `format` of `summary.json`.
 pub const SUMMARY_FORMAT: &str = "wins-sweep-summary";
@@ -98,6 +99,13 @@ pub struct ScenarioSummary {
     /// Time from the start of the flight to the first converged pose, s
     /// (`convergence_time_s`).
     pub convergence_time_s: Spread,
+    /// Each run's mean position NEES (`position_nees_mean`; 3 when its covariance is honest).
+    pub position_nees_mean: Spread,
+    /// The mean over the converged runs of their mean position NEES (null: none has one).
+    pub position_nees_mean_over_runs: Option<f64>,
+    /// The 95 % band that mean lies in when the covariances are honest
+    /// ([`crate::eval::mean_nees_band`] of the runs that have one; null: none has one).
+    pub position_nees_band: Option<[f64; 2]>,
 }
 
 /// `summary.json`.
@@ -159,6 +167,11 @@ pub fn summarize(
                 .copied()
                 .filter(|r| Outcome::of(r) == Outcome::Converged)
                 .collect();
+            let nees: Vec<f64> = converged
+                .iter()
+                .filter_map(|r| r.metric("position_nees_mean"))
+                .filter(|x| x.is_finite())
+                .collect();
             let spread = |f: &dyn Fn(&RunRow) -> Option<f64>| {
                 Spread::of(converged.iter().filter_map(|r| f(r)))
             };
@@ -179,6 +192,12 @@ pub fn summarize(
                 attitude_error_rmse_deg: spread(&|r| r.metric("attitude_error_rmse_deg")),
                 ap_position_error_max_m: spread(&|r| r.ap_position_error_max_m),
                 convergence_time_s: spread(&|r| r.metric("convergence_time_s")),
+                position_nees_mean: spread(&|r| r.metric("position_nees_mean")),
+                position_nees_mean_over_runs: mean_over(&nees),
+                position_nees_band: (!nees.is_empty()).then(|| {
+                    let (lo, hi) = mean_nees_band(nees.len());
+                    [lo, hi]
+                }),
             }
         })
         .collect();
@@ -202,6 +221,18 @@ impl SweepSummary {
     }
 }
 
+fn mean_over(values: &[f64]) -> Option<f64> {
+    (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+}
+
+/// `mean [low, high]`: the mean NEES over the runs and its band, `–` for none.
+fn nees_cell(s: &ScenarioSummary) -> String {
+    match (s.position_nees_mean_over_runs, s.position_nees_band) {
+        (Some(m), Some([lo, hi])) => format!("{m:.2} [{lo:.2}, {hi:.2}]"),
+        _ => "–".to_string(),
+    }
+}
+
 /// `median / p90 / worst` with `digits` decimals, `–` for none.
 fn spread_cell(s: &Spread, digits: usize) -> String {
     let f = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.digits$}"));
@@ -215,7 +246,9 @@ impl fmt::Display for SweepSummary {
             f,
             "median / p90 / worst over the converged runs (never-converged and failed runs are \
              counted, not in the statistics); >{ERROR_THRESHOLD_M} m: converged runs whose error \
-             exceeds {ERROR_THRESHOLD_M} m after convergence"
+             exceeds {ERROR_THRESHOLD_M} m after convergence; NEES: the mean over the converged \
+             runs of their mean position NEES, 3 when the reported covariance is honest, and the \
+             band that mean lies in then"
         )?;
         let header = [
             "scenario",
@@ -228,8 +261,9 @@ impl fmt::Display for SweepSummary {
             "attitude RMSE (deg)",
             "AP error max (m)",
             "convergence (s)",
+            "NEES [95 % band]",
         ];
-        let rows: Vec<[String; 10]> = self
+        let rows: Vec<[String; 11]> = self
             .scenarios
             .iter()
             .map(|s| {
@@ -244,6 +278,7 @@ impl fmt::Display for SweepSummary {
                     spread_cell(&s.attitude_error_rmse_deg, 2),
                     spread_cell(&s.ap_position_error_max_m, 3),
                     spread_cell(&s.convergence_time_s, 1),
+                    nees_cell(s),
                 ]
             })
             .collect();

@@ -13,7 +13,7 @@ use wins::eval::{EvalOptions, Metrics};
 use wins::fusion::choice::EstimatorKind;
 use wins::imu::ImuSample;
 use wins::pipeline::PacketStatus;
-use wins::pipeline::output::{METRICS_FILE, TRAJECTORY_FILE};
+use wins::pipeline::output::{COVARIANCE_FILE, METRICS_FILE, TRAJECTORY_FILE};
 use wins::pipeline::replay::{RunOutput, replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
@@ -127,6 +127,25 @@ fn paper_circle_from_disk_end_to_end() {
         tum.lines().filter(|l| !l.starts_with('#')).count(),
         run.converged_frames().count()
     );
+    // The covariance beside each pose: same times, 21 finite cells, positive position variances.
+    let cov = std::fs::read_to_string(out.join(COVARIANCE_FILE)).unwrap();
+    let mut rows = cov.lines();
+    assert!(
+        rows.next()
+            .unwrap()
+            .starts_with("t_s,c_x_x,c_x_y,c_x_z,c_x_rx,")
+    );
+    let times: Vec<&str> = tum.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(rows.clone().count(), times.len());
+    for (row, pose) in rows.zip(&times) {
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells.len(), 22, "{row}");
+        assert_eq!(cells[0], pose.split(' ').next().unwrap());
+        let v: Vec<f64> = cells[1..].iter().map(|c| c.parse().unwrap()).collect();
+        assert!(v.iter().all(|x| x.is_finite()), "{row}");
+        // c_x_x, c_y_y, c_z_z in the upper triangle's row-major order.
+        assert!(v[0] > 0.0 && v[6] > 0.0 && v[11] > 0.0, "{row}");
+    }
 
     // The figures' data: every converged pose, the AP, every fed packet paired with the truth.
     let fig = run.figures.as_ref().expect("figures with the metrics");
@@ -321,8 +340,9 @@ fn bad_input_is_counted() {
 /// The default (nonlinear) estimator on the paper's flight as flown, from the ground (3 s at rest,
 /// a take-off, the circle, a landing), 60 s, seeds 1–5. Today (docs/ESTIMATOR.md): every seed
 /// converges (median 11.6 s; the take-off starts at 3 s), with no jump; position mean
-/// 0.16–0.26 m (median 0.22), attitude median 1.7°, AP median 0.36 m. Bounds: medians +20 %,
-/// the worst run +50 %, no jump.
+/// 0.16–0.26 m (median 0.22), attitude median 1.7°, AP median 0.36 m; the mean position NEES
+/// over the seeds 2.2. Bounds: medians +20 %, the worst run +50 %, no jump, the NEES in the
+/// 95 % band of five runs' mean (an honest covariance).
 #[test]
 fn nonlinear_paper_circle_from_the_ground_over_five_seeds() {
     let runs = metrics_over_seeds(
@@ -345,6 +365,14 @@ fn nonlinear_paper_circle_from_the_ground_over_five_seeds() {
     assert!(
         runs.iter().all(|m| m.jumps == 0),
         "a jump after convergence"
+    );
+    let nees: Vec<f64> = runs.iter().filter_map(|m| m.position_nees_mean).collect();
+    assert_eq!(nees.len(), runs.len(), "every run reports a covariance");
+    let mean_nees = nees.iter().sum::<f64>() / nees.len() as f64;
+    let (lo, hi) = wins::eval::mean_nees_band(nees.len());
+    assert!(
+        (lo..=hi).contains(&mean_nees),
+        "mean NEES {mean_nees} outside [{lo}, {hi}]: {nees:?}"
     );
 }
 

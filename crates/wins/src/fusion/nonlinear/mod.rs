@@ -20,7 +20,6 @@
 
 mod aps;
 pub mod baro_factor;
-pub mod chi2;
 pub mod cone_factor;
 pub mod config;
 pub mod estimator;

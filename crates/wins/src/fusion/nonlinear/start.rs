@@ -6,11 +6,11 @@ use std::collections::HashMap;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use super::aps::triangulate_within_bounds;
-use super::chi2::chi2_upper;
 use super::estimator::NonlinearEstimator;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use super::triangulate::Sight;
 use super::window::{FitStats, NonlinearWindow};
+use crate::chi2::chi2_upper;
 use crate::fusion::window::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 use crate::time::Timestamp;

@@ -72,6 +72,7 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
     let m = sample_metrics();
     let mut far = m.clone();
     far.ate_rmse_m = 3.0;
+    far.position_nees_mean = Some(5.0);
     far.position_error_max_m = 5.0;
     let mut never = RunRow::failed("a", 3, String::new());
     never.restarts = Some(0);
@@ -96,9 +97,18 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
     assert!((a.ate_rmse_m.median.unwrap() - mean).abs() < 1e-12);
     assert_eq!(a.ate_rmse_m.worst, Some(3.0));
     assert_eq!(a.convergence_time_s.count, 2);
+    // Only the run that reported a covariance has a NEES: one run's band is χ²(3)'s.
+    assert_eq!(a.position_nees_mean.count, 1);
+    assert_eq!(a.position_nees_mean_over_runs, Some(5.0));
+    let [lo, hi] = a.position_nees_band.unwrap();
+    assert!(lo < 0.3 && (9.0..10.0).contains(&hi), "{lo} {hi}");
     let b = &s.scenarios[1];
     assert_eq!((b.runs, b.never_converged, b.converged), (1, 1, 0));
     assert_eq!(b.ate_rmse_m.median, None);
+    assert_eq!(
+        (b.position_nees_mean_over_runs, b.position_nees_band),
+        (None, None)
+    );
     let c = &s.scenarios[2];
     assert_eq!(c.runs, 0);
     // The JSON reads back, and the table names every scenario with its counts.
@@ -106,6 +116,7 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
     assert_eq!(back.scenarios.len(), 3);
     let table = s.to_string();
     assert!(table.contains("over the converged runs"), "{table}");
+    assert!(table.contains("5.00 [0."), "{table}");
     let line_a = table.lines().find(|l| l.starts_with("a ")).unwrap();
     let cells: Vec<&str> = line_a.split_whitespace().collect();
     assert_eq!(&cells[..6], ["a", "4", "2", "1", "1", "1"], "{line_a}");
