@@ -12,6 +12,7 @@ use wins::dataset::Dataset;
 use wins::dataset::truth::Truth;
 use wins::pipeline::aoa_log::{AoaMode, estimate_log, truth_pairs};
 use wins::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
+use wins::rig::channel::wifi_channel_hz;
 use wins::rig::{ArrayGeometry, ChainCalibration};
 use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
 
@@ -29,8 +30,11 @@ pub struct InputArgs {
     #[arg(long)]
     ap: Option<String>,
     /// Channel centre frequency of a `.dat` log, Hz [default: 5.32e9, channel 64].
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", conflicts_with = "channel")]
     center_freq_hz: Option<f64>,
+    /// Wi-Fi channel of a `.dat` log instead of --center-freq-hz: 1–14 (2.4 GHz) or 32–177 (5 GHz).
+    #[arg(long, value_name = "N")]
+    channel: Option<u32>,
     /// Antenna spacing of a `.dat` log's 3-antenna array, m [default: half a wavelength].
     #[arg(long, value_name = "M")]
     spacing_m: Option<f64>,
@@ -80,6 +84,10 @@ pub struct CalibrateArgs {
     /// Calibration file to write (TOML).
     #[arg(long, short)]
     out: PathBuf,
+    /// Refuse the calibration (write nothing) when a chain's per-packet offsets spread more than
+    /// this, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 30.0)]
+    max_spread_deg: f64,
 }
 
 #[derive(Copy, Clone, ValueEnum)]
@@ -130,14 +138,33 @@ impl Input {
                     args.file.display()
                 );
             }
-            let log = read_log(&args.file)?;
-            let center_freq_hz = args.center_freq_hz.unwrap_or(CHANNEL_64_HZ);
+            let center_freq_hz = match (args.channel, args.center_freq_hz) {
+                (Some(n), _) => wifi_channel_hz(n).with_context(|| {
+                    format!(
+                        "--channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)"
+                    )
+                })?,
+                (None, f) => f.unwrap_or(CHANNEL_64_HZ),
+            };
             let geometry = ArrayGeometry {
                 spacing_m: args
                     .spacing_m
                     .unwrap_or_else(|| half_wavelength_m(center_freq_hz)),
                 ..ArrayGeometry::default()
             };
+            geometry
+                .validate(center_freq_hz)
+                .context("the array (--spacing-m) cannot be used on this carrier")?;
+            let log = read_log(&args.file)?;
+            if log.records.is_empty() {
+                bail!(
+                    "{}: no CSI records ({} bytes; {} stretches skipped): not an Intel 5300 CSI Tool \
+                     log, or one with no packets",
+                    args.file.display(),
+                    log.bytes,
+                    log.skips.len()
+                );
+            }
             let source = Source::Log(log);
             return Ok(Self {
                 source,
@@ -146,8 +173,10 @@ impl Input {
                 config,
             });
         }
-        if args.center_freq_hz.is_some() || args.spacing_m.is_some() {
-            bail!("--center-freq-hz and --spacing-m come from the dataset's dataset.toml");
+        if args.center_freq_hz.is_some() || args.channel.is_some() || args.spacing_m.is_some() {
+            bail!(
+                "--channel, --center-freq-hz and --spacing-m come from the dataset's dataset.toml"
+            );
         }
         let dataset = Dataset::load(&args.file)?;
         let names: Vec<&str> = dataset.aps.iter().map(|a| a.name.as_str()).collect();
@@ -375,6 +404,14 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         ),
     };
     calibration.source = source;
+    calibration
+        .check_spread(args.max_spread_deg.to_radians())
+        .with_context(|| {
+            format!(
+                "{} not written (--max-spread-deg raises the bound)",
+                args.out.display()
+            )
+        })?;
     calibration.save(&args.out)?;
 
     input.report_log_skips(file);

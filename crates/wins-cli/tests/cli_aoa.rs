@@ -37,6 +37,17 @@ fn flight(name: &str) -> PathBuf {
     dir
 }
 
+/// `wins ARGS` fails, without a panic, and says every one of `expect`.
+fn failure(args: &[&str], expect: &[&str]) {
+    let out = wins(args);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert!(!err.contains("panicked"), "{err}");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: {err}");
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -170,15 +181,6 @@ fn bad_input_fails_with_a_message_and_no_panic() {
     let ds = dir.join("ds");
     let log = ds.join("ap0.dat");
     let calib = dir.join("calib.toml");
-    let failure = |args: &[&str], expect: &[&str]| {
-        let out = wins(args);
-        let err = stderr(&out);
-        assert!(!out.status.success(), "{args:?} succeeded");
-        assert!(!err.contains("panicked"), "{err}");
-        for e in expect {
-            assert!(err.contains(e), "{args:?}: {err}");
-        }
-    };
     failure(
         &["aoa", "no/such/file.dat"],
         &["cannot read no/such/file.dat"],
@@ -219,11 +221,111 @@ fn bad_input_fails_with_a_message_and_no_panic() {
         &["unknown field"],
     );
 
-    // A static capture at a known angle is accepted (the flight is not static, so only the
-    // plumbing is checked here).
-    let out = wins(&["calibrate", s(&log), "--aoa-deg", "-20", "--out", s(&calib)]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The guards a user needs: a calibration that cannot be right is not written; one made on
+/// another set-up is refused; a carrier in the wrong unit, an unknown channel, an array wider than
+/// λ/2 and a file with no CSI are errors that say so.
+#[test]
+fn guards_refuse_what_would_give_wrong_angles() {
+    let dir = flight("guards");
+    let log = dir.join("ds").join("ap0.dat");
+    let calib = dir.join("calib.toml");
+    // The flight moves: one angle for all its packets spreads each chain's offsets widely, and
+    // nothing is written.
+    failure(
+        &["calibrate", s(&log), "--aoa-deg", "-20", "--out", s(&calib)],
+        &[
+            "offsets spread",
+            "not static",
+            "--max-spread-deg",
+            "not written",
+        ],
+    );
+    assert!(!calib.exists());
+    // Let through on request, the file says what it was made for.
+    let out = wins(&[
+        "calibrate",
+        s(&log),
+        "--aoa-deg",
+        "-20",
+        "--max-spread-deg",
+        "180",
+        "--out",
+        s(&calib),
+    ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let cal = ChainCalibration::load(&calib).expect("calibration file");
     assert!(cal.source.contains("at -20°"), "{}", cal.source);
+    let made_for = cal.made_for.expect("the set-up recorded");
+    assert_eq!(made_for.center_freq_hz, 5.32e9);
+    assert!((made_for.spacing_m - 0.028_176).abs() < 1e-5);
+    assert_eq!(made_for.bandwidths, vec![wins::csi::Bandwidth::Ht20]);
+    // Applied on channel 165, or to a wider array: refused.
+    failure(
+        &[
+            "aoa",
+            s(&log),
+            "--calibration",
+            s(&calib),
+            "--channel",
+            "165",
+        ],
+        &["made for 5.320 GHz", "5.825 GHz"],
+    );
+    failure(
+        &[
+            "aoa",
+            s(&log),
+            "--calibration",
+            s(&calib),
+            "--spacing-m",
+            "0.025",
+        ],
+        &["made for 5.320 GHz with 28.18 mm", "25.00 mm"],
+    );
+    // On its own set-up it is applied.
+    let out = wins(&[
+        "aoa",
+        s(&log),
+        "--calibration",
+        s(&calib),
+        "--channel",
+        "64",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // Carriers and channels.
+    failure(
+        &["aoa", s(&log), "--center-freq-hz", "5.32"],
+        &["5.32 Hz", "given in Hz"],
+    );
+    failure(
+        &["aoa", s(&log), "--channel", "200"],
+        &["--channel 200 is not a Wi-Fi channel"],
+    );
+    failure(
+        &[
+            "aoa",
+            s(&log),
+            "--channel",
+            "64",
+            "--center-freq-hz",
+            "5.32e9",
+        ],
+        &["cannot be used with"],
+    );
+    failure(
+        &["aoa", s(&log), "--spacing-m", "0.1"],
+        &["wider than half a wavelength"],
+    );
+    // A file with no CSI records.
+    let empty = dir.join("empty.dat");
+    std::fs::write(&empty, b"").expect("write");
+    failure(&["aoa", s(&empty)], &["no CSI records"]);
+    failure(
+        &["calibrate", s(&empty), "--aoa-deg", "0", "--out", s(&calib)],
+        &["no CSI records"],
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

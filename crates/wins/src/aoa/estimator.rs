@@ -124,6 +124,7 @@ impl AoaEstimator {
             }
             .into());
         }
+        calibration.check_setup(center_freq_hz, geometry.spacing_m)?;
         config
             .problems("aoa")
             .into_result()
@@ -168,6 +169,8 @@ impl AoaEstimator {
     /// (antenna `m`'s subcarrier `k` at `m·30 + k`).
     pub fn prepare(&self, record: &CsiRecord) -> Result<Vec<Complex64>, AoaError> {
         let mut csi = raw_csi(record, self.config.tx, self.geometry.num_antennas)?;
+        self.calibration
+            .check_bandwidth(record.header.rate.bandwidth())?;
         self.calibration
             .apply(&mut csi, self.geometry.num_antennas)?;
         sanitize(

@@ -21,7 +21,7 @@ use super::music::{Music, MusicConfig};
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::sanitize;
 use crate::rig::ArrayGeometry;
-use crate::rig::ChainCalibration;
+use crate::rig::{CalibrationSetup, ChainCalibration};
 
 /// What went into a calibration.
 #[derive(Debug, Default)]
@@ -30,6 +30,8 @@ pub struct CalibrateReport {
     pub used: usize,
     /// Packets skipped: their index in the input and why.
     pub skipped: Vec<(usize, String)>,
+    /// Bandwidths of the packets used, sorted.
+    pub bandwidths: Vec<crate::csi::Bandwidth>,
 }
 
 /// Why no calibration came out.
@@ -119,6 +121,10 @@ pub fn calibrate_with<'a>(
                     }
                 }
                 report.used += 1;
+                if !report.bandwidths.contains(&bw) {
+                    report.bandwidths.push(bw);
+                    report.bandwidths.sort();
+                }
             }
             Err(reason) => report.skipped.push((i, reason)),
         }
@@ -142,6 +148,11 @@ pub fn calibrate_with<'a>(
             .map(|s| (-2.0 * (s.norm() / n).clamp(1e-12, 1.0).ln()).sqrt())
             .collect(),
         packets: report.used,
+        made_for: Some(CalibrationSetup {
+            center_freq_hz,
+            spacing_m: geometry.spacing_m,
+            bandwidths: report.bandwidths.clone(),
+        }),
     };
     Ok((calibration, report))
 }

@@ -4,12 +4,13 @@
 
 pub mod array;
 pub(crate) mod chain_calibration;
+pub mod channel;
 pub(crate) mod imu_noise;
 
 use nalgebra::Isometry3;
 
 pub use array::{ArrayGeometry, GeometryError};
-pub use chain_calibration::{CalibrationError, ChainCalibration};
+pub use chain_calibration::{CalibrationError, CalibrationSetup, ChainCalibration};
 pub use imu_noise::ImuNoise;
 
 /// The rig: what the pipeline needs to know about the hardware.
