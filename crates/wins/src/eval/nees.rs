@@ -18,7 +18,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{Alignment, EvalError, EvalOptions, evaluate::associate_and_align};
+use super::{EvalError, EvalOptions, evaluate::associate_and_align};
 use crate::chi2::chi2_upper;
 use crate::dataset::truth::Pose;
 
@@ -53,29 +53,22 @@ pub fn position_nees(
     options: &EvalOptions,
 ) -> Result<Option<NeesSummary>, EvalError> {
     let (association, alignment) = associate_and_align(est, truth, options)?;
+    let iso = alignment.isometry();
+    let r = iso.rotation.to_rotation_matrix().into_inner();
     let values: Vec<f64> = association
         .pairs
         .iter()
         .filter_map(|&(i, j)| {
             let c = cov.get(i).copied().flatten()?;
-            let e = alignment
-                .isometry()
-                .transform_point(&est[i].p_b_in_w.into())
-                .coords
-                - truth[j].p_b_in_w;
-            nees(&e, &c, &alignment)
+            let e = iso.transform_point(&est[i].p_b_in_w.into()).coords - truth[j].p_b_in_w;
+            nees(&e, &c, &r)
         })
         .collect();
     Ok(summarize(&values))
 }
 
-/// `eᵀ (R Σ Rᵀ)⁻¹ e`, `None` when `Σ` is not positive definite.
-fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>, alignment: &Alignment) -> Option<f64> {
-    let r = alignment
-        .isometry()
-        .rotation
-        .to_rotation_matrix()
-        .into_inner();
+/// `eᵀ (R Σ Rᵀ)⁻¹ e` for the alignment's rotation `r`, `None` when `Σ` is not positive definite.
+fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>, r: &Matrix3<f64>) -> Option<f64> {
     let c = r * cov * r.transpose();
     let l = c.cholesky()?;
     let v = l.solve(e);

@@ -41,8 +41,12 @@ impl NonlinearEstimator {
         };
         let body_from_array = self.linear_config.window.body_from_array;
         for f in &kf.frames {
-            for b in f.bearings.iter().filter(|b| !w.is_placed(b.ap)) {
-                let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
+            let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
+            if unplaced.peek().is_none() {
+                continue;
+            }
+            let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
+            for b in unplaced {
                 if self.late_sights.len() <= b.ap {
                     self.late_sights.resize_with(b.ap + 1, LateSights::default);
                 }

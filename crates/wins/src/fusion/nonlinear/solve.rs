@@ -25,7 +25,7 @@ const STEP_FRACTIONS: [f64; 4] = [1.0, 0.5, 0.25, 0.125];
 /// The largest change of one iteration per error-state block `[δθ, δp, δv, δb_g, δb_a]` (rad,
 /// m, m/s, rad/s, m/s²); the border (AP coordinates, the barometer offset) takes the position's.
 const MAX_STEP: [f64; 5] = [0.2, 2.0, 2.0, 0.02, 0.5];
-/// Below this the damping returns to 0.
+/// The damping never falls below this (relative to the diagonal: Gauss–Newton in effect).
 const LAMBDA_MIN: f64 = 1e-9;
 /// An iteration whose increment is below this (relative to the state's scale) ends the solve.
 const STEP_TOLERANCE: f64 = 1e-7;
@@ -74,7 +74,7 @@ impl NonlinearWindow {
 
     /// Up to `iterations` solver steps (a step that raises the cost at every fraction tried is
     /// undone and the damping raised); the newest keyframe's and the border's covariances come
-    /// from the last undamped factorization.
+    /// from an undamped factorization at the final estimate.
     pub fn optimize(&mut self, iterations: usize) -> Result<SolveReport, SolveError> {
         let (mut sys, mut cost, _) = self.build(true);
         let mut report = SolveReport {
@@ -84,7 +84,6 @@ impl NonlinearWindow {
         };
         let mut lambda = self.lambda;
         let mut tries = 0;
-        let mut covariance_at = None;
         while report.iterations < iterations && tries < 3 * iterations + 5 {
             tries += 1;
             let Some(sol) = damped(&sys, lambda).into_solution() else {
@@ -128,11 +127,6 @@ impl NonlinearWindow {
                 }
                 continue;
             };
-            if lambda == 0.0 {
-                self.last_covariance = sol.last_frame_covariance;
-                self.border_covariance = sol.border_covariance;
-                covariance_at = Some(report.iterations + 1);
-            }
             sys = new_sys;
             cost = new_cost;
             report.iterations += 1;
@@ -145,11 +139,9 @@ impl NonlinearWindow {
                 break;
             }
         }
-        // The covariances of the last undamped factorization; refactor when the last accepted
-        // step was damped or none was taken.
-        if covariance_at != Some(report.iterations)
-            && let Some(sol) = damped(&sys, 0.0).into_solution()
-        {
+        // The covariances at the final estimate (the loop's factorizations are damped, and at
+        // the estimate before each step).
+        if let Some(sol) = damped(&sys, 0.0).into_solution() {
             self.last_covariance = sol.last_frame_covariance;
             self.border_covariance = sol.border_covariance;
         }
