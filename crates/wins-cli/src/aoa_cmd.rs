@@ -10,7 +10,7 @@ use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
 use wins::csi::intel5300::{CsiLog, CsiRecord, SkipReason, read_log};
 use wins::dataset::Dataset;
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::{AoaMode, estimate_log, truth_pairs};
+use wins::pipeline::aoa_log::{AoaMode, estimate_log, match_chain_curvature, truth_pairs};
 use wins::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
 use wins::rig::channel::wifi_channel_hz;
 use wins::rig::{ArrayGeometry, ChainCalibration};
@@ -242,7 +242,7 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
         Some(path) => Some(ChainCalibration::load(path)?),
         None => None,
     };
-    let estimator = AoaEstimator::new(
+    let mut estimator = AoaEstimator::new(
         &input.config,
         input.geometry,
         input.center_freq_hz,
@@ -252,7 +252,30 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
         Some(path) => format!("calibration {} does not fit the array", path.display()),
         None => "cannot set up the AoA estimator".into(),
     })?;
+    if let Some(ambiguity) = estimator.ambiguity() {
+        eprintln!("warning: {ambiguity}");
+    }
     let records = input.records();
+    let correction = match_chain_curvature(
+        records.iter().copied(),
+        &mut estimator,
+        input.center_freq_hz,
+        args.calibration.is_some(),
+    )?;
+    if let (Some(measured), Some(prior)) = (correction.measured_rad, correction.prior_rad) {
+        eprintln!(
+            "chain curvature (φ0 − 2φ1 + φ2) measured on the log: {:.1}° ({} {:.1}°, chain 2 \
+             moved by {:.1}°)",
+            measured.to_degrees(),
+            if args.calibration.is_some() {
+                "calibration's"
+            } else {
+                "uncalibrated"
+            },
+            prior.to_degrees(),
+            correction.applied_rad.to_degrees()
+        );
+    }
     let mode = match args.mode {
         Mode::Music => AoaMode::Music,
         Mode::Spotfi => AoaMode::Spotfi {
@@ -310,7 +333,8 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     }
     if args.calibration.is_none() {
         eprintln!(
-            "warning: uncalibrated chains: angles will be wrong on real hardware \
+            "warning: uncalibrated chains: the curvature is measured from the log, but the \
+             uniform phase step between chains is not, so angles are offset on real hardware \
              (see wins calibrate)"
         );
     }

@@ -123,7 +123,7 @@ fn calibrate_on_the_truth_then_aoa_is_within_three_degrees() {
     let out = wins(&["aoa", s(&ds.join("ap0.dat")), "--out", s(&rows)]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("uncalibrated chains: angles will be wrong on real hardware"),
+        stderr(&out).contains("uncalibrated chains: the curvature is measured from the log"),
         "{}",
         stderr(&out)
     );
@@ -315,10 +315,28 @@ fn guards_refuse_what_would_give_wrong_angles() {
         ],
         &["cannot be used with"],
     );
-    failure(
-        &["aoa", s(&log), "--spacing-m", "0.1"],
-        &["wider than half a wavelength"],
+    // An array wider than λ/2 runs, says so, and lists each packet's aliases.
+    let rows = dir.join("wide.csv");
+    let out = wins(&["aoa", s(&log), "--spacing-m", "0.1", "--out", s(&rows)]);
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("wider than half a wavelength") && err.contains("-34.3°, +34.3°"),
+        "{err}"
     );
+    let text = std::fs::read_to_string(&rows).expect("rows");
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let column = reader
+        .headers()
+        .expect("header")
+        .iter()
+        .position(|h| h == "aliases_deg")
+        .expect("aliases_deg column");
+    let listed = reader
+        .records()
+        .filter(|r| r.as_ref().is_ok_and(|r| !r[column].is_empty()))
+        .count();
+    assert!(listed > 0, "no packet lists its aliases");
     // A file with no CSI records.
     let empty = dir.join("empty.dat");
     std::fs::write(&empty, b"").expect("write");

@@ -101,6 +101,7 @@ pub enum AoaError {
 pub struct AoaEstimator {
     config: AoaConfig,
     geometry: ArrayGeometry,
+    center_freq_hz: f64,
     calibration: ChainCalibration,
     ht20: Music,
     ht40: Music,
@@ -143,6 +144,7 @@ impl AoaEstimator {
             ht40: music(Bandwidth::Ht40, config.music.subcarriers_per_window_ht40)?,
             config: config.clone(),
             geometry,
+            center_freq_hz,
             calibration,
         })
     }
@@ -155,6 +157,35 @@ impl AoaEstimator {
     /// The calibration applied.
     pub fn calibration(&self) -> &ChainCalibration {
         &self.calibration
+    }
+
+    /// Replaces the chain offsets (e.g. after measuring their curvature in flight,
+    /// [`super::ChainCurvature`]); the set-up checks of [`AoaEstimator::new`] still apply.
+    pub fn set_calibration(&mut self, calibration: ChainCalibration) -> Result<(), AoaError> {
+        if calibration.phase_offsets_rad.len() != self.geometry.num_antennas {
+            return Err(CalibrationError::Mismatch {
+                given: calibration.phase_offsets_rad.len(),
+                antennas: self.geometry.num_antennas,
+            }
+            .into());
+        }
+        self.calibration = calibration;
+        Ok(())
+    }
+
+    /// The array.
+    pub fn geometry(&self) -> ArrayGeometry {
+        self.geometry
+    }
+
+    /// The other angles with the same phases as `aoa_rad` on this array (empty up to λ/2).
+    pub fn aliases_rad(&self, aoa_rad: f64) -> Vec<f64> {
+        self.geometry.aliases_rad(aoa_rad, self.center_freq_hz)
+    }
+
+    /// The array's steering ambiguity at this carrier, if it is wider than λ/2.
+    pub fn ambiguity(&self) -> Option<crate::rig::Ambiguity> {
+        self.geometry.ambiguity(self.center_freq_hz)
     }
 
     /// MUSIC for a bandwidth.

@@ -5,6 +5,7 @@
 //! (`crate::csi::sanitize`), smoothing (`smoothing`), signal subspace (`subspace`), spectrum
 //! and peaks ([`music`]). The steering vector is [`steering`]'s, shared with the simulator.
 
+pub mod chain_curvature;
 pub(crate) mod estimator;
 pub(crate) mod group;
 pub mod measure_chains;
@@ -18,7 +19,8 @@ pub mod steering;
 pub(crate) mod subspace;
 mod top_eigen;
 
-pub use estimator::{AoaConfig, AoaError, AoaEstimator};
+pub use chain_curvature::{ChainCurvature, Correction, curvature_of, restart_step_rad};
+pub use estimator::{AoaConfig, AoaError, AoaEstimator, raw_csi};
 pub use group::GroupResult;
 pub use measure_chains::{CalibrateError, CalibrateReport, calibrate, calibrate_with};
 pub use music::{AoaWindow, Music, MusicConfig, MusicError, Spectrum};

@@ -21,8 +21,8 @@ use super::top_eigen::Tridiagonal;
 /// How many eigenvectors count as paths.
 ///
 /// The noise floor is the median of the eigenvalues ranked `max_paths + 1 …` up to the rank the
-/// snapshots allow; eigenvalues more than `floor_margin_db` above it are paths, at least one and at
-/// most `max_paths`. The median (not the mean) keeps a few unresolved weak paths from lifting the
+/// snapshots allow; eigenvalues more than `floor_margin_db` above it and at most
+/// `max_below_largest_db` below the largest are paths, at least one and at most `max_paths`. The median (not the mean) keeps a few unresolved weak paths from lifting the
 /// floor; a margin well above the floor's spread (about ±3 dB for 15–60 snapshots) keeps noise
 /// eigenvalues out.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -32,6 +32,14 @@ pub struct PathCount {
     pub max_paths: usize,
     /// Margin above the noise floor, dB.
     pub floor_margin_db: f64,
+    /// Eigenvalues more than this far below the largest are not paths, dB: the dynamic range of
+    /// the NIC's CSI. Real Intel 5300 captures show eigenvalues decaying steadily into a floor of
+    /// model error (subcarrier ripple, residual sampling offsets) about 20 dB below the strongest
+    /// path, well above the thermal floor: counted as paths, those eigenvectors add spurious
+    /// peaks that change from packet to packet (docs/VALIDATION.md, "Per-packet AoA on real
+    /// captures"); `configs/intel5300-real.toml` sets 20. The default (300, no limit) suits the
+    /// simulator, whose impairments are white.
+    pub max_below_largest_db: f64,
 }
 
 impl Default for PathCount {
@@ -39,6 +47,7 @@ impl Default for PathCount {
         Self {
             max_paths: 5,
             floor_margin_db: 15.0,
+            max_below_largest_db: 300.0,
         }
     }
 }
@@ -54,7 +63,8 @@ impl PathCount {
         let max_paths = self.max_paths.clamp(1, rank.saturating_sub(1).max(1));
         let tail = &values[max_paths.min(rank - 1)..rank];
         let noise_floor = median(tail).max(largest * 1e-12);
-        let threshold = noise_floor * 10f64.powf(self.floor_margin_db / 10.0);
+        let threshold = (noise_floor * 10f64.powf(self.floor_margin_db / 10.0))
+            .max(largest * 10f64.powf(-self.max_below_largest_db / 10.0));
         let paths = values[..max_paths.min(values.len())]
             .iter()
             .take_while(|&&v| v > threshold)
@@ -264,6 +274,7 @@ mod tests {
         let count = PathCount {
             max_paths: 4,
             floor_margin_db: -100.0,
+            max_below_largest_db: 300.0,
         };
         let fast = signal_subspace(&x, true, &count).unwrap();
         let j = exchange(n);
@@ -303,6 +314,32 @@ mod tests {
         // Pure noise: one (the minimum).
         let s = signal_subspace(&random(n, 30, 14), false, &PathCount::default()).unwrap();
         assert_eq!(s.num_paths(), 1, "{:?}", s.eigenvalues);
+    }
+
+    #[test]
+    fn paths_far_below_the_largest_are_not_counted() {
+        // Paths at 0, −10 and −25 dB, 50 dB over white noise: the floor rule alone keeps all
+        // three, a 20 dB dynamic range the two within it.
+        let n = 16;
+        let u = random(n, 3, 21);
+        let mut gains = random(3, 30, 22);
+        for (row, db) in [(1, -10.0), (2, -25.0)] {
+            let a: f64 = 10f64.powf(db / 20.0);
+            gains.row_mut(row).scale_mut(a);
+        }
+        let noise = random(n, 30, 23) * Complex64::new(10f64.powf(-2.5), 0.0);
+        let x = &u * gains + noise;
+        let wide = PathCount {
+            max_below_largest_db: 100.0,
+            ..PathCount::default()
+        };
+        assert_eq!(signal_subspace(&x, false, &wide).unwrap().num_paths(), 3);
+        let real = PathCount {
+            max_below_largest_db: 20.0,
+            ..PathCount::default()
+        };
+        let s = signal_subspace(&x, false, &real).unwrap();
+        assert_eq!(s.num_paths(), 2, "{:?}", s.eigenvalues);
     }
 
     #[test]

@@ -8,11 +8,12 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::stats::PacketStatus;
-use crate::aoa::estimator::AoaEstimator;
+use crate::aoa::estimator::{AoaError, AoaEstimator, raw_csi};
 use crate::aoa::music::AoaWindow;
 use crate::aoa::peak::Peak;
 use crate::aoa::spotfi::MIN_GROUP_SIZE;
 use crate::aoa::spotfi::SpotfiError;
+use crate::aoa::{ChainCurvature, Correction, restart_step_rad};
 use crate::csi::intel5300::CsiRecord;
 use crate::dataset::Dataset;
 use crate::dataset::truth::Truth;
@@ -42,12 +43,42 @@ pub struct PacketAoa {
     pub tof_ns: Option<f64>,
     /// Its normalized MUSIC pseudo-spectrum, dB.
     pub spectrum_db: Option<f64>,
+    /// On an array wider than λ/2, the other angles with the same phases, degrees,
+    /// `;`-separated (empty otherwise).
+    pub aliases_deg: String,
     /// Credible peaks of the packet.
     pub peaks: usize,
     /// SpotFi group of the record (SpotFi mode only).
     pub group: Option<usize>,
     /// AoA of the group's direct-path cluster, degrees (SpotFi mode, when the group has one).
     pub group_aoa_deg: Option<f64>,
+}
+
+/// Measures the chains' curvature over a log's records ([`crate::aoa::ChainCurvature`]) and makes
+/// the estimator's calibration agree with it: with a stored calibration (`has_prior`) only by a
+/// multiple of the NIC's restart step, without one wholly. Records of another antenna count or
+/// without the configured stream are left out of the measurement (the estimator skips them
+/// anyway).
+pub fn match_chain_curvature<'a>(
+    records: impl IntoIterator<Item = &'a CsiRecord>,
+    estimator: &mut AoaEstimator,
+    center_freq_hz: f64,
+    has_prior: bool,
+) -> Result<Correction, AoaError> {
+    let mut curvature = ChainCurvature::default();
+    let antennas = estimator.geometry().num_antennas;
+    for record in records {
+        if let Ok(csi) = raw_csi(record, estimator.config().tx, antennas) {
+            curvature.push(&csi, antennas);
+        }
+    }
+    let correction = curvature.corrected(
+        estimator.calibration(),
+        restart_step_rad(center_freq_hz),
+        has_prior,
+    );
+    estimator.set_calibration(correction.calibration.clone())?;
+    Ok(correction)
 }
 
 /// How each packet's direct path is chosen.
@@ -127,7 +158,7 @@ pub fn estimate_log<'a>(
             .map(|(index, record)| {
                 let mut row = empty_row(index, record);
                 match estimator.peaks(record, AoaWindow::FULL) {
-                    Ok(peaks) => set_peak(&mut row, peaks.len(), peaks.first()),
+                    Ok(peaks) => set_peak(&mut row, peaks.len(), peaks.first(), estimator),
                     Err(e) => skip(&mut row, e.to_string()),
                 }
                 row
@@ -201,7 +232,7 @@ fn spotfi_group(
         }
         let credible = result.peaks.get(k).map_or(0, Vec::len);
         let own = direct.and_then(|d| d.per_packet.get(k).copied().flatten());
-        set_peak(row, credible, own.as_ref());
+        set_peak(row, credible, own.as_ref(), estimator);
         row.group_aoa_deg = direct.map(|d| d.aoa_rad.to_degrees());
     }
 }
@@ -230,15 +261,22 @@ fn empty_row(index: usize, record: &CsiRecord) -> PacketAoa {
         aoa_deg: None,
         tof_ns: None,
         spectrum_db: None,
+        aliases_deg: String::new(),
         peaks: 0,
         group: None,
         group_aoa_deg: None,
     }
 }
 
-fn set_peak(row: &mut PacketAoa, credible: usize, peak: Option<&Peak>) {
+fn set_peak(row: &mut PacketAoa, credible: usize, peak: Option<&Peak>, estimator: &AoaEstimator) {
     row.peaks = credible;
     if let Some(p) = peak {
+        let aliases: Vec<String> = estimator
+            .aliases_rad(p.aoa_rad)
+            .iter()
+            .map(|a| format!("{:.1}", a.to_degrees()))
+            .collect();
+        row.aliases_deg = aliases.join(";");
         row.status = PacketStatus::Measured;
         row.aoa_deg = Some(p.aoa_deg());
         row.tof_ns = Some(p.tof_s * 1e9);

@@ -61,20 +61,44 @@ pub enum GeometryError {
         "carrier {0} Hz is not a Wi-Fi frequency (2.4–7.125 GHz); it is given in Hz, e.g. 5.32e9"
     )]
     Carrier(f64),
-    /// The antennas are further apart than half a wavelength: the spectrum has grating lobes.
-    #[error(
-        "antenna spacing {spacing_m} m is wider than half a wavelength ({half_wavelength_m:.4} m at \
-         {freq_ghz} GHz): every direction has alias directions with the same phases (grating \
-         lobes), which a linear array cannot tell apart; arrays wider than λ/2 are not supported"
-    )]
-    WiderThanHalfWavelength {
-        /// The spacing, m.
-        spacing_m: f64,
-        /// λ/2 at the carrier, m.
-        half_wavelength_m: f64,
-        /// The carrier, GHz.
-        freq_ghz: f64,
-    },
+}
+
+/// A steering ambiguity of an array wider than half a wavelength.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ambiguity {
+    /// The spacing, m.
+    pub spacing_m: f64,
+    /// λ/2 at the carrier, m.
+    pub half_wavelength_m: f64,
+    /// The carrier, Hz.
+    pub center_freq_hz: f64,
+    /// The broadside direction's aliases, rad (the angles with the same phases as 0°).
+    pub broadside_aliases_rad: Vec<f64>,
+}
+
+impl std::fmt::Display for Ambiguity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let list: Vec<String> = self
+            .broadside_aliases_rad
+            .iter()
+            .map(|a| format!("{:+.1}°", a.to_degrees()))
+            .collect();
+        write!(
+            f,
+            "antenna spacing {} m is wider than half a wavelength ({:.4} m at {} GHz): every \
+             direction has alias directions with the same phases (grating lobes; 0° looks the \
+             same as {}): each peak is reported with its aliases, and the motion chooses among \
+             them",
+            self.spacing_m,
+            self.half_wavelength_m,
+            self.center_freq_hz / 1e9,
+            if list.is_empty() {
+                "nothing".to_string()
+            } else {
+                list.join(", ")
+            }
+        )
+    }
 }
 
 impl ArrayGeometry {
@@ -83,9 +107,9 @@ impl ArrayGeometry {
         (m as f64 - (self.num_antennas as f64 - 1.0) / 2.0) * self.spacing_m
     }
 
-    /// The one rule for an array on a carrier: 2–3 antennas, a Wi-Fi carrier given in Hz, and a
-    /// spacing of at most λ/2 (1 % slack), so that every angle in [−90°, 90°] has its own phase
-    /// difference between neighbouring antennas.
+    /// The one rule for an array on a carrier: 2–3 antennas, a positive spacing and a Wi-Fi
+    /// carrier given in Hz. A spacing wider than λ/2 is accepted; [`ArrayGeometry::ambiguity`]
+    /// says what it costs.
     pub fn validate(&self, center_freq_hz: f64) -> Result<(), GeometryError> {
         if !ANTENNAS.contains(&self.num_antennas) {
             return Err(GeometryError::Antennas(self.num_antennas));
@@ -96,15 +120,42 @@ impl ArrayGeometry {
         if !(MIN_CARRIER_HZ..=MAX_CARRIER_HZ).contains(&center_freq_hz) {
             return Err(GeometryError::Carrier(center_freq_hz));
         }
-        let half = half_wavelength_m(center_freq_hz);
-        if self.spacing_m > half * (1.0 + HALF_WAVELENGTH_SLACK) {
-            return Err(GeometryError::WiderThanHalfWavelength {
-                spacing_m: self.spacing_m,
-                half_wavelength_m: half,
-                freq_ghz: center_freq_hz / 1e9,
-            });
-        }
         Ok(())
+    }
+
+    /// `λ/d` at the carrier: two directions whose sines differ by a multiple of it have the same
+    /// phases on every antenna.
+    pub fn alias_period(&self, center_freq_hz: f64) -> f64 {
+        2.0 * half_wavelength_m(center_freq_hz) / self.spacing_m
+    }
+
+    /// The ambiguity of an array wider than λ/2 at the carrier (1 % slack, for spacings rounded to
+    /// a tenth of a millimetre), `None` when every angle has its own phases.
+    pub fn ambiguity(&self, center_freq_hz: f64) -> Option<Ambiguity> {
+        let half = half_wavelength_m(center_freq_hz);
+        (self.spacing_m > half * (1.0 + HALF_WAVELENGTH_SLACK)).then(|| Ambiguity {
+            spacing_m: self.spacing_m,
+            half_wavelength_m: half,
+            center_freq_hz,
+            broadside_aliases_rad: self.aliases_rad(0.0, center_freq_hz),
+        })
+    }
+
+    /// The other angles in [−90°, 90°] with the same phases as `aoa_rad` (`sin θ' = sin θ + k·λ/d`,
+    /// k ≠ 0), increasing; empty for an array of at most λ/2.
+    pub fn aliases_rad(&self, aoa_rad: f64, center_freq_hz: f64) -> Vec<f64> {
+        let period = self.alias_period(center_freq_hz);
+        if !(period.is_finite() && period > 0.0) || period >= 2.0 * (1.0 - 1e-12) {
+            return Vec::new();
+        }
+        let s = aoa_rad.sin();
+        let k_max = (2.0 / period).ceil() as i64;
+        (-k_max..=k_max)
+            .filter(|&k| k != 0)
+            .map(|k| s + k as f64 * period)
+            .filter(|v| v.abs() <= 1.0)
+            .map(f64::asin)
+            .collect()
     }
 }
 
@@ -127,18 +178,8 @@ mod tests {
         let g = ArrayGeometry::default();
         // λ/2 at 5.32 GHz is fine on 5.32 GHz and on every lower carrier.
         assert_eq!(g.validate(2.412e9), Ok(()));
-        // The same array on channel 165 (5.825 GHz) is 9 % wider than λ/2 there.
-        assert!(matches!(
-            g.validate(5.825e9),
-            Err(GeometryError::WiderThanHalfWavelength { .. })
-        ));
-        // A rig at 10 cm (several public captures) aliases.
-        let wide = ArrayGeometry {
-            spacing_m: 0.1,
-            ..g
-        };
-        let e = wide.validate(CHANNEL_64_HZ).unwrap_err();
-        assert!(e.to_string().contains("grating lobes"), "{e}");
+        assert!(g.ambiguity(2.412e9).is_none());
+        assert!(g.ambiguity(CHANNEL_64_HZ).is_none());
         // GHz typed for Hz.
         assert_eq!(g.validate(5.32), Err(GeometryError::Carrier(5.32)));
         assert!(g.validate(f64::NAN).is_err());
@@ -155,6 +196,44 @@ mod tests {
                 bad.validate(CHANNEL_64_HZ),
                 Err(GeometryError::Spacing(_))
             ));
+        }
+    }
+
+    #[test]
+    fn a_wide_array_is_accepted_with_its_alias_families() {
+        let g = ArrayGeometry::default();
+        // The same array on channel 165 (5.825 GHz) is 9 % wider than λ/2 there: only angles
+        // near endfire have an alias.
+        let a = g.ambiguity(5.825e9).expect("ambiguous");
+        assert!(a.broadside_aliases_rad.is_empty());
+        assert_eq!(g.aliases_rad(80f64.to_radians(), 5.825e9).len(), 1);
+        // A rig at 10 cm (the lgtm captures): sin θ repeats every λ/d = 0.563.
+        let wide = ArrayGeometry {
+            spacing_m: 0.1,
+            ..g
+        };
+        assert_eq!(wide.validate(CHANNEL_64_HZ), Ok(()));
+        let a = wide.ambiguity(CHANNEL_64_HZ).expect("ambiguous");
+        let deg: Vec<f64> = a
+            .broadside_aliases_rad
+            .iter()
+            .map(|r| r.to_degrees())
+            .collect();
+        assert_eq!(deg.len(), 2, "{deg:?}");
+        assert!(
+            (deg[1] - 34.3).abs() < 0.1 && (deg[0] + deg[1]).abs() < 1e-9,
+            "{deg:?}"
+        );
+        assert!(a.to_string().contains("grating lobes"), "{a}");
+        // Every alias has the same phase on every antenna as the angle itself.
+        let theta = 10f64.to_radians();
+        for alias in wide.aliases_rad(theta, CHANNEL_64_HZ) {
+            for m in 0..3 {
+                let d = wide.antenna_phase_rad(m, CHANNEL_64_HZ, alias.sin())
+                    - wide.antenna_phase_rad(m, CHANNEL_64_HZ, theta.sin());
+                let r = d.rem_euclid(std::f64::consts::TAU);
+                assert!(r.min(std::f64::consts::TAU - r) < 1e-9, "{alias}: {d}");
+            }
         }
     }
 }

@@ -9,7 +9,7 @@ pub(crate) mod imu_noise;
 
 use nalgebra::Isometry3;
 
-pub use array::{ArrayGeometry, GeometryError};
+pub use array::{Ambiguity, ArrayGeometry, GeometryError};
 pub use chain_calibration::{CalibrationError, CalibrationSetup, ChainCalibration};
 pub use imu_noise::ImuNoise;
 

@@ -10,6 +10,7 @@
 )]
 
 mod aoa_accuracy;
+mod aoa_real;
 mod data;
 mod fusion_ekf;
 mod fusion_nonlinear;

@@ -89,6 +89,13 @@ impl MusicConfig {
         );
         p.in_range(
             prefix,
+            "paths.max_below_largest_db",
+            self.paths.max_below_largest_db,
+            0.0,
+            300.0,
+        );
+        p.in_range(
+            prefix,
             "aoa_step_deg",
             self.aoa_step_deg,
             MIN_AOA_STEP_DEG,

@@ -11,6 +11,9 @@ use crate::aoa::subspace::Subspace;
 const REFINE_ROUNDS: usize = 6;
 /// Grid minima whose residual exceeds this multiple of the credibility bound are not refined.
 const GRID_SLACK: f64 = 3.0;
+/// Two peaks whose sines differ by a multiple of `λ/d` within this are aliases (refined peaks
+/// agree to a small fraction of a degree).
+const ALIAS_SINE_TOLERANCE: f64 = 0.01;
 
 impl Music {
     /// The credible peaks of a packet inside `window`, refined, lowest ToF first. Empty when the
@@ -54,8 +57,35 @@ impl Music {
         };
         let floor = strongest * 10f64.powf(self.config.max_below_strongest_db / 10.0);
         unique.retain(|p| p.residual <= self.config.max_residual && p.residual <= floor);
+        let mut unique = self.one_per_alias_family(unique, window);
         unique.sort_by(|a, b| a.tof_s.total_cmp(&b.tof_s));
         unique
+    }
+
+    /// On an array wider than λ/2 the members of an alias family (same ToF, sines a multiple of
+    /// `λ/d` apart) are one path seen at several angles: the member nearest the window's centre
+    /// stands for the family ([`crate::rig::ArrayGeometry::aliases_rad`] lists the others).
+    fn one_per_alias_family(&self, peaks: Vec<Peak>, window: AoaWindow) -> Vec<Peak> {
+        let period = self.geometry.alias_period(self.center_freq_hz);
+        if period >= 2.0 || peaks.len() < 2 {
+            return peaks;
+        }
+        let centre = 0.5 * (window.min_rad + window.max_rad);
+        let same_family = |a: &Peak, b: &Peak| {
+            let k = (a.aoa_rad.sin() - b.aoa_rad.sin()) / period;
+            (a.tof_s - b.tof_s).abs() <= self.config.tof_step_s
+                && k.round() != 0.0
+                && (k - k.round()).abs() * period <= ALIAS_SINE_TOLERANCE
+        };
+        let mut kept: Vec<Peak> = Vec::with_capacity(peaks.len());
+        for p in peaks {
+            match kept.iter_mut().find(|k| same_family(k, &p)) {
+                Some(k) if (p.aoa_rad - centre).abs() < (k.aoa_rad - centre).abs() => *k = p,
+                Some(_) => {}
+                None => kept.push(p),
+            }
+        }
+        kept
     }
 
     /// Shrinking parabolic steps in θ then τ from a grid point, staying inside `window` and the
