@@ -259,7 +259,6 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     let correction = match_chain_curvature(
         records.iter().copied(),
         &mut estimator,
-        input.center_freq_hz,
         args.calibration.is_some(),
     )?;
     if let (Some(measured), Some(prior)) = (correction.measured_rad, correction.prior_rad) {

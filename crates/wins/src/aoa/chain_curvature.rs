@@ -19,9 +19,9 @@
 //! ([`ChainCurvature::corrected`]).
 
 use num_complex::Complex64;
-use serde::Serialize;
 use std::f64::consts::{FRAC_PI_2, PI};
 
+use crate::csi::sanitize::wrap;
 use crate::rig::ChainCalibration;
 
 /// Carriers below this are 2.4 GHz Wi-Fi, Hz.
@@ -37,12 +37,6 @@ pub fn restart_step_rad(center_freq_hz: f64) -> f64 {
     }
 }
 
-/// Wraps an angle to (−π, π].
-fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > PI { w - std::f64::consts::TAU } else { w }
-}
-
 /// The curvature of a calibration's offsets, `φ₀ − 2·φ₁ + φ₂` (three antennas; `None` otherwise).
 pub fn curvature_of(calibration: &ChainCalibration) -> Option<f64> {
     match calibration.phase_offsets_rad[..] {
@@ -52,10 +46,9 @@ pub fn curvature_of(calibration: &ChainCalibration) -> Option<f64> {
 }
 
 /// The running measurement of the curvature over packets.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ChainCurvature {
     /// Sum of the packets' unit phasors.
-    #[serde(skip)]
     sum: Complex64,
     /// Packets measured.
     pub packets: usize,

@@ -118,14 +118,7 @@ impl AoaEstimator {
     ) -> Result<Self, AoaError> {
         let calibration =
             calibration.unwrap_or_else(|| ChainCalibration::identity(geometry.num_antennas));
-        if calibration.phase_offsets_rad.len() != geometry.num_antennas {
-            return Err(CalibrationError::Mismatch {
-                given: calibration.phase_offsets_rad.len(),
-                antennas: geometry.num_antennas,
-            }
-            .into());
-        }
-        calibration.check_setup(center_freq_hz, geometry.spacing_m)?;
+        check_calibration(&calibration, geometry, center_freq_hz)?;
         config
             .problems("aoa")
             .into_result()
@@ -160,15 +153,9 @@ impl AoaEstimator {
     }
 
     /// Replaces the chain offsets (e.g. after measuring their curvature in flight,
-    /// [`super::ChainCurvature`]); the set-up checks of [`AoaEstimator::new`] still apply.
+    /// [`super::ChainCurvature`]); the checks of [`AoaEstimator::new`] still apply.
     pub fn set_calibration(&mut self, calibration: ChainCalibration) -> Result<(), AoaError> {
-        if calibration.phase_offsets_rad.len() != self.geometry.num_antennas {
-            return Err(CalibrationError::Mismatch {
-                given: calibration.phase_offsets_rad.len(),
-                antennas: self.geometry.num_antennas,
-            }
-            .into());
-        }
+        check_calibration(&calibration, self.geometry, self.center_freq_hz)?;
         self.calibration = calibration;
         Ok(())
     }
@@ -176,6 +163,11 @@ impl AoaEstimator {
     /// The array.
     pub fn geometry(&self) -> ArrayGeometry {
         self.geometry
+    }
+
+    /// The channel's centre frequency, Hz.
+    pub fn center_freq_hz(&self) -> f64 {
+        self.center_freq_hz
     }
 
     /// The other angles with the same phases as `aoa_rad` on this array (empty up to λ/2).
@@ -230,6 +222,24 @@ impl AoaEstimator {
     pub fn direct_path(&self, record: &CsiRecord) -> Result<Option<Peak>, AoaError> {
         Ok(self.peaks(record, AoaWindow::FULL)?.first().copied())
     }
+}
+
+/// A calibration fits when it has one offset per antenna and was made for this carrier and
+/// spacing (or does not say what for).
+fn check_calibration(
+    calibration: &ChainCalibration,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
+) -> Result<(), AoaError> {
+    if calibration.phase_offsets_rad.len() != geometry.num_antennas {
+        return Err(CalibrationError::Mismatch {
+            given: calibration.phase_offsets_rad.len(),
+            antennas: geometry.num_antennas,
+        }
+        .into());
+    }
+    calibration.check_setup(center_freq_hz, geometry.spacing_m)?;
+    Ok(())
 }
 
 /// The CSI of transmit stream `tx` as complex doubles, row-major over `num_antennas` antennas.

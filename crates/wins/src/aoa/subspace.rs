@@ -22,9 +22,9 @@ use super::top_eigen::Tridiagonal;
 ///
 /// The noise floor is the median of the eigenvalues ranked `max_paths + 1 …` up to the rank the
 /// snapshots allow; eigenvalues more than `floor_margin_db` above it and at most
-/// `max_below_largest_db` below the largest are paths, at least one and at most `max_paths`. The median (not the mean) keeps a few unresolved weak paths from lifting the
-/// floor; a margin well above the floor's spread (about ±3 dB for 15–60 snapshots) keeps noise
-/// eigenvalues out.
+/// `max_below_largest_db` below the largest are paths, at least one and at most `max_paths`. The
+/// median (not the mean) keeps a few unresolved weak paths from lifting the floor; a margin well
+/// above the floor's spread (about ±3 dB for 15–60 snapshots) keeps noise eigenvalues out.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PathCount {

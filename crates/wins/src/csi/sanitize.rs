@@ -105,7 +105,7 @@ pub fn sanitize(
 }
 
 /// `x` wrapped to (−π, π].
-fn wrap(x: f64) -> f64 {
+pub(crate) fn wrap(x: f64) -> f64 {
     let y = (x + PI).rem_euclid(TAU) - PI;
     if y == -PI { PI } else { y }
 }

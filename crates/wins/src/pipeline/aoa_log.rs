@@ -62,7 +62,6 @@ pub struct PacketAoa {
 pub fn match_chain_curvature<'a>(
     records: impl IntoIterator<Item = &'a CsiRecord>,
     estimator: &mut AoaEstimator,
-    center_freq_hz: f64,
     has_prior: bool,
 ) -> Result<Correction, AoaError> {
     let mut curvature = ChainCurvature::default();
@@ -74,7 +73,7 @@ pub fn match_chain_curvature<'a>(
     }
     let correction = curvature.corrected(
         estimator.calibration(),
-        restart_step_rad(center_freq_hz),
+        restart_step_rad(estimator.center_freq_hz()),
         has_prior,
     );
     estimator.set_calibration(correction.calibration.clone())?;

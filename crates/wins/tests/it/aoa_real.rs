@@ -61,7 +61,7 @@ fn spreads(records: &[CsiRecord]) -> (f64, f64, usize) {
     config.music.paths.max_below_largest_db = REAL_DYNAMIC_RANGE_DB;
     let mut estimator = AoaEstimator::new(&config, geometry, CHANNEL_64_HZ, None).unwrap();
     assert!(estimator.ambiguity().is_some(), "a 0.1 m array aliases");
-    match_chain_curvature(records, &mut estimator, CHANNEL_64_HZ, false).unwrap();
+    match_chain_curvature(records, &mut estimator, false).unwrap();
     let (rows, _) = estimate_log(records, &estimator, AoaMode::Music).unwrap();
     let kappa = TAU * LGTM_SPACING_M * CHANNEL_64_HZ / SPEED_OF_LIGHT_M_S;
     let estimated: Vec<f64> = rows
