@@ -263,8 +263,8 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     )?;
     if let (Some(measured), Some(prior)) = (correction.measured_rad, correction.prior_rad) {
         eprintln!(
-            "chain curvature (φ0 − 2φ1 + φ2) measured on the log: {:.1}° ({} {:.1}°, chain 2 \
-             moved by {:.1}°)",
+            "chain curvature (φ0 − 2φ1 + φ2) measured on the log: {:.1}° ({} {:.1}°, moved by \
+             {:.1}°)",
             measured.to_degrees(),
             if args.calibration.is_some() {
                 "calibration's"

@@ -23,9 +23,14 @@ pub struct RunArgs {
     /// defaults, see `wins config`).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// Chain calibration to use instead of the dataset's.
+    /// Chain calibration to use instead of the dataset's (a prior: a NIC restart's steps are
+    /// resolved from the flight).
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
+    /// Use no chain calibration, not even the dataset's: the offsets are resolved from the
+    /// flight alone.
+    #[arg(long, conflicts_with = "calibration")]
+    no_calibration: bool,
     /// Do not draw the PNG figures.
     #[arg(long)]
     no_plots: bool,
@@ -64,6 +69,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let options = RunOptions {
         calibration,
         imu_noise: None,
+        no_calibration: args.no_calibration,
     };
     process(&args.dataset, &args.out, &config, &options, !args.no_plots)
 }

@@ -90,11 +90,12 @@ impl ChainCurvature {
         }
     }
 
-    /// `prior` with its curvature made to agree with the measurement: by the multiple of
-    /// `step_rad` nearest to the measured change when there is a prior (its continuous part kept),
-    /// or all of it with the identity as prior. Only chain 2's offset changes (chains 0 and 1 fix
-    /// the linear part, which the capture cannot reveal). Without a measurement, or for an array
-    /// that is not three antennas, `prior` as it is.
+    /// `prior` with its curvature made to agree with the measurement. With a prior, by the
+    /// multiple of `step_rad` nearest to the measured change, on chain 2 alone (what a restart
+    /// does; the continuous part kept). Without one (the identity as prior), all of it, spread
+    /// as `change/6·[1, −2, 1]` over the chains so that the mean phase step between neighbours
+    /// (the linear part, which the capture cannot reveal, and so the angles) is unchanged.
+    /// Without a measurement, or for an array that is not three antennas, `prior` as it is.
     pub fn corrected(
         &self,
         prior: &ChainCalibration,
@@ -111,7 +112,17 @@ impl ChainCurvature {
             change
         };
         let mut calibration = prior.clone();
-        calibration.phase_offsets_rad[2] = wrap(calibration.phase_offsets_rad[2] + applied);
+        let spread = if has_prior {
+            [0.0, 0.0, 1.0]
+        } else {
+            [1.0 / 6.0, -2.0 / 6.0, 1.0 / 6.0]
+        };
+        // Nothing to apply: the prior bit for bit.
+        if applied != 0.0 {
+            for (phase, share) in calibration.phase_offsets_rad.iter_mut().zip(spread) {
+                *phase = wrap(*phase + share * applied);
+            }
+        }
         Correction {
             calibration,
             measured_rad: Some(measured),
@@ -130,7 +141,8 @@ pub struct Correction {
     pub measured_rad: Option<f64>,
     /// The prior's curvature, rad.
     pub prior_rad: Option<f64>,
-    /// The change applied to chain 2's offset, rad.
+    /// The change of the curvature applied (to chain 2 with a prior, spread over the chains
+    /// without), rad.
     pub applied_rad: f64,
 }
 
@@ -226,6 +238,9 @@ mod tests {
         let none = c.corrected(&ChainCalibration::identity(3), PI, false);
         let got = curvature_of(&none.calibration).unwrap();
         assert!(wrap(got - c.curvature_rad().unwrap()).abs() < 1e-9);
+        // ... and the mean phase step between neighbours, which sets the angles, is unchanged.
+        let p = &none.calibration.phase_offsets_rad;
+        assert!(wrap(p[2] - p[0]).abs() < 1e-9, "{p:?}");
         // Two antennas: nothing to measure.
         assert!(!ChainCurvature::default().push(&csi(&[(1.0, 0.1, 0.0)], actual)[..60], 2));
         assert_eq!(restart_step_rad(2.437e9), FRAC_PI_2);

@@ -133,4 +133,42 @@ impl Estimator {
             Self::Nonlinear(n) => n.gyro_bias_rad_s(),
         }
     }
+
+    /// How badly the window's state explains its bearings (lower is more consistent; compare
+    /// only within one estimator kind): the nonlinear window's mean robust cost per bearing
+    /// (`Σ ρ(e²)/n`, `e` the residual in σ), the paper's window's RMS of the AoA residuals in σ;
+    /// `None` without a window or bearings.
+    pub fn bearing_misfit(&self) -> Option<f64> {
+        match self {
+            Self::Paper(w) => w.window().aoa_residual_rms(),
+            Self::Nonlinear(n) => {
+                let fit = n.window()?.fit();
+                (fit.bearings > 0).then(|| fit.bearing_robust / fit.bearings as f64)
+            }
+        }
+    }
+
+    /// Whether the state explains its bearings as a converged one must: the paper's window
+    /// checks its AoA residual RMS only when it declares convergence, so it is checked here
+    /// against the same bound ([`crate::fusion::window::WindowConfig::converged_max_residual_rms`]);
+    /// the nonlinear window tests its fit (χ²) at every solve and restarts when it fails.
+    pub fn fits_its_bearings(&self) -> bool {
+        match self {
+            Self::Paper(w) => w
+                .window()
+                .aoa_residual_rms()
+                .is_none_or(|rms| rms <= w.window().config().converged_max_residual_rms),
+            Self::Nonlinear(_) => true,
+        }
+    }
+
+    /// The bearings' common `sin θ` offset β the window estimates and its σ
+    /// ([`crate::fusion::nonlinear::NonlinearConfig::sin_bias_sigma`]); `None` when not
+    /// estimated or not tracking.
+    pub fn sin_bias(&self) -> Option<(f64, f64)> {
+        match self {
+            Self::Paper(_) => None,
+            Self::Nonlinear(n) => n.window()?.sin_bias(),
+        }
+    }
 }

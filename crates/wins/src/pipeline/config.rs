@@ -9,6 +9,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::chains::ChainOffsetsConfig;
 use crate::aoa::AoaConfig;
 use crate::aoa::spotfi::MIN_GROUP_SIZE;
 use crate::check::{Problems, overlay};
@@ -77,6 +78,8 @@ pub struct PipelineConfig {
     /// Use the dataset's barometer (`baro.csv`) when it has one; `false` runs on the cone model
     /// alone (the barometer's samples are counted in the run's warnings).
     pub use_barometer: bool,
+    /// The receive chains' offsets resolved from the flight ([`super::chains`]).
+    pub chains: ChainOffsetsConfig,
 }
 
 impl Default for PipelineConfig {
@@ -94,6 +97,7 @@ impl Default for PipelineConfig {
             track_rate_gain_hz: 0.5,
             assume_front_until_converged: true,
             use_barometer: true,
+            chains: ChainOffsetsConfig::default(),
         }
     }
 }
@@ -136,6 +140,7 @@ impl PipelineConfig {
             0.0,
             20.0,
         );
+        p.extend(self.chains.problems(&format!("{prefix}.chains")));
         p
     }
 }

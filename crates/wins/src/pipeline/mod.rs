@@ -19,6 +19,7 @@
 //! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
 
 pub mod aoa_log;
+pub mod chains;
 pub mod config;
 mod figure_data;
 pub mod figures;
@@ -35,6 +36,7 @@ use std::time::Instant;
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
+pub use self::chains::{ChainOffsetsConfig, ChainReport, ChainResolver, Finished, Released};
 pub use self::config::{Config, ConfigError, PipelineConfig};
 use self::slot::{FrameSlot, PendingBearing, grid_time, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
@@ -45,7 +47,7 @@ use crate::fusion::bearing::Bearing;
 use crate::fusion::choice::{Estimator, EstimatorKind};
 use crate::fusion::estimator::{PoseEstimate, Step, WinsConfig, WinsError};
 use crate::imu::ImuSample;
-use crate::rig::{Rig, RigError};
+use crate::rig::{ChainCalibration, Rig, RigError};
 use crate::so3::exp;
 use crate::time::Timestamp;
 
@@ -61,6 +63,9 @@ pub enum PipelineError {
     /// The rig cannot be used.
     #[error("rig: {0}")]
     Rig(#[from] RigError),
+    /// No hypothesis of the chain offsets ran (cannot happen with a valid configuration).
+    #[error("no hypothesis of the receive chains' offsets ran")]
+    NoHypothesis,
     /// The estimator refused an input (counted; the state is unchanged).
     #[error(transparent)]
     Wins(#[from] WinsError),
@@ -167,6 +172,17 @@ impl Pipeline {
     /// The rig.
     pub fn rig(&self) -> &Rig {
         &self.rig
+    }
+
+    /// The chain calibration the AoA stage applies.
+    pub fn chain_calibration(&self) -> &ChainCalibration {
+        self.aoa.calibration()
+    }
+
+    /// Replaces the chain calibration the AoA stage applies from the next packet on (checked
+    /// against the set-up as [`AoaEstimator::set_calibration`]).
+    pub fn set_chain_calibration(&mut self, calibration: ChainCalibration) -> Result<(), AoaError> {
+        self.aoa.set_calibration(calibration)
     }
 
     /// The latest pose, propagated to the last IMU sample.
@@ -290,9 +306,14 @@ impl Pipeline {
         row: &mut PacketLog,
     ) {
         let from_state = if converged {
+            // What the array measures: the state's cone angle with the bearings' estimated
+            // common offset.
+            let bias = self.wins.sin_bias().map_or(0.0, |b| b.0);
             self.wins.ap_in_b0(ap).zip(now).and_then(|(c, pose)| {
-                pose.bearing_to(&c)
-                    .map(|b| (b, (c - pose.p_a_in_b0).norm()))
+                pose.bearing_to(&c).map(|(aoa, side)| {
+                    let measured = (aoa.sin() + bias).clamp(-1.0, 1.0).asin();
+                    ((measured, side), (c - pose.p_a_in_b0).norm())
+                })
             })
         } else {
             None

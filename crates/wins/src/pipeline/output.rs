@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::replay::RunOutput;
-use super::{PacketStatus, PipelineStats, StageTiming};
+use super::{ChainReport, PacketStatus, PipelineStats, StageTiming};
 use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
 use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
@@ -69,6 +69,8 @@ pub struct RunStats<'a> {
     pub estimator: WinsStats,
     /// IMU samples refused.
     pub imu_refused: u64,
+    /// How the receive chains' offsets were resolved from the flight.
+    pub chain_offsets: &'a ChainReport,
     /// What limits the result, in words.
     pub warnings: &'a [String],
 }
@@ -113,6 +115,7 @@ impl RunOutput {
             packets: &self.stats,
             estimator: self.wins,
             imu_refused: self.imu_refused,
+            chain_offsets: &self.chains,
             warnings: &self.warnings,
         }
     }

@@ -1,4 +1,4 @@
-//! A dataset directory through the [`Pipeline`]: IMU samples and every AP's packets merged by
+//! A dataset directory through the pipeline (a [`ChainResolver`] over [`super::Pipeline`]s): IMU samples and every AP's packets merged by
 //! time (a packet before the IMU samples after it), as a live driver would push them.
 
 use std::time::Instant;
@@ -6,7 +6,9 @@ use std::time::Instant;
 use nalgebra::Vector3;
 
 use super::figure_data::RunFigures;
-use super::{Config, PacketLog, Pipeline, PipelineError, PipelineStats, StageTiming};
+use super::{
+    ChainReport, ChainResolver, Config, PacketLog, PipelineError, PipelineStats, StageTiming,
+};
 use crate::dataset::Dataset;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalOptions, Metrics};
@@ -56,8 +58,10 @@ pub struct RunOutput {
     pub stats: PipelineStats,
     /// The estimator's counters.
     pub wins: WinsStats,
-    /// Wall time per stage, s.
+    /// Wall time per stage, s (over every chain-offset hypothesis run).
     pub timing: StageTiming,
+    /// How the receive chains' offsets were resolved from the flight.
+    pub chains: ChainReport,
     /// Wall time of the whole replay, s.
     pub wall_s: f64,
     /// Flight time replayed (first to last IMU sample), s.
@@ -136,7 +140,7 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         );
         (&[][..], vec![ignored])
     };
-    let mut pipeline = Pipeline::with_baro(config, rig, !baro.is_empty())?;
+    let mut pipeline = ChainResolver::new(config, rig, !baro.is_empty())?;
     // (time, 0 = packet / 1 = barometer / 2 = IMU, AP, index): packets and barometer samples
     // before IMU samples at the same time.
     let mut events: Vec<(Timestamp, u8, usize, usize)> = dataset
@@ -153,22 +157,26 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
     let mut frames = Vec::new();
     let mut packets = Vec::new();
     let mut imu_refused = 0;
+    let mut keep = |r: super::Released| {
+        frames.extend(r.frames);
+        packets.extend(r.packets);
+        imu_refused += r.imu_refused;
+    };
     for (_, kind, l, i) in events {
         if kind == 0 {
             let p = &dataset.aps[l].packets[i];
-            packets.push(pipeline.push_csi(l, p.t, &p.record));
+            keep(pipeline.push_csi(l, p.t, &p.record)?);
         } else if kind == 1 {
-            // A refused sample (out of order, not finite) is counted by the estimator.
-            let _ = pipeline.push_baro(baro[i].t, baro[i].altitude_m);
+            keep(pipeline.push_baro(baro[i].t, baro[i].altitude_m)?);
         } else {
-            match pipeline.push_imu(&dataset.imu[i]) {
-                Ok(step) => frames.extend(step.frames),
-                Err(_) => imu_refused += 1,
-            }
+            keep(pipeline.push_imu(&dataset.imu[i])?);
         }
     }
-    let wins = pipeline.wins();
-    let aps = pipeline
+    let done = pipeline.finish()?;
+    keep(done.released);
+    let wins = done.pipeline.wins();
+    let aps = done
+        .pipeline
         .rig()
         .ap_names
         .iter()
@@ -188,7 +196,7 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         aps,
         converged_at: wins.converged_at(),
         stats: {
-            let mut stats = pipeline.stats().clone();
+            let mut stats = done.pipeline.stats().clone();
             for (s, ap) in stats.per_ap.iter_mut().zip(&dataset.aps) {
                 s.log_skips = ap.skips.len() as u64;
                 s.log_skipped_bytes = ap.skips.iter().map(|k| k.len).sum();
@@ -196,7 +204,8 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
             stats
         },
         wins: wins.stats(),
-        timing: pipeline.timing(),
+        timing: done.timing,
+        chains: done.report,
         wall_s: started.elapsed().as_secs_f64(),
         flight_s,
         imu_refused,

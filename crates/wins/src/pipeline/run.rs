@@ -16,6 +16,9 @@ pub struct RunOptions {
     pub calibration: Option<ChainCalibration>,
     /// IMU noise densities to use instead of the dataset's.
     pub imu_noise: Option<ImuNoise>,
+    /// Use no chain calibration, not even the dataset's: the offsets are resolved from the
+    /// flight alone ([`super::chains`]).
+    pub no_calibration: bool,
 }
 
 /// Why a dataset could not be run.
@@ -71,10 +74,18 @@ pub fn run_dataset_with(
         source: Box::new(source),
     })?;
     let mut warnings = Vec::new();
-    if data.calibration.is_none() && options.calibration.is_none() {
+    let uncalibrated =
+        options.no_calibration || (data.calibration.is_none() && options.calibration.is_none());
+    if uncalibrated && config.pipeline.chains.resolve {
         warnings.push(
-            "no chain calibration (dataset.toml names none and none was given): AoA will be \
-             wrong by tens of degrees"
+            "no chain calibration: the chains' phase offsets are resolved from the flight alone \
+             (stats.json chain_offsets; a calibration makes the start faster and surer)"
+                .to_string(),
+        );
+    } else if uncalibrated {
+        warnings.push(
+            "no chain calibration and pipeline.chains.resolve = false: AoA will be wrong by \
+             tens of degrees"
                 .to_string(),
         );
     }
@@ -88,11 +99,14 @@ pub fn run_dataset_with(
     } else {
         None
     };
-    let rig = rig_of(
+    let mut rig = rig_of(
         &data,
         options.imu_noise.clone(),
         options.calibration.clone(),
     )?;
+    if options.no_calibration {
+        rig.calibration = None;
+    }
     let mut run = replay(&data, rig, config)?;
     run.warnings.extend(warnings);
     if let Some(truth) = &truth {

@@ -36,6 +36,14 @@ pub struct RadioConfig {
     /// Fixed phase offset of each receive chain (A, B, C), degrees. Empty = drawn uniformly in
     /// [−180°, 180°) from the scenario seed (then written to `truth/`). Default empty.
     pub chain_phase_offsets_deg: Vec<f64>,
+    /// The NIC restarted between its lab calibration and the flight, as an Intel 5300 does at
+    /// every power-up: each chain's offset moves by a random multiple of π at 5 GHz (π/2 at
+    /// 2.4 GHz, [`crate::aoa::restart_step_rad`]), drawn from the scenario seed, so the shipped
+    /// `calibration.toml` (made before the restart) is off by those steps. Default false.
+    pub nic_restart: bool,
+    /// The dataset ships the NIC's lab calibration (`calibration.toml`, made before any
+    /// restart); `false`: none, as for a rig that was never calibrated. Default true.
+    pub lab_calibration: bool,
     /// The AGC aims the strongest chain's RSSI at this value, dB (real logs show 30–40).
     /// Default 35.
     pub agc_target_rssi_db: f64,
@@ -66,6 +74,8 @@ impl Default for RadioConfig {
             implementation_snr_db: 30.0,
             sto_max_s: 100e-9,
             chain_phase_offsets_deg: Vec::new(),
+            nic_restart: false,
+            lab_calibration: true,
             agc_target_rssi_db: 35.0,
             quantization_rms: 25.0,
             packet_rate_hz: 50.0,

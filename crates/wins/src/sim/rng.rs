@@ -14,6 +14,8 @@ pub const TRAJECTORY_STREAM: &str = "trajectory";
 pub const BARO_STREAM: &str = "baro";
 /// The stream that draws the fixed per-chain phase offsets of the NIC.
 pub const CHAIN_OFFSET_STREAM: &str = "nic/chain-phase";
+/// The stream that draws the steps each chain's offset moves by when the NIC restarts.
+pub const NIC_RESTART_STREAM: &str = "nic/restart";
 
 /// Seed of stream `name` under scenario seed `seed` (FNV-1a of the name, mixed by SplitMix64).
 pub fn stream_seed(seed: u64, name: &str) -> u64 {

@@ -11,7 +11,9 @@ use super::packets::{self, PacketSlot};
 use super::rng;
 use super::room::{Path, paths_into};
 use super::scenario::{ApConfig, Scenario};
+use crate::aoa::restart_step_rad;
 use crate::csi::intel5300::CsiRecord;
+use crate::csi::sanitize::wrap;
 use crate::dataset::BaroSample;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
@@ -191,15 +193,27 @@ pub fn world_from_array(s: &BodyState, body_from_array: &Isometry3<f64>) -> Isom
     world_from_body * body_from_array
 }
 
-/// The configured per-chain offsets, or ones drawn from the scenario seed.
+/// The configured per-chain offsets, or ones drawn from the scenario seed; after a NIC restart
+/// ([`super::RadioConfig::nic_restart`]) each moved by a multiple of the restart step drawn from
+/// its own stream (the offsets before it are the lab calibration's).
 fn chain_phase_offsets(scenario: &Scenario) -> Vec<f64> {
     use rand::RngExt;
     let configured = &scenario.radio.chain_phase_offsets_deg;
-    if !configured.is_empty() {
-        return configured.iter().map(|d| d.to_radians()).collect();
+    let mut offsets: Vec<f64> = if configured.is_empty() {
+        let mut r = rng::stream(scenario.seed, rng::CHAIN_OFFSET_STREAM);
+        (0..scenario.array.geometry.num_antennas)
+            .map(|_| (r.random::<f64>() - 0.5) * std::f64::consts::TAU)
+            .collect()
+    } else {
+        configured.iter().map(|d| d.to_radians()).collect()
+    };
+    if scenario.radio.nic_restart {
+        let step = restart_step_rad(scenario.radio.center_freq_hz);
+        let states = (std::f64::consts::TAU / step).round() as u32;
+        let mut r = rng::stream(scenario.seed, rng::NIC_RESTART_STREAM);
+        for offset in &mut offsets {
+            *offset = wrap(*offset + f64::from(r.random_range(0..states)) * step);
+        }
     }
-    let mut r = rng::stream(scenario.seed, rng::CHAIN_OFFSET_STREAM);
-    (0..scenario.array.geometry.num_antennas)
-        .map(|_| (r.random::<f64>() - 0.5) * std::f64::consts::TAU)
-        .collect()
+    offsets
 }

@@ -100,16 +100,18 @@ pub fn write_dataset(
             truth::write_csv(w, &rows)
         })?;
     }
-    let calibration = lab_calibration(scenario)
-        .map_err(io::Error::other)
-        .and_then(|c| toml::to_string(&c).map_err(io::Error::other))
-        .map_err(|source| WriteError {
-            path: dir.join(CALIBRATION_FILE),
-            source,
+    if scenario.radio.lab_calibration {
+        let calibration = lab_calibration(scenario)
+            .map_err(io::Error::other)
+            .and_then(|c| toml::to_string(&c).map_err(io::Error::other))
+            .map_err(|source| WriteError {
+                path: dir.join(CALIBRATION_FILE),
+                source,
+            })?;
+        put(CALIBRATION_FILE, &mut |w| {
+            w.write_all(calibration.as_bytes())
         })?;
-    put(CALIBRATION_FILE, &mut |w| {
-        w.write_all(calibration.as_bytes())
-    })?;
+    }
 
     let mut clipped = 0u64;
     let mut counts = Vec::new();
@@ -246,7 +248,10 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
             noise: Some(scenario.imu.model.noise()),
         },
         array: ArrayEntry {
-            calibration: Some(CALIBRATION_FILE.into()),
+            calibration: scenario
+                .radio
+                .lab_calibration
+                .then(|| CALIBRATION_FILE.into()),
             ..ArrayEntry::new(scenario.array.geometry, &scenario.body_from_array())
         },
         channel: ChannelEntry {

@@ -35,11 +35,12 @@ fn build_sliding(
     baro: bool,
     slide: Option<usize>,
 ) -> (Built, Vec<f64>) {
-    build_with(scenario, from_s, to_s, seed, baro, slide, true, 1e6)
+    build_with(scenario, from_s, to_s, seed, baro, slide, true, 1e6, None)
 }
 
 /// [`build_sliding`] with first-estimate Jacobians on or off and the first keyframe's attitude
-/// and position prior information `gauge` (1/σ²).
+/// and position prior information `gauge` (1/σ²); `sin_bias = (β, σ)`: every bearing's sin θ
+/// offset by β (a chain phase step the calibration missed) and β estimated from 0 with prior σ.
 #[allow(clippy::too_many_arguments)]
 fn build_with(
     scenario: &Scenario,
@@ -50,6 +51,7 @@ fn build_with(
     slide: Option<usize>,
     fej: bool,
     gauge: f64,
+    sin_bias: Option<(f64, f64)>,
 ) -> (Built, Vec<f64>) {
     let out: SimOutput = simulate(scenario, &mut |_| {}).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -98,7 +100,9 @@ fn build_with(
                 let x = state_at(i);
                 let a = world_from_array(&x, &scenario.body_from_array());
                 let d = a.inverse_transform_point(&(*c).into()).coords;
-                let aoa = (d.y / d.norm()).asin() + noise.sample(&mut rng);
+                let offset = sin_bias.map_or(0.0, |b| b.0);
+                let aoa =
+                    (d.y / d.norm() + offset).clamp(-1.0, 1.0).asin() + noise.sample(&mut rng);
                 Bearing {
                     ap: l,
                     aoa_rad: aoa,
@@ -154,6 +158,9 @@ fn build_with(
                     &prior,
                     aps.iter().copied().map(Some).collect(),
                     baro.then_some(baro_offset),
+                    sin_bias
+                        .filter(|b| b.1 > 0.0)
+                        .map(|(_, sigma)| (0.0, sigma)),
                 );
                 window = Some(if fej { w } else { w.without_fej() });
                 truth.push(x0);
@@ -287,11 +294,63 @@ fn nullspace_leak(w: &NonlinearWindow) -> f64 {
 #[test]
 fn marginalization_keeps_the_true_nullspace_with_first_estimate_jacobians() {
     let sc = airborne("paper-circle");
-    let (fej, _) = build_with(&sc, 2.0, 32.0, 4, true, Some(15), true, 1e-6);
-    let (plain, _) = build_with(&sc, 2.0, 32.0, 4, true, Some(15), false, 1e-6);
+    let (fej, _) = build_with(&sc, 2.0, 32.0, 4, true, Some(15), true, 1e-6, None);
+    let (plain, _) = build_with(&sc, 2.0, 32.0, 4, true, Some(15), false, 1e-6, None);
     assert!(fej.window.marginalized() > 250);
     let (with, without) = (nullspace_leak(&fej.window), nullspace_leak(&plain.window));
     eprintln!("leak with FEJ {with:.2e}, without {without:.2e}");
     assert!(with < 1e-9, "{with}");
     assert!(without > 100.0 * with, "{without} vs {with}");
+}
+
+/// Bearings whose sin θ are all offset by β (a chain phase step the calibration missed, 0.05 is
+/// 9° of phase at λ/2): with β in the window (from 0, prior σ 0.1) the solve finds it and keeps
+/// the trajectory near the truth; without it the same bearings pull the trajectory off.
+#[test]
+fn a_common_offset_of_the_bearings_sin_is_estimated_with_the_trajectory() {
+    let sc = airborne("paper-circle");
+    let beta = 0.05;
+    let (with, _) = build_with(&sc, 2.0, 14.0, 5, true, None, true, 1e6, Some((beta, 0.1)));
+    let mut w = with.window;
+    w.optimize(30).unwrap();
+    let (got, sigma) = w.sin_bias().unwrap();
+    let err = max_position_error(&w, &with.truth);
+    eprintln!("β {got:.4} ± {sigma:.4} (true {beta}), max position error {err:.3} m");
+    assert!(
+        (got - beta).abs() < 3.0 * sigma.max(1e-3),
+        "{got} ± {sigma}"
+    );
+    assert!(sigma < 0.05, "the bearings did not inform β: {sigma}");
+    assert!(err < 0.15, "{err}");
+    // The same offset bearings, β not estimated: the window cannot explain them.
+    let (fixed, _) = build_with(&sc, 2.0, 14.0, 5, true, None, true, 1e6, Some((beta, 0.0)));
+    let mut f = fixed.window;
+    f.optimize(30).unwrap();
+    let fixed_err = max_position_error(&f, &fixed.truth);
+    eprintln!(
+        "β not estimated: max position error {fixed_err:.3} m, bearing χ² {:.1} vs {:.1}",
+        f.fit().bearing_chi2,
+        w.fit().bearing_chi2
+    );
+    assert!(fixed_err > 1.5 * err, "{fixed_err} vs {err}");
+}
+
+/// β in the border leaves the window's true nullspace (translation and yaw) as it is.
+#[test]
+fn the_bearings_offset_keeps_the_true_nullspace() {
+    let sc = airborne("paper-circle");
+    let (b, _) = build_with(
+        &sc,
+        2.0,
+        20.0,
+        6,
+        true,
+        Some(15),
+        true,
+        1e-6,
+        Some((0.02, 0.1)),
+    );
+    assert!(b.window.sin_bias().is_some());
+    let leak = nullspace_leak(&b.window);
+    assert!(leak < 1e-9, "{leak}");
 }

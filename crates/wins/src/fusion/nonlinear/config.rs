@@ -23,6 +23,13 @@ pub struct NonlinearConfig {
     pub baro_sigma_m: f64,
     /// Barometer offset random walk, m/√s (the drift of a still room's pressure).
     pub baro_offset_walk_m_sqrt_s: f64,
+    /// Prior σ of a common offset β of every bearing's `sin θ`, estimated with the trajectory:
+    /// what an error `Δφ` in the receive chains' uniform phase step does (`β = Δφ·λ/(2πd)`;
+    /// 0.03 is 5.4° of phase at half-wavelength spacing). 0 (the default): not estimated with a
+    /// calibration (measured: the extra freedom doubled the median error of calibrated flights);
+    /// without one the chain resolution estimates it with a σ of half its hypotheses' spacing
+    /// ([`crate::pipeline::chains`]).
+    pub sin_bias_sigma: f64,
     /// Significance of the χ² tests (start acceptance and loss): a correct solution fails with
     /// this probability.
     pub chi2_significance: f64,
@@ -64,6 +71,7 @@ impl Default for NonlinearConfig {
             cauchy_scale: 2.0,
             baro_sigma_m: 0.3,
             baro_offset_walk_m_sqrt_s: 0.04,
+            sin_bias_sigma: 0.0,
             chi2_significance: 1e-3,
             max_ap_sigma_m: 0.5,
             max_ap_sigma_fraction: 0.1,
@@ -116,6 +124,7 @@ impl NonlinearConfig {
         );
         p.in_range(prefix, "cauchy_scale", self.cauchy_scale, 0.1, 100.0);
         p.in_range(prefix, "baro_sigma_m", self.baro_sigma_m, 1e-3, 100.0);
+        p.in_range(prefix, "sin_bias_sigma", self.sin_bias_sigma, 0.0, 2.0);
         p.in_range(
             prefix,
             "baro_offset_walk_m_sqrt_s",

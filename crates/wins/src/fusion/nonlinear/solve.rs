@@ -45,6 +45,7 @@ struct Snapshot {
     x: Vec<NavState>,
     aps: Vec<Vector3<f64>>,
     baro: Option<f64>,
+    bias: Option<f64>,
 }
 
 impl NonlinearWindow {
@@ -53,6 +54,7 @@ impl NonlinearWindow {
             x: self.keyframes.iter().map(|k| k.x).collect(),
             aps: self.aps.clone(),
             baro: self.baro.map(|b| b.0),
+            bias: self.bias.map(|b| b.0),
         }
     }
 
@@ -64,12 +66,16 @@ impl NonlinearWindow {
         if let (Some(b), Some(o)) = (&mut self.baro, s.baro) {
             b.0 = o;
         }
+        if let (Some(b), Some(o)) = (&mut self.bias, s.bias) {
+            b.0 = o;
+        }
     }
 
     fn is_finite(&self) -> bool {
         self.keyframes.iter().all(|k| k.x.is_finite())
             && self.aps.iter().all(|c| c.iter().all(|v| v.is_finite()))
             && self.baro.is_none_or(|b| b.0.is_finite())
+            && self.bias.is_none_or(|b| b.0.is_finite())
     }
 
     /// Up to `iterations` solver steps (a step that raises the cost at every fraction tried is
@@ -165,9 +171,11 @@ impl NonlinearWindow {
             k1.lin.get_or_insert(k1.x);
         }
         let mut has_altitude = false;
+        let mut has_bearing = false;
         if let Some(k0) = self.keyframes.front() {
             for f in &k0.frames {
                 has_altitude |= f.altitude_m.is_some();
+                has_bearing |= !f.bearings.is_empty();
                 for b in &f.bearings {
                     if let (Some(c), Some(lin), Some(true)) = (
                         self.aps.get(b.ap),
@@ -181,6 +189,11 @@ impl NonlinearWindow {
         }
         if let Some(b) = &mut self.baro
             && (has_altitude || self.prior_h.nrows() > STATE_DIM)
+        {
+            b.1.get_or_insert(b.0);
+        }
+        if let Some(b) = &mut self.bias
+            && (has_bearing || self.prior_h.nrows() > STATE_DIM)
         {
             b.1.get_or_insert(b.0);
         }

@@ -267,6 +267,7 @@ impl NonlinearEstimator {
             &self.start_prior(&x0, tilt_sigma_rad, velocity_sigma_m_s, rest.as_ref()),
             aps,
             baro,
+            (self.config.sin_bias_sigma > 0.0).then_some((0.0, self.config.sin_bias_sigma)),
         );
         for (k, x) in keys.iter().zip(&states).skip(1) {
             w.push_keyframe(*x, k.from_prev.clone()?, k.frames.clone())?;

@@ -2,7 +2,11 @@
 //! prior, solved (`solve`) on the block-arrow normal equations
 //! ([`crate::fusion::window::arrow`] with 15-state frames).
 //!
-//! **Border**: `[o (when there is a barometer), c_0, c_1, …]`, so an AP seen later appends.
+//! **Border**: `[o (when there is a barometer), β (when estimated), c_0, c_1, …]`, so an AP seen
+//! later appends. `β` is a common offset of every bearing's `sin θ`: what an error `Δφ` in the
+//! receive chains' uniform phase step does to a linear array (`Δ sin θ = Δφ·λ/(2πd)`, the same for
+//! every path and AP; [`crate::pipeline::chains`]). The cone residual becomes `s − (sin θ_measured − β)`,
+//! `∂r/∂β = 1`.
 //!
 //! **First-estimate Jacobians** (Huang, Mourikis, Roumeliotis 2008; OpenVINS): once a state
 //! takes part in the marginalization prior (the second keyframe when the oldest leaves, every AP
@@ -104,6 +108,8 @@ pub struct NonlinearWindow {
     pub(super) placed: Vec<bool>,
     /// Barometer offset and its frozen point, when the window has a barometer.
     pub(super) baro: Option<(f64, Option<f64>)>,
+    /// The bearings' common `sin θ` offset β and its frozen point, when estimated.
+    pub(super) bias: Option<(f64, Option<f64>)>,
     pub(super) prior_h: DMatrix<f64>,
     pub(super) prior_g: DVector<f64>,
     /// First-estimate Jacobians on (off only to show what they prevent).
@@ -138,8 +144,9 @@ impl NonlinearWindow {
         prior_h: &Mat15,
         aps: Vec<Option<Vector3<f64>>>,
         baro_offset_m: Option<f64>,
+        sin_bias: Option<(f64, f64)>,
     ) -> Self {
-        let nb = usize::from(baro_offset_m.is_some());
+        let nb = usize::from(baro_offset_m.is_some()) + usize::from(sin_bias.is_some());
         let dim = STATE_DIM + nb + 3 * aps.len();
         let mut h = DMatrix::zeros(dim, dim);
         h.view_mut((0, 0), (STATE_DIM, STATE_DIM))
@@ -150,6 +157,9 @@ impl NonlinearWindow {
                 h.view_mut((o, o), (3, 3))
                     .fill_diagonal(PLACEHOLDER_INFORMATION);
             }
+        }
+        if let Some((_, sigma)) = sin_bias {
+            h[(STATE_DIM + nb - 1, STATE_DIM + nb - 1)] = sigma.max(1e-9).powi(-2);
         }
         let n_aps = aps.len();
         Self {
@@ -170,6 +180,7 @@ impl NonlinearWindow {
                 .map(|c| c.unwrap_or_else(Vector3::zeros))
                 .collect(),
             baro: baro_offset_m.map(|o| (o, None)),
+            bias: sin_bias.map(|(b, _)| (b, None)),
             prior_h: h,
             prior_g: DVector::zeros(dim),
             fej: true,
@@ -206,12 +217,12 @@ impl NonlinearWindow {
 
     /// Border offset of AP `l`.
     pub(super) fn ap_offset(&self, l: usize) -> usize {
-        usize::from(self.baro.is_some()) + 3 * l
+        self.scalars() + 3 * l
     }
 
     /// Border size (barometer offset and AP coordinates).
     pub fn border_dim(&self) -> usize {
-        usize::from(self.baro.is_some()) + 3 * self.aps.len()
+        self.scalars() + 3 * self.aps.len()
     }
 
     /// Appends keyframe `x` (its initial value, usually the IMU's prediction) with the IMU
@@ -268,6 +279,21 @@ impl NonlinearWindow {
     /// The barometer offset, m.
     pub fn baro_offset_m(&self) -> Option<f64> {
         self.baro.map(|b| b.0)
+    }
+
+    /// The bearings' common `sin θ` offset β and its marginal σ (last solve), when estimated.
+    pub fn sin_bias(&self) -> Option<(f64, f64)> {
+        let o = self.scalars().checked_sub(1)?;
+        let sigma = self
+            .border_covariance
+            .get((o, o))
+            .map_or(f64::INFINITY, |v| v.max(0.0).sqrt());
+        self.bias.map(|b| (b.0, sigma))
+    }
+
+    /// Scalars at the head of the border: the barometer offset and β, when present.
+    pub(super) fn scalars(&self) -> usize {
+        usize::from(self.baro.is_some()) + usize::from(self.bias.is_some())
     }
 
     /// Marginal covariance of the newest keyframe's error state (last solve).
@@ -355,7 +381,7 @@ impl NonlinearWindow {
                         Some(r) => r,
                         None => continue,
                     }
-                };
+                } + self.bias.map_or(0.0, |b| b.0);
                 let sigma = sin_sigma(b.aoa_rad, b.sigma_rad);
                 let e2 = (r / sigma).powi(2);
                 let (rho, w) = cauchy(e2, self.config.cauchy_scale);
@@ -377,6 +403,18 @@ impl NonlinearWindow {
                 corner += jc.transpose() * jc * info;
                 let mut rb = sys.rhs_border.rows_mut(o, 3);
                 rb -= jc.transpose() * (info * r);
+                if self.bias.is_some() {
+                    // ∂r/∂β = 1.
+                    let ob = self.scalars() - 1;
+                    let mut fb = sys.frame_border[k].column_mut(ob);
+                    fb += jx.transpose() * info;
+                    sys.corner[(ob, ob)] += info;
+                    for a in 0..3 {
+                        sys.corner[(ob, o + a)] += jc[a] * info;
+                        sys.corner[(o + a, ob)] += jc[a] * info;
+                    }
+                    sys.rhs_border[ob] -= info * r;
+                }
             }
             if let (Some(h), Some((o, o_lin))) = (f.altitude_m, self.baro) {
                 let r = baro_residual(&kf.x, &f.partial, g, o, h);
@@ -410,6 +448,9 @@ impl NonlinearWindow {
         }
         if let Some((o, Some(l))) = self.baro {
             e[STATE_DIM] = o - l;
+        }
+        if let Some((b, Some(l))) = self.bias {
+            e[STATE_DIM + self.scalars() - 1] = b - l;
         }
         for (l, (c, lin)) in self.aps.iter().zip(&self.ap_lin).enumerate() {
             if let Some(lin) = lin {
@@ -451,9 +492,12 @@ impl NonlinearWindow {
         for (kf, d) in self.keyframes.iter_mut().zip(frames) {
             kf.x = kf.x.boxplus(d);
         }
-        let nb = usize::from(self.baro.is_some());
+        let nb = self.scalars();
         if let Some((o, _)) = &mut self.baro {
             *o += border[0];
+        }
+        if let Some((b, _)) = &mut self.bias {
+            *b += border[nb - 1];
         }
         for (l, c) in self.aps.iter_mut().enumerate() {
             *c += border.fixed_rows::<3>(nb + 3 * l);

@@ -9,6 +9,14 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../../../../configs/scenarios/paper-circle.toml"),
     ),
     (
+        "paper-circle-restart",
+        include_str!("../../../../../configs/scenarios/paper-circle-restart.toml"),
+    ),
+    (
+        "paper-circle-uncalibrated",
+        include_str!("../../../../../configs/scenarios/paper-circle-uncalibrated.toml"),
+    ),
+    (
         "paper-circle-3ap",
         include_str!("../../../../../configs/scenarios/paper-circle-3ap.toml"),
     ),

@@ -1,0 +1,622 @@
+//! The receive chains' phase offsets resolved from the flight itself ([`ChainResolver`]): a
+//! stored calibration is a prior, not a requirement.
+//!
+//! An Intel 5300 draws new chain offsets at every start: each chain moves by a multiple of π at
+//! 5 GHz (π/2 at 2.4 GHz, [`restart_step_rad`]), so a calibration made before the flight can be
+//! off by those steps. Over a three-antenna array the offsets have two parts
+//! ([`crate::aoa::ChainCurvature`]):
+//!
+//! 1. the *curvature* `φ₀ − 2φ₁ + φ₂`, which any capture reveals: measured over the first
+//!    [`ChainOffsetsConfig::curvature_packets`] packets (all APs pooled; the inputs wait in a
+//!    queue meanwhile) and applied, with a prior only as the nearest multiple of the step;
+//! 2. the *uniform step* `s` (chain `m` moved by `m·s`), which shifts every angle and which no
+//!    single packet can reveal. Each hypothesis of it runs as its own [`Pipeline`], side by side
+//!    on the same inputs: with a prior the multiples of the restart step (2 at 5 GHz, 4 at
+//!    2.4 GHz), without one [`ChainOffsetsConfig::uncalibrated_hypotheses`] steps around the
+//!    circle. The hypothesis whose bearings the IMU's motion explains wins: once one has been
+//!    converged for [`ChainOffsetsConfig::decide_after_s`], the converged one whose window
+//!    explains its bearings best ([`Estimator::bearing_misfit`]) is kept and the others are
+//!    dropped. A wrong step puts every bearing at an alias (`sin θ ± 1` for π), which no
+//!    trajectory explains: such hypotheses do not converge (measured: `docs/VALIDATION.md`).
+//!
+//! Until the decision nothing is released: the frames and packet rows of every hypothesis are
+//! held, and the winner's are released at once. A flight that ends undecided keeps the
+//! hypothesis that converged first, else the prior's.
+
+use std::f64::consts::TAU;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Config, PacketLog, Pipeline, PipelineError, PipelineStats, StageTiming};
+use crate::aoa::{AoaEstimator, ChainCurvature, raw_csi, restart_step_rad};
+use crate::check::Problems;
+use crate::csi::intel5300::CsiRecord;
+use crate::csi::sanitize::wrap;
+use crate::fusion::choice::Estimator;
+use crate::fusion::estimator::PoseEstimate;
+use crate::imu::ImuSample;
+use crate::rig::{ChainCalibration, Rig};
+use crate::time::Timestamp;
+
+/// Settings of the in-flight resolution of the chain offsets (`[pipeline.chains]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ChainOffsetsConfig {
+    /// Resolve the offsets from the flight (three-antenna arrays); `false` uses the stored
+    /// calibration (or none) as it is.
+    pub resolve: bool,
+    /// Packets (all APs) over which the curvature is measured before the hypotheses start.
+    pub curvature_packets: usize,
+    /// A hypothesis converged this long is compared with the others and the best kept, s.
+    pub decide_after_s: f64,
+    /// The same without a stored calibration, s: each hypothesis refines its step with the
+    /// trajectory (the bearings' common offset, [`crate::fusion::nonlinear`]) and needs longer
+    /// (measured: 5 s kept hypotheses that converged early on a wrong step).
+    pub decide_after_uncalibrated_s: f64,
+    /// Hypotheses of the uniform step without a stored calibration (evenly around the circle).
+    pub uncalibrated_hypotheses: usize,
+    /// The curvature keeps being measured over every packet of the flight (the motion averages
+    /// the reflections out, which a drone at rest on the ground does not); every this many
+    /// packets it is applied again when it moved.
+    pub curvature_refresh_packets: usize,
+}
+
+impl Default for ChainOffsetsConfig {
+    fn default() -> Self {
+        Self {
+            resolve: true,
+            curvature_packets: 200,
+            decide_after_s: 5.0,
+            decide_after_uncalibrated_s: 15.0,
+            uncalibrated_hypotheses: 8,
+            curvature_refresh_packets: 250,
+        }
+    }
+}
+
+impl ChainOffsetsConfig {
+    /// Every setting in its range, under `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.require(
+            (1..=100_000).contains(&self.curvature_packets),
+            prefix,
+            "curvature_packets",
+            format!("{} is not in [1, 100000]", self.curvature_packets),
+        );
+        p.in_range(prefix, "decide_after_s", self.decide_after_s, 0.0, 600.0);
+        p.in_range(
+            prefix,
+            "decide_after_uncalibrated_s",
+            self.decide_after_uncalibrated_s,
+            0.0,
+            600.0,
+        );
+        p.require(
+            (1..=1_000_000).contains(&self.curvature_refresh_packets),
+            prefix,
+            "curvature_refresh_packets",
+            format!("{} is not in [1, 1000000]", self.curvature_refresh_packets),
+        );
+        p.require(
+            (1..=36).contains(&self.uncalibrated_hypotheses),
+            prefix,
+            "uncalibrated_hypotheses",
+            format!(
+                "{} is not in [1, 36] (each runs a pipeline until the decision)",
+                self.uncalibrated_hypotheses
+            ),
+        );
+        p
+    }
+}
+
+/// What the resolution did (in `stats.json` as `chain_offsets`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ChainReport {
+    /// Whether the offsets were resolved from the flight (else the calibration was used as is).
+    pub resolved: bool,
+    /// Whether a stored calibration was the prior.
+    pub had_calibration: bool,
+    /// Packets the curvature was measured on.
+    pub curvature_packets: usize,
+    /// The measured curvature `φ₀ − 2φ₁ + φ₂`, degrees.
+    pub curvature_measured_deg: Option<f64>,
+    /// Agreement of the packets' curvature phasors in [0, 1].
+    pub curvature_agreement: f64,
+    /// The change of the curvature applied to match it, degrees.
+    pub curvature_applied_deg: f64,
+    /// Times the curvature was applied again during the flight (it moved as the flight went on).
+    pub curvature_updates: usize,
+    /// The uniform steps tried, degrees.
+    pub hypotheses_deg: Vec<f64>,
+    /// The step kept, degrees (`None` while undecided).
+    pub chosen_deg: Option<f64>,
+    /// Flight time of the decision, s from the first IMU sample.
+    pub decided_at_s: Option<f64>,
+    /// Each hypothesis's robust cost per bearing at the decision (`None`: not converged).
+    pub scores: Vec<Option<f64>>,
+    /// The calibration the kept pipeline used.
+    pub phase_offsets_rad: Vec<f64>,
+    /// The bearings' common `sin θ` offset the window estimated at the end and its σ
+    /// ([`crate::fusion::nonlinear::NonlinearConfig::sin_bias_sigma`]).
+    pub sin_bias: Option<(f64, f64)>,
+    /// The chosen step refined by that offset (`Δφ = 2π·β·d/λ`), degrees.
+    pub refined_deg: Option<f64>,
+}
+
+/// The end of a run ([`ChainResolver::finish`]).
+#[derive(Debug)]
+pub struct Finished {
+    /// The pipeline kept.
+    pub pipeline: Pipeline,
+    /// What it still held.
+    pub released: Released,
+    /// What the resolution did.
+    pub report: ChainReport,
+    /// Wall time per stage over every hypothesis run.
+    pub timing: StageTiming,
+}
+
+/// What a push released: the winner's frames and packet rows (held until the decision), and
+/// IMU samples the estimator refused.
+#[derive(Clone, Debug, Default)]
+pub struct Released {
+    /// Solved frames, in time order.
+    pub frames: Vec<PoseEstimate>,
+    /// Packet log rows.
+    pub packets: Vec<PacketLog>,
+    /// IMU samples refused.
+    pub imu_refused: u64,
+}
+
+enum Input {
+    Imu(ImuSample),
+    Baro(Timestamp, f64),
+    Csi(usize, Timestamp, Box<CsiRecord>),
+}
+
+struct Candidate {
+    pipeline: Pipeline,
+    step_rad: f64,
+    held: Released,
+    converged_since: Option<Timestamp>,
+}
+
+enum Stage {
+    Measuring { queue: Vec<Input>, packets: usize },
+    Testing(Vec<Candidate>),
+    Decided(Box<Pipeline>),
+}
+
+/// A [`Pipeline`] whose chain offsets are resolved from the flight (module doc). Same push API;
+/// each push returns what it released.
+pub struct ChainResolver {
+    config: Config,
+    rig: Rig,
+    has_baro: bool,
+    prior: ChainCalibration,
+    /// The curvature over every packet so far.
+    curvature: ChainCurvature,
+    /// The prior with the curvature applied (each hypothesis adds its uniform step).
+    base: ChainCalibration,
+    stage: Stage,
+    report: ChainReport,
+    first_imu: Option<Timestamp>,
+    dropped_timing: StageTiming,
+}
+
+impl std::fmt::Debug for ChainResolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ChainResolver")
+            .field("report", &self.report)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ChainResolver {
+    /// A resolver for `rig` (its calibration, if any, is the prior). With resolution off, or an
+    /// array that is not three antennas, one pipeline on the rig's calibration as it is.
+    pub fn new(config: &Config, rig: Rig, has_baro: bool) -> Result<Self, PipelineError> {
+        config.validate()?;
+        let prior = AoaEstimator::new(
+            &config.aoa,
+            rig.geometry,
+            rig.center_freq_hz,
+            rig.calibration.clone(),
+        )?
+        .calibration()
+        .clone();
+        let resolve = config.pipeline.chains.resolve && rig.geometry.num_antennas == 3;
+        let report = ChainReport {
+            resolved: resolve,
+            had_calibration: rig.calibration.is_some(),
+            phase_offsets_rad: prior.phase_offsets_rad.clone(),
+            ..ChainReport::default()
+        };
+        let stage = if resolve {
+            Stage::Measuring {
+                queue: Vec::new(),
+                packets: 0,
+            }
+        } else {
+            Stage::Decided(Box::new(Pipeline::with_baro(
+                config,
+                rig.clone(),
+                has_baro,
+            )?))
+        };
+        Ok(Self {
+            config: config.clone(),
+            rig,
+            has_baro,
+            base: prior.clone(),
+            prior,
+            curvature: ChainCurvature::default(),
+            stage,
+            report,
+            first_imu: None,
+            dropped_timing: StageTiming::default(),
+        })
+    }
+
+    /// What the resolution did so far.
+    pub fn report(&self) -> &ChainReport {
+        &self.report
+    }
+
+    /// The pipeline kept (once decided).
+    pub fn decided(&self) -> Option<&Pipeline> {
+        match &self.stage {
+            Stage::Decided(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// Integrates one IMU sample ([`Pipeline::push_imu`]).
+    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Released, PipelineError> {
+        self.first_imu.get_or_insert(s.t);
+        self.forward(Input::Imu(*s))
+    }
+
+    /// Queues a barometer altitude ([`Pipeline::push_baro`]); a refused one is counted there.
+    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<Released, PipelineError> {
+        self.forward(Input::Baro(t, altitude_m))
+    }
+
+    /// Processes one packet ([`Pipeline::push_csi`]).
+    pub fn push_csi(
+        &mut self,
+        ap: usize,
+        t: Timestamp,
+        record: &CsiRecord,
+    ) -> Result<Released, PipelineError> {
+        if self.config.pipeline.chains.resolve
+            && let Ok(csi) = raw_csi(record, self.config.aoa.tx, 3)
+            && self.curvature.push(&csi, 3)
+            && !matches!(self.stage, Stage::Measuring { .. })
+            && self
+                .curvature
+                .packets
+                .is_multiple_of(self.config.pipeline.chains.curvature_refresh_packets)
+        {
+            self.refresh_curvature()?;
+        }
+        if let Stage::Decided(p) = &mut self.stage {
+            return Ok(Released {
+                packets: vec![p.push_csi(ap, t, record)],
+                ..Released::default()
+            });
+        }
+        if let Stage::Measuring { packets, .. } = &mut self.stage {
+            *packets += 1;
+        }
+        self.forward(Input::Csi(ap, t, Box::new(record.clone())))
+    }
+
+    /// The end of the inputs: starts the hypotheses if the curvature was still being measured,
+    /// decides among them if they are still side by side (the one converged first, else the
+    /// prior's), and hands over the kept pipeline with what it still held.
+    pub fn finish(mut self) -> Result<Finished, PipelineError> {
+        let mut released = Released::default();
+        if matches!(self.stage, Stage::Measuring { .. }) {
+            released = self.start_hypotheses()?;
+        }
+        if let Stage::Testing(candidates) = &self.stage {
+            let pick = candidates
+                .iter()
+                .enumerate()
+                .filter_map(|(i, c)| c.converged_since.map(|t| (t, i)))
+                .min()
+                .map_or(0, |(_, i)| i);
+            append(&mut released, self.decide(pick, None));
+        }
+        let timing = self.timing();
+        if let Stage::Decided(p) = &self.stage {
+            self.report.sin_bias = p.wins().sin_bias();
+            let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
+            self.report.refined_deg = self
+                .report
+                .chosen_deg
+                .zip(self.report.sin_bias)
+                .map(|(step, (b, _))| wrap((step + 360.0 * b / period).to_radians()).to_degrees());
+        }
+        match self.stage {
+            Stage::Decided(pipeline) => Ok(Finished {
+                pipeline: *pipeline,
+                released,
+                report: self.report,
+                timing,
+            }),
+            _ => Err(PipelineError::NoHypothesis),
+        }
+    }
+
+    fn forward(&mut self, input: Input) -> Result<Released, PipelineError> {
+        match &mut self.stage {
+            Stage::Measuring { queue, packets, .. } => {
+                let ready = *packets >= self.config.pipeline.chains.curvature_packets;
+                queue.push(input);
+                if ready {
+                    return self.start_hypotheses();
+                }
+                Ok(Released::default())
+            }
+            Stage::Testing(candidates) => {
+                for c in candidates.iter_mut() {
+                    let r = feed(&mut c.pipeline, &input);
+                    append(&mut c.held, r);
+                }
+                Ok(self.maybe_decide(&input))
+            }
+            Stage::Decided(p) => Ok(feed(p, &input)),
+        }
+    }
+
+    /// Applies the measured curvature to the prior and starts one pipeline per step.
+    fn start_hypotheses(&mut self) -> Result<Released, PipelineError> {
+        let Stage::Measuring { queue, .. } =
+            std::mem::replace(&mut self.stage, Stage::Testing(Vec::new()))
+        else {
+            return Ok(Released::default());
+        };
+        let has_prior = self.report.had_calibration;
+        self.base = self.measured_base();
+        let n = if has_prior {
+            (TAU / restart_step_rad(self.rig.center_freq_hz)).round() as usize
+        } else {
+            self.config.pipeline.chains.uncalibrated_hypotheses
+        };
+        let n = n.max(1);
+        // The window refines the step around each hypothesis: its prior σ (as the bearings'
+        // common sin θ offset) spans half the spacing between hypotheses without a calibration.
+        let mut config = self.config.clone();
+        if !has_prior {
+            // A phase step Δφ moves sin θ by Δφ/2π·λ/d.
+            let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
+            let half_spacing = period / (2 * n) as f64;
+            config.nonlinear.sin_bias_sigma = config.nonlinear.sin_bias_sigma.max(half_spacing);
+        }
+        let mut candidates = Vec::with_capacity(n);
+        for k in 0..n {
+            let step_rad = wrap(k as f64 * TAU / n as f64);
+            let mut rig = self.rig.clone();
+            rig.calibration = Some(with_step(&self.base, step_rad));
+            candidates.push(Candidate {
+                pipeline: Pipeline::with_baro(&config, rig, self.has_baro)?,
+                step_rad,
+                held: Released::default(),
+                converged_since: None,
+            });
+        }
+        self.report.hypotheses_deg = candidates.iter().map(|c| c.step_rad.to_degrees()).collect();
+        self.stage = Stage::Testing(candidates);
+        let mut out = Released::default();
+        for input in queue {
+            append(&mut out, self.forward(input)?);
+        }
+        Ok(out)
+    }
+
+    /// The prior with the curvature measured so far (recorded in the report).
+    fn measured_base(&mut self) -> ChainCalibration {
+        let step = restart_step_rad(self.rig.center_freq_hz);
+        let correction = self
+            .curvature
+            .corrected(&self.prior, step, self.report.had_calibration);
+        self.report.curvature_packets = self.curvature.packets;
+        self.report.curvature_measured_deg = correction.measured_rad.map(f64::to_degrees);
+        self.report.curvature_agreement = self.curvature.agreement();
+        self.report.curvature_applied_deg = correction.applied_rad.to_degrees();
+        correction.calibration
+    }
+
+    /// Applies the curvature measured so far to every pipeline running, when it moved by more
+    /// than [`CURVATURE_TOLERANCE_RAD`].
+    fn refresh_curvature(&mut self) -> Result<(), PipelineError> {
+        let base = self.measured_base();
+        let moved = base
+            .phase_offsets_rad
+            .iter()
+            .zip(&self.base.phase_offsets_rad)
+            .any(|(a, b)| wrap(a - b).abs() > CURVATURE_TOLERANCE_RAD);
+        if !moved {
+            return Ok(());
+        }
+        self.base = base;
+        self.report.curvature_updates += 1;
+        let apply = |p: &mut Pipeline, step_rad: f64| {
+            p.set_chain_calibration(with_step(&self.base, step_rad))
+        };
+        match &mut self.stage {
+            Stage::Measuring { .. } => {}
+            Stage::Testing(candidates) => {
+                for c in candidates.iter_mut() {
+                    apply(&mut c.pipeline, c.step_rad)?;
+                }
+            }
+            Stage::Decided(p) => {
+                let step_rad = self.report.chosen_deg.unwrap_or(0.0).to_radians();
+                apply(p, step_rad)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// After an IMU sample: the decision, once one hypothesis has been converged long enough.
+    fn maybe_decide(&mut self, input: &Input) -> Released {
+        let Input::Imu(s) = input else {
+            return Released::default();
+        };
+        let Stage::Testing(candidates) = &mut self.stage else {
+            return Released::default();
+        };
+        for c in candidates.iter_mut() {
+            let wins = c.pipeline.wins();
+            c.converged_since = if wins.is_converged() && wins.fits_its_bearings() {
+                Some(c.converged_since.unwrap_or(s.t))
+            } else {
+                None
+            };
+        }
+        let chains = &self.config.pipeline.chains;
+        let after_s = if self.report.had_calibration {
+            chains.decide_after_s
+        } else {
+            chains.decide_after_uncalibrated_s
+        };
+        let ripe = candidates.len() == 1
+            || candidates.iter().any(|c| {
+                c.converged_since
+                    .is_some_and(|t0| s.t.secs_since(t0) >= after_s)
+            });
+        if !ripe {
+            return Released::default();
+        }
+        let scores: Vec<Option<f64>> = candidates
+            .iter()
+            .map(|c| {
+                c.converged_since
+                    .map(|_| c.pipeline.wins().bearing_misfit().unwrap_or(f64::INFINITY))
+            })
+            .collect();
+        let pick = scores
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| s.map(|s| (s, i)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map_or(0, |(_, i)| i);
+        self.report.scores = scores;
+        self.decide(pick, Some(s.t))
+    }
+
+    fn decide(&mut self, pick: usize, at: Option<Timestamp>) -> Released {
+        let Stage::Testing(candidates) =
+            std::mem::replace(&mut self.stage, Stage::Testing(Vec::new()))
+        else {
+            return Released::default();
+        };
+        let mut kept = None;
+        for (i, c) in candidates.into_iter().enumerate() {
+            if i == pick {
+                kept = Some(c);
+            } else {
+                let t = c.pipeline.timing();
+                self.dropped_timing.aoa_s += t.aoa_s;
+                self.dropped_timing.estimator_s += t.estimator_s;
+            }
+        }
+        let Some(c) = kept else {
+            return Released::default();
+        };
+        self.report.chosen_deg = Some(c.step_rad.to_degrees());
+        self.report.decided_at_s = at.zip(self.first_imu).map(|(t, t0)| t.secs_since(t0));
+        self.report.phase_offsets_rad = c
+            .pipeline
+            .rig()
+            .calibration
+            .as_ref()
+            .map(|cal| cal.phase_offsets_rad.clone())
+            .unwrap_or_default();
+        self.stage = Stage::Decided(Box::new(c.pipeline));
+        c.held
+    }
+
+    /// The kept pipeline (the prior's while undecided): its estimator.
+    pub fn wins(&self) -> Option<&Estimator> {
+        self.current().map(Pipeline::wins)
+    }
+
+    /// Packet counters of the kept pipeline (the prior hypothesis's while undecided).
+    pub fn stats(&self) -> PipelineStats {
+        self.current()
+            .map(|p| p.stats().clone())
+            .unwrap_or_else(|| PipelineStats::new(&self.rig.ap_names))
+    }
+
+    /// Wall time per stage over every hypothesis run.
+    pub fn timing(&self) -> StageTiming {
+        let mut t = self.dropped_timing;
+        let mut add = |p: &Pipeline| {
+            t.aoa_s += p.timing().aoa_s;
+            t.estimator_s += p.timing().estimator_s;
+        };
+        match &self.stage {
+            Stage::Measuring { .. } => {}
+            Stage::Testing(c) => c.iter().for_each(|c| add(&c.pipeline)),
+            Stage::Decided(p) => add(p),
+        }
+        t
+    }
+
+    /// The rig (with its stored calibration, the prior).
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    fn current(&self) -> Option<&Pipeline> {
+        match &self.stage {
+            Stage::Measuring { .. } => None,
+            Stage::Testing(c) => c.first().map(|c| &c.pipeline),
+            Stage::Decided(p) => Some(p),
+        }
+    }
+}
+
+/// The curvature is applied again when it moved by more than this, rad (1°).
+const CURVATURE_TOLERANCE_RAD: f64 = 0.017_453_292_519_943_295;
+
+/// `base` with the uniform step `step_rad` added (chain `m` moved by `m·step`).
+fn with_step(base: &ChainCalibration, step_rad: f64) -> ChainCalibration {
+    let mut calibration = base.clone();
+    if step_rad == 0.0 {
+        return calibration;
+    }
+    for (m, phase) in calibration.phase_offsets_rad.iter_mut().enumerate() {
+        *phase = wrap(*phase + m as f64 * step_rad);
+    }
+    calibration
+}
+
+/// One input into one pipeline; a sample the estimator refuses is counted, not an error.
+fn feed(p: &mut Pipeline, input: &Input) -> Released {
+    let mut out = Released::default();
+    match input {
+        Input::Imu(s) => match p.push_imu(s) {
+            Ok(step) => out.frames = step.frames,
+            Err(_) => out.imu_refused = 1,
+        },
+        // A refused barometer sample is counted by the estimator.
+        Input::Baro(t, h) => {
+            let _ = p.push_baro(*t, *h);
+        }
+        Input::Csi(ap, t, record) => out.packets.push(p.push_csi(*ap, *t, record)),
+    }
+    out
+}
+
+fn append(to: &mut Released, from: Released) {
+    to.frames.extend(from.frames);
+    to.packets.extend(from.packets);
+    to.imu_refused += from.imu_refused;
+}
