@@ -256,6 +256,46 @@ fn demo_and_run_write_the_run_directory() {
     );
     assert!(!again.join("aoa.png").exists());
 
+    // Without the dataset's calibration the chains' offsets are resolved from the flight, and
+    // the run says so; a calibration and --no-calibration together are refused.
+    let uncalibrated = dir.join("uncalibrated");
+    let out = wins(&[
+        "run",
+        dataset.to_str().unwrap(),
+        "--out",
+        uncalibrated.to_str().unwrap(),
+        "--no-plots",
+        "--no-calibration",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("resolved from the flight alone"), "{err}");
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(uncalibrated.join("stats.json")).unwrap()).unwrap();
+    let chains = &stats["chain_offsets"];
+    assert_eq!(chains["had_calibration"], false, "{chains}");
+    assert_eq!(
+        chains["hypotheses_deg"].as_array().unwrap().len(),
+        8,
+        "{chains}"
+    );
+    let calibration = dataset.join("calibration.toml");
+    let out = wins(&[
+        "run",
+        dataset.to_str().unwrap(),
+        "--out",
+        uncalibrated.to_str().unwrap(),
+        "--calibration",
+        calibration.to_str().unwrap(),
+        "--no-calibration",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("cannot be used with"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
     let out = wins(&["run", "/nonexistent-wins", "--out", again.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("nonexistent-wins"));

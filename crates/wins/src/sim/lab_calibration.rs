@@ -148,4 +148,42 @@ mod tests {
             assert!(err < 2.0 && err > 1e-6, "chain {m}: {err}°");
         }
     }
+
+    /// After a NIC restart the flight's offsets differ from the lab's (made before it) by
+    /// multiples of the restart step on each chain: π at 5 GHz, π/2 at 2.4 GHz; over seeds every
+    /// multiple occurs.
+    #[test]
+    fn a_restart_moves_each_chain_by_multiples_of_the_step() {
+        for (freq_hz, step) in [(5.32e9, PI), (2.437e9, PI / 2.0)] {
+            let mut seen = std::collections::BTreeSet::new();
+            for seed in 1..=12 {
+                let mut scenario = Scenario::built_in("paper-circle").unwrap().airborne();
+                scenario.duration_s = 0.2;
+                scenario.seed = seed;
+                scenario.radio.center_freq_hz = freq_hz;
+                let before = simulate(&scenario, &mut |_| {})
+                    .unwrap()
+                    .chain_phase_offsets_rad;
+                scenario.radio.nic_restart = true;
+                let after = simulate(&scenario, &mut |_| {})
+                    .unwrap()
+                    .chain_phase_offsets_rad;
+                let capture = capture_scenario(&scenario).unwrap();
+                assert!(
+                    !capture.radio.nic_restart,
+                    "the lab calibrates before the restart"
+                );
+                for (a, b) in after.iter().zip(&before) {
+                    let k = (a - b).rem_euclid(TAU) / step;
+                    assert!((k - k.round()).abs() < 1e-9, "{a} vs {b}");
+                    seen.insert((k.round() as i64).rem_euclid((TAU / step).round() as i64));
+                }
+            }
+            assert_eq!(
+                seen.len() as f64,
+                (TAU / step).round(),
+                "{freq_hz}: {seen:?}"
+            );
+        }
+    }
 }

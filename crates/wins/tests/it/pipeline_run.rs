@@ -17,7 +17,7 @@ use wins::pipeline::output::{COVARIANCE_FILE, METRICS_FILE, TRAJECTORY_FILE};
 use wins::pipeline::replay::{RunOutput, replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
-fn temp_dir(name: &str) -> PathBuf {
+pub(crate) fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("wins-it-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
@@ -44,7 +44,7 @@ fn run(data: &Dataset) -> RunOutput {
     replay(data, rig, &Config::default()).unwrap()
 }
 
-fn check_accounting(run: &RunOutput) {
+pub(crate) fn check_accounting(run: &RunOutput) {
     for s in &run.stats.per_ap {
         assert_eq!(s.fed + s.acquisition + s.dropped(), s.packets, "{s:?}");
     }

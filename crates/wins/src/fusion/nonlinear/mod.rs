@@ -2,14 +2,16 @@
 //!
 //! State per keyframe `k` ([`state::NavState`]): attitude `R_k` on SO(3), position, velocity,
 //! gyro and accelerometer biases, in a gravity-aligned world frame `w` (z up); every AP's position
-//! in 3-D; the barometer's offset when there is one. The error state of a keyframe is
+//! in 3-D; the barometer's offset when there is one; without a chain calibration, a common offset
+//! of every bearing's `sin θ` (what an error in the receive chains' uniform phase step does). The error state of a keyframe is
 //! `[δθ, δp, δv, δb_g, δb_a]` with `R = R̂ Exp(δθ)` (15 numbers).
 //!
 //! Factors, each with an analytic Jacobian beside its finite-difference test:
 //! - [`imu_factor`]: IMU preintegration on the manifold with first-order bias correction;
 //! - [`cone_factor`]: the exact AoA model of a linear array, `sin θ = ŷ_a · unit(c − p_array)`,
 //!   with the lever arm: no front/back decision and no assumption on the AP's height; a robust
-//!   (Cauchy) loss so that one reflection cannot drag the solution;
+//!   (Cauchy) loss so that one reflection cannot drag the solution; `∂r/∂β = 1` for the
+//!   bearings' common offset β when it is estimated;
 //! - [`baro_factor`]: the barometer's altitude, `z + o`, with the offset `o` a state;
 //! - the marginalization prior ([`window`]), with first-estimate Jacobians.
 //!
@@ -25,6 +27,7 @@ pub mod config;
 pub mod estimator;
 pub mod imu_factor;
 mod late_ap;
+mod nullspace;
 mod output;
 pub mod rest;
 mod solve;

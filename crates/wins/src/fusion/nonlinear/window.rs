@@ -26,7 +26,7 @@ use super::baro_factor::{baro_jacobian, baro_residual};
 use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
 use super::config::NonlinearConfig;
 use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
-use super::state::{Mat15, NavState, POS, STATE_DIM, THETA, VEL, Vec15};
+use super::state::{Mat15, NavState, STATE_DIM, Vec15};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::window::arrow::ArrowSystem;
 use crate::imu::Preintegrated;
@@ -513,48 +513,5 @@ impl NonlinearWindow {
     /// prior, at the linearization points (for the observability test).
     pub fn information(&self, with_prior: bool) -> DMatrix<f64> {
         self.build(with_prior).0.to_dense().0
-    }
-
-    /// The 4 directions no data can see, at the linearization points: translation along x, y,
-    /// z (the barometer offset moving against z) and yaw about the vertical (`δθ_k = R_kᵀ e_z`,
-    /// `δp = e_z × p`, `δv = e_z × v`, `δc = e_z × c`), as columns over (frames, border).
-    pub fn nullspace(&self) -> DMatrix<f64> {
-        let n = self.keyframes.len();
-        let nb = usize::from(self.baro.is_some());
-        let dim = n * STATE_DIM + self.border_dim();
-        let mut nsp = DMatrix::zeros(dim, 4);
-        let ez = Vector3::z();
-        for (k, kf) in self.keyframes.iter().enumerate() {
-            let x = kf.lin_or_current(self.fej);
-            let o = k * STATE_DIM;
-            for a in 0..3 {
-                nsp[(o + POS + a, a)] = 1.0;
-            }
-            let yaw = {
-                let mut y = Vec15::zeros();
-                y.fixed_rows_mut::<3>(THETA)
-                    .copy_from(&(x.world_from_body.inverse() * ez));
-                y.fixed_rows_mut::<3>(POS).copy_from(&ez.cross(&x.p_b_in_w));
-                y.fixed_rows_mut::<3>(VEL).copy_from(&ez.cross(&x.v_b_in_w));
-                y
-            };
-            nsp.view_mut((o, 3), (STATE_DIM, 1)).copy_from(&yaw);
-        }
-        let bo = n * STATE_DIM;
-        if nb == 1 {
-            nsp[(bo, 2)] = -1.0;
-        }
-        for (l, c) in self.aps.iter().enumerate() {
-            let c = match self.ap_lin[l] {
-                Some(lin) if self.fej => lin,
-                _ => *c,
-            };
-            let o = bo + self.ap_offset(l);
-            for a in 0..3 {
-                nsp[(o + a, a)] = 1.0;
-            }
-            nsp.view_mut((o, 3), (3, 1)).copy_from(&ez.cross(&c));
-        }
-        nsp
     }
 }
