@@ -180,7 +180,8 @@ impl NonlinearWindow {
                 .map(|c| c.unwrap_or_else(Vector3::zeros))
                 .collect(),
             baro: baro_offset_m.map(|o| (o, None)),
-            bias: sin_bias.map(|(b, _)| (b, None)),
+            // Its prior is centred on the value given: the point is fixed from the start.
+            bias: sin_bias.map(|(b, _)| (b, Some(b))),
             prior_h: h,
             prior_g: DVector::zeros(dim),
             fej: true,
