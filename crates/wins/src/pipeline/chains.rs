@@ -8,20 +8,31 @@
 //!
 //! 1. the *curvature* `φ₀ − 2φ₁ + φ₂`, which any capture reveals: measured over the first
 //!    [`ChainOffsetsConfig::curvature_packets`] packets (all APs pooled; the inputs wait in a
-//!    queue meanwhile) and applied, with a prior only as the nearest multiple of the step;
+//!    queue meanwhile);
 //! 2. the *uniform step* `s` (chain `m` moved by `m·s`), which shifts every angle and which no
-//!    single packet can reveal. Each hypothesis of it runs as its own [`Pipeline`], side by side
-//!    on the same inputs: with a prior the multiples of the restart step (2 at 5 GHz, 4 at
-//!    2.4 GHz), without one [`ChainOffsetsConfig::uncalibrated_hypotheses`] steps around the
-//!    circle. The hypothesis whose bearings the IMU's motion explains wins: once one has been
-//!    converged for [`ChainOffsetsConfig::decide_after_s`], the converged one whose window
-//!    explains its bearings best ([`Estimator::bearing_misfit`]) is kept and the others are
-//!    dropped. A wrong step puts every bearing at an alias (`sin θ ± 1` for π), which no
-//!    trajectory explains: such hypotheses do not converge (measured: `docs/VALIDATION.md`).
+//!    single packet can reveal.
+//!
+//! Each hypothesis runs as its own [`Pipeline`], side by side on the same inputs: with a prior,
+//! the multiples of the restart step for the uniform step (2 at 5 GHz, 4 at 2.4 GHz) times two
+//! restart steps on chain 2, the measured curvature's nearest and the next (at rest on the
+//! ground, reflections biased the measurement by more than 90°); without a prior,
+//! [`ChainOffsetsConfig::uncalibrated_hypotheses`] uniform steps around the circle on the
+//! measured curvature (re-measured as the flight goes on), each refined by the window (the
+//! bearings' common `sin θ` offset, a state of the nonlinear window with a prior σ of half the
+//! hypotheses' spacing). The hypothesis whose bearings the IMU's motion explains wins: once a
+//! converged one has been converged for [`ChainOffsetsConfig::decide_after_s`] in total, the
+//! converged one whose window explains its
+//! bearings best ([`Estimator::bearing_misfit`]) is kept and the others are dropped. A wrong
+//! step puts every bearing at an alias (`sin θ ± 1` for π), which a trajectory explains only
+//! while the AP stays on one side of broadside: such hypotheses rarely converge, and less well.
 //!
 //! Until the decision nothing is released: the frames and packet rows of every hypothesis are
 //! held, and the winner's are released at once. A flight that ends undecided keeps the
-//! hypothesis that converged first, else the prior's.
+//! hypothesis converged longest, else the prior's.
+//!
+//! Only with the nonlinear estimator: the paper's tests its fit only when it declares convergence,
+//! and it converged on π aliases, fitting them better than the right step; with it the
+//! calibration is applied as it is.
 
 use std::f64::consts::TAU;
 
@@ -29,10 +40,10 @@ mod settings;
 
 pub use self::settings::{ChainOffsetsConfig, ChainReport, Finished, Released};
 use super::{Config, Pipeline, PipelineError, PipelineStats, StageTiming};
-use crate::aoa::{AoaEstimator, ChainCurvature, raw_csi, restart_step_rad};
+use crate::aoa::{AoaEstimator, ChainCurvature, curvature_of, raw_csi, restart_step_rad};
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::wrap;
-use crate::fusion::choice::Estimator;
+use crate::fusion::choice::{Estimator, EstimatorKind};
 use crate::imu::ImuSample;
 use crate::rig::{ChainCalibration, Rig};
 use crate::time::Timestamp;
@@ -45,9 +56,15 @@ enum Input {
 
 struct Candidate {
     pipeline: Pipeline,
+    /// Change of chain 2's offset from the prior (a restart step; 0 without a prior, whose
+    /// curvature is in the base).
+    curvature_rad: f64,
     step_rad: f64,
     held: Released,
-    converged_since: Option<Timestamp>,
+    /// Whether it is converged (and fits its bearings) now.
+    converged: bool,
+    /// Flight time it has been converged so far, s (restarts do not reset it).
+    converged_s: f64,
 }
 
 enum Stage {
@@ -70,6 +87,7 @@ pub struct ChainResolver {
     stage: Stage,
     report: ChainReport,
     first_imu: Option<Timestamp>,
+    last_imu: Option<Timestamp>,
     dropped_timing: StageTiming,
 }
 
@@ -94,7 +112,11 @@ impl ChainResolver {
         )?
         .calibration()
         .clone();
-        let resolve = config.pipeline.chains.resolve && rig.geometry.num_antennas == 3;
+        // The paper's estimator tests its fit only when it declares convergence: it converged on
+        // π aliases and fitted them better than the truth (measured), so it cannot choose.
+        let resolve = config.pipeline.chains.resolve
+            && rig.geometry.num_antennas == 3
+            && config.estimator == EstimatorKind::Nonlinear;
         let report = ChainReport {
             resolved: resolve,
             had_calibration: rig.calibration.is_some(),
@@ -123,6 +145,7 @@ impl ChainResolver {
             stage,
             report,
             first_imu: None,
+            last_imu: None,
             dropped_timing: StageTiming::default(),
         })
     }
@@ -159,6 +182,7 @@ impl ChainResolver {
         record: &CsiRecord,
     ) -> Result<Released, PipelineError> {
         if self.config.pipeline.chains.resolve
+            && !self.report.had_calibration
             && let Ok(csi) = raw_csi(record, self.config.aoa.tx, 3)
             && self.curvature.push(&csi, 3)
             && !matches!(self.stage, Stage::Measuring { .. })
@@ -168,6 +192,12 @@ impl ChainResolver {
                 .is_multiple_of(self.config.pipeline.chains.curvature_refresh_packets)
         {
             self.refresh_curvature()?;
+        }
+        if self.report.had_calibration
+            && matches!(self.stage, Stage::Measuring { .. })
+            && let Ok(csi) = raw_csi(record, self.config.aoa.tx, 3)
+        {
+            self.curvature.push(&csi, 3);
         }
         if let Stage::Decided(p) = &mut self.stage {
             return Ok(Released {
@@ -182,7 +212,7 @@ impl ChainResolver {
     }
 
     /// The end of the inputs: starts the hypotheses if the curvature was still being measured,
-    /// decides among them if they are still side by side (the one converged first, else the
+    /// decides among them if they are still side by side (the one converged longest, else the
     /// prior's), and hands over the kept pipeline with what it still held.
     pub fn finish(mut self) -> Result<Finished, PipelineError> {
         let mut released = Released::default();
@@ -193,9 +223,12 @@ impl ChainResolver {
             let pick = candidates
                 .iter()
                 .enumerate()
-                .filter_map(|(i, c)| c.converged_since.map(|t| (t, i)))
-                .min()
-                .map_or(0, |(_, i)| i);
+                .max_by(|a, b| {
+                    a.1.converged_s
+                        .total_cmp(&b.1.converged_s)
+                        .then(b.0.cmp(&a.0))
+                })
+                .map_or(0, |(i, _)| i);
             append(&mut released, self.decide(pick, None));
         }
         let timing = self.timing();
@@ -249,6 +282,29 @@ impl ChainResolver {
         };
         let has_prior = self.report.had_calibration;
         self.base = self.measured_base();
+        // With a prior the measured curvature only ranks the restart's steps on chain 2: the
+        // nearest and the next are both tried (at rest, reflections biased it by more than 90°).
+        let curvatures = if has_prior {
+            let step = restart_step_rad(self.rig.center_freq_hz);
+            let nearest = self.report.curvature_applied_deg.to_radians();
+            let change = self
+                .report
+                .curvature_measured_deg
+                .zip(curvature_of(&self.prior))
+                .map_or(0.0, |(m, p)| wrap(m.to_radians() - p));
+            let side = if wrap(change - nearest) >= 0.0 {
+                step
+            } else {
+                -step
+            };
+            self.base = self.prior.clone();
+            // The prior's own curvature first (the fallback of a flight that ends undecided).
+            let mut options = vec![nearest, wrap(nearest + side)];
+            options.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
+            options
+        } else {
+            vec![0.0]
+        };
         let n = if has_prior {
             (TAU / restart_step_rad(self.rig.center_freq_hz)).round() as usize
         } else {
@@ -264,19 +320,30 @@ impl ChainResolver {
             let half_spacing = period / (2 * n) as f64;
             config.nonlinear.sin_bias_sigma = config.nonlinear.sin_bias_sigma.max(half_spacing);
         }
-        let mut candidates = Vec::with_capacity(n);
-        for k in 0..n {
-            let step_rad = wrap(k as f64 * TAU / n as f64);
-            let mut rig = self.rig.clone();
-            rig.calibration = Some(with_step(&self.base, step_rad));
-            candidates.push(Candidate {
-                pipeline: Pipeline::with_baro(&config, rig, self.has_baro)?,
-                step_rad,
-                held: Released::default(),
-                converged_since: None,
-            });
+        let mut candidates = Vec::with_capacity(n * curvatures.len());
+        for &curvature_rad in &curvatures {
+            for k in 0..n {
+                let step_rad = wrap(k as f64 * TAU / n as f64);
+                let mut rig = self.rig.clone();
+                rig.calibration = Some(with_step(
+                    &with_curvature(&self.base, curvature_rad),
+                    step_rad,
+                ));
+                candidates.push(Candidate {
+                    pipeline: Pipeline::with_baro(&config, rig, self.has_baro)?,
+                    curvature_rad,
+                    step_rad,
+                    held: Released::default(),
+                    converged: false,
+                    converged_s: 0.0,
+                });
+            }
         }
         self.report.hypotheses_deg = candidates.iter().map(|c| c.step_rad.to_degrees()).collect();
+        self.report.hypotheses_curvature_deg = candidates
+            .iter()
+            .map(|c| c.curvature_rad.to_degrees())
+            .collect();
         self.stage = Stage::Testing(candidates);
         let mut out = Released::default();
         for input in queue {
@@ -338,13 +405,14 @@ impl ChainResolver {
         let Stage::Testing(candidates) = &mut self.stage else {
             return Released::default();
         };
+        let dt_s = self.last_imu.map_or(0.0, |t| s.t.secs_since(t).max(0.0));
+        self.last_imu = Some(s.t);
         for c in candidates.iter_mut() {
             let wins = c.pipeline.wins();
-            c.converged_since = if wins.is_converged() && wins.fits_its_bearings() {
-                Some(c.converged_since.unwrap_or(s.t))
-            } else {
-                None
-            };
+            c.converged = wins.is_converged() && wins.fits_its_bearings();
+            if c.converged {
+                c.converged_s += dt_s;
+            }
         }
         let chains = &self.config.pipeline.chains;
         let after_s = if self.report.had_calibration {
@@ -353,18 +421,17 @@ impl ChainResolver {
             chains.decide_after_uncalibrated_s
         };
         let ripe = candidates.len() == 1
-            || candidates.iter().any(|c| {
-                c.converged_since
-                    .is_some_and(|t0| s.t.secs_since(t0) >= after_s)
-            });
+            || candidates
+                .iter()
+                .any(|c| c.converged && c.converged_s >= after_s);
         if !ripe {
             return Released::default();
         }
         let scores: Vec<Option<f64>> = candidates
             .iter()
             .map(|c| {
-                c.converged_since
-                    .map(|_| c.pipeline.wins().bearing_misfit().unwrap_or(f64::INFINITY))
+                c.converged
+                    .then(|| c.pipeline.wins().bearing_misfit().unwrap_or(f64::INFINITY))
             })
             .collect();
         let pick = scores
@@ -397,6 +464,7 @@ impl ChainResolver {
             return Released::default();
         };
         self.report.chosen_deg = Some(c.step_rad.to_degrees());
+        self.report.chosen_curvature_deg = Some(c.curvature_rad.to_degrees());
         self.report.decided_at_s = at.zip(self.first_imu).map(|(t, t0)| t.secs_since(t0));
         self.report.phase_offsets_rad = c
             .pipeline
@@ -452,6 +520,17 @@ impl ChainResolver {
 
 /// The curvature is applied again when it moved by more than this, rad (1°).
 const CURVATURE_TOLERANCE_RAD: f64 = 0.017_453_292_519_943_295;
+
+/// `base` with chain 2's offset moved by `curvature_rad` (a restart's step).
+fn with_curvature(base: &ChainCalibration, curvature_rad: f64) -> ChainCalibration {
+    let mut calibration = base.clone();
+    if curvature_rad != 0.0
+        && let Some(phase) = calibration.phase_offsets_rad.get_mut(2)
+    {
+        *phase = wrap(*phase + curvature_rad);
+    }
+    calibration
+}
 
 /// `base` with the uniform step `step_rad` added (chain `m` moved by `m·step`).
 fn with_step(base: &ChainCalibration, step_rad: f64) -> ChainCalibration {

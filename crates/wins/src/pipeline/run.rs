@@ -76,7 +76,9 @@ pub fn run_dataset_with(
     let mut warnings = Vec::new();
     let uncalibrated =
         options.no_calibration || (data.calibration.is_none() && options.calibration.is_none());
-    if uncalibrated && config.pipeline.chains.resolve {
+    let resolves = config.pipeline.chains.resolve
+        && config.estimator == crate::fusion::choice::EstimatorKind::Nonlinear;
+    if uncalibrated && resolves {
         warnings.push(
             "no chain calibration: the chains' phase offsets are resolved from the flight alone \
              (stats.json chain_offsets; a calibration makes the start faster and surer)"
@@ -84,7 +86,8 @@ pub fn run_dataset_with(
         );
     } else if uncalibrated {
         warnings.push(
-            "no chain calibration and pipeline.chains.resolve = false: AoA will be wrong by \
+            "no chain calibration, and the offsets are not resolved from the flight \
+             (pipeline.chains.resolve = false, or the paper's estimator): AoA will be wrong by \
              tens of degrees"
                 .to_string(),
         );

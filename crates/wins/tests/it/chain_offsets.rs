@@ -30,12 +30,12 @@ fn wrap_deg(x: f64) -> f64 {
 }
 
 /// Seed 4's restart flipped chain 1 by π (a uniform step of π: every bearing at its alias) and
-/// seed 1's both chains: the stored calibration is wrong by those steps. The pipeline finds
+/// seed 1's chains 1 and 2 (the curvature too): the stored calibration is wrong by those steps. The pipeline finds
 /// them and flies as with the right calibration; told not to, it does not converge.
 #[test]
 fn a_restart_since_the_calibration_is_resolved_from_the_flight() {
     let config = Config::default();
-    for seed in [4, 1] {
+    for (seed, curvature) in [(4, 0.0), (1, 180.0)] {
         let (restarted, _) = fly("paper-circle-restart", seed, 40.0, &config);
         let (calibrated, _) = fly("paper-circle", seed, 40.0, &config);
         let chains: &ChainReport = &restarted.chains;
@@ -44,8 +44,13 @@ fn a_restart_since_the_calibration_is_resolved_from_the_flight() {
             ate(&restarted),
             ate(&calibrated)
         );
-        assert_eq!(chains.hypotheses_deg, vec![0.0, 180.0]);
+        assert_eq!(chains.hypotheses_deg.len(), 4, "{chains:?}");
         assert_eq!(chains.chosen_deg, Some(180.0), "seed {seed}");
+        assert_eq!(
+            chains.chosen_curvature_deg.map(f64::abs),
+            Some(curvature),
+            "seed {seed}"
+        );
         assert!(chains.decided_at_s.is_some(), "{chains:?}");
         assert!(
             (ate(&restarted) - ate(&calibrated)).abs() < 0.05,

@@ -10,8 +10,8 @@ use crate::fusion::estimator::PoseEstimate;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ChainOffsetsConfig {
-    /// Resolve the offsets from the flight (three-antenna arrays); `false` uses the stored
-    /// calibration (or none) as it is.
+    /// Resolve the offsets from the flight (three-antenna arrays, the nonlinear estimator);
+    /// `false` uses the stored calibration (or none) as it is.
     pub resolve: bool,
     /// Packets (all APs) over which the curvature is measured before the hypotheses start.
     pub curvature_packets: usize,
@@ -98,8 +98,13 @@ pub struct ChainReport {
     pub curvature_updates: usize,
     /// The uniform steps tried, degrees.
     pub hypotheses_deg: Vec<f64>,
+    /// With a prior, the change of chain 2's offset each hypothesis makes (a restart's step: the
+    /// measured curvature's nearest and the next), degrees, beside `hypotheses_deg`.
+    pub hypotheses_curvature_deg: Vec<f64>,
     /// The step kept, degrees (`None` while undecided).
     pub chosen_deg: Option<f64>,
+    /// The change of chain 2's offset kept, degrees.
+    pub chosen_curvature_deg: Option<f64>,
     /// Flight time of the decision, s from the first IMU sample.
     pub decided_at_s: Option<f64>,
     /// Each hypothesis's robust cost per bearing at the decision (`None`: not converged).
@@ -113,7 +118,7 @@ pub struct ChainReport {
     pub refined_deg: Option<f64>,
 }
 
-/// The end of a run ([`ChainResolver::finish`]).
+/// The end of a run ([`super::ChainResolver::finish`]).
 #[derive(Debug)]
 pub struct Finished {
     /// The pipeline kept.
