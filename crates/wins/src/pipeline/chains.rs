@@ -20,8 +20,8 @@
 //! measured curvature (re-measured as the flight goes on), each refined by the window (the
 //! bearings' common `sin θ` offset, a state of the nonlinear window with a prior σ of half the
 //! hypotheses' spacing). The hypothesis whose bearings the IMU's motion explains wins: once a
-//! converged one has been converged for [`ChainOffsetsConfig::decide_after_s`] in total, the
-//! converged one whose window explains its
+//! converged one has been converged for [`ChainOffsetsConfig::decide_after_s`] in total
+//! ([`ChainOffsetsConfig::decide_alone_after_s`] while no other is), the converged one whose window explains its
 //! bearings best ([`Estimator::bearing_misfit`]) is kept and the others are dropped. A wrong
 //! step puts every bearing at an alias (`sin θ ± 1` for π), which a trajectory explains only
 //! while the AP stays on one side of broadside: such hypotheses rarely converge, and less well.
@@ -420,10 +420,18 @@ impl ChainResolver {
         } else {
             chains.decide_after_uncalibrated_s
         };
+        // A hypothesis converged alone must hold longer: a wrong restart step on chain 2
+        // converged alone on the warehouse, 5 s before the right one.
+        let converged = candidates.iter().filter(|c| c.converged).count();
+        let needed_s = if converged >= 2 {
+            after_s
+        } else {
+            after_s.max(chains.decide_alone_after_s)
+        };
         let ripe = candidates.len() == 1
             || candidates
                 .iter()
-                .any(|c| c.converged && c.converged_s >= after_s);
+                .any(|c| c.converged && c.converged_s >= needed_s);
         if !ripe {
             return Released::default();
         }

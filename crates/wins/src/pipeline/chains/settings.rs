@@ -21,6 +21,9 @@ pub struct ChainOffsetsConfig {
     /// trajectory (the bearings' common offset, [`crate::fusion::nonlinear`]) and needs longer
     /// (measured: 5 s kept hypotheses that converged early on a wrong step).
     pub decide_after_uncalibrated_s: f64,
+    /// A hypothesis converged while no other is must have been converged this long (in total)
+    /// before it is kept, s.
+    pub decide_alone_after_s: f64,
     /// Hypotheses of the uniform step without a stored calibration (evenly around the circle).
     pub uncalibrated_hypotheses: usize,
     /// The curvature keeps being measured over every packet of the flight (the motion averages
@@ -36,6 +39,7 @@ impl Default for ChainOffsetsConfig {
             curvature_packets: 200,
             decide_after_s: 5.0,
             decide_after_uncalibrated_s: 15.0,
+            decide_alone_after_s: 10.0,
             uncalibrated_hypotheses: 8,
             curvature_refresh_packets: 250,
         }
@@ -57,6 +61,13 @@ impl ChainOffsetsConfig {
             prefix,
             "decide_after_uncalibrated_s",
             self.decide_after_uncalibrated_s,
+            0.0,
+            600.0,
+        );
+        p.in_range(
+            prefix,
+            "decide_alone_after_s",
+            self.decide_alone_after_s,
             0.0,
             600.0,
         );

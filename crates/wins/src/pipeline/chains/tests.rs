@@ -7,6 +7,7 @@ fn settings_out_of_range_are_named() {
         curvature_packets: 0,
         decide_after_s: -1.0,
         decide_after_uncalibrated_s: f64::NAN,
+        decide_alone_after_s: 1e9,
         uncalibrated_hypotheses: 100,
         curvature_refresh_packets: 0,
         ..ChainOffsetsConfig::default()
@@ -16,6 +17,7 @@ fn settings_out_of_range_are_named() {
         "curvature_packets",
         "decide_after_s",
         "decide_after_uncalibrated_s",
+        "decide_alone_after_s",
         "uncalibrated_hypotheses",
         "curvature_refresh_packets",
     ] {
