@@ -17,8 +17,11 @@ use wins::pipeline::output::{COVARIANCE_FILE, METRICS_FILE, TRAJECTORY_FILE};
 use wins::pipeline::replay::{RunOutput, replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
+/// A fresh folder for `name`, its own even when two tests fly the same scenario and seed at once.
 pub(crate) fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("wins-it-{}-{name}", std::process::id()));
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let d = std::env::temp_dir().join(format!("wins-it-{}-{k}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
 }
