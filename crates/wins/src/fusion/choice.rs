@@ -148,20 +148,6 @@ impl Estimator {
         }
     }
 
-    /// Whether the state explains its bearings as a converged one must: the paper's window
-    /// checks its AoA residual RMS only when it declares convergence, so it is checked here
-    /// against the same bound ([`crate::fusion::window::WindowConfig::converged_max_residual_rms`]);
-    /// the nonlinear window tests its fit (χ²) at every solve and restarts when it fails.
-    pub fn fits_its_bearings(&self) -> bool {
-        match self {
-            Self::Paper(w) => w
-                .window()
-                .aoa_residual_rms()
-                .is_none_or(|rms| rms <= w.window().config().converged_max_residual_rms),
-            Self::Nonlinear(_) => true,
-        }
-    }
-
     /// The bearings' common `sin θ` offset β the window estimates and its σ
     /// ([`crate::fusion::nonlinear::NonlinearConfig::sin_bias_sigma`]); `None` when not
     /// estimated or not tracking.

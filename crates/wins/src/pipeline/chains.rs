@@ -21,8 +21,9 @@
 //! bearings' common `sin θ` offset, a state of the nonlinear window with a prior σ of half the
 //! hypotheses' spacing). The hypothesis whose bearings the IMU's motion explains wins: once a
 //! converged one has been converged for [`ChainOffsetsConfig::decide_after_s`] in total
-//! ([`ChainOffsetsConfig::decide_alone_after_s`] while no other is), the converged one whose window explains its
-//! bearings best ([`Estimator::bearing_misfit`]) is kept and the others are dropped. A wrong
+//! ([`ChainOffsetsConfig::decide_alone_after_s`] while no other is), the converged one whose
+//! window explains its bearings best ([`Estimator::bearing_misfit`]) is kept and the others are
+//! dropped. A wrong
 //! step puts every bearing at an alias (`sin θ ± 1` for π), which a trajectory explains only
 //! while the AP stays on one side of broadside: such hypotheses rarely converge, and less well.
 //!
@@ -36,23 +37,22 @@
 
 use std::f64::consts::TAU;
 
+mod inputs;
 mod settings;
 
+use self::inputs::{Input, append, feed};
+
 pub use self::settings::{ChainOffsetsConfig, ChainReport, Finished, Released};
-use super::{Config, Pipeline, PipelineError, PipelineStats, StageTiming};
-use crate::aoa::{AoaEstimator, ChainCurvature, curvature_of, raw_csi, restart_step_rad};
+use super::{Config, Pipeline, PipelineError, StageTiming};
+use crate::aoa::{AoaEstimator, ChainCurvature, Correction, raw_csi, restart_step_rad};
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::wrap;
-use crate::fusion::choice::{Estimator, EstimatorKind};
+#[cfg(doc)]
+use crate::fusion::choice::Estimator;
+use crate::fusion::choice::EstimatorKind;
 use crate::imu::ImuSample;
-use crate::rig::{ChainCalibration, Rig};
+use crate::rig::{ArrayGeometry, ChainCalibration, Rig};
 use crate::time::Timestamp;
-
-enum Input {
-    Imu(ImuSample),
-    Baro(Timestamp, f64),
-    Csi(usize, Timestamp, Box<CsiRecord>),
-}
 
 struct Candidate {
     pipeline: Pipeline,
@@ -112,15 +112,10 @@ impl ChainResolver {
         )?
         .calibration()
         .clone();
-        // The paper's estimator tests its fit only when it declares convergence: it converged on
-        // π aliases and fitted them better than the truth (measured), so it cannot choose.
-        let resolve = config.pipeline.chains.resolve
-            && rig.geometry.num_antennas == 3
-            && config.estimator == EstimatorKind::Nonlinear;
+        let resolve = resolves(config, rig.geometry);
         let report = ChainReport {
             resolved: resolve,
             had_calibration: rig.calibration.is_some(),
-            phase_offsets_rad: prior.phase_offsets_rad.clone(),
             ..ChainReport::default()
         };
         let stage = if resolve {
@@ -155,14 +150,6 @@ impl ChainResolver {
         &self.report
     }
 
-    /// The pipeline kept (once decided).
-    pub fn decided(&self) -> Option<&Pipeline> {
-        match &self.stage {
-            Stage::Decided(p) => Some(p),
-            _ => None,
-        }
-    }
-
     /// Integrates one IMU sample ([`Pipeline::push_imu`]).
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Released, PipelineError> {
         self.first_imu.get_or_insert(s.t);
@@ -181,23 +168,20 @@ impl ChainResolver {
         t: Timestamp,
         record: &CsiRecord,
     ) -> Result<Released, PipelineError> {
-        if self.config.pipeline.chains.resolve
-            && !self.report.had_calibration
+        // The curvature: with a prior measured once, to rank the restart steps; without one
+        // measured over the whole flight and applied again as it moves.
+        let measuring = matches!(self.stage, Stage::Measuring { .. });
+        if self.report.resolved
+            && (measuring || !self.report.had_calibration)
             && let Ok(csi) = raw_csi(record, self.config.aoa.tx, 3)
             && self.curvature.push(&csi, 3)
-            && !matches!(self.stage, Stage::Measuring { .. })
+            && !measuring
             && self
                 .curvature
                 .packets
                 .is_multiple_of(self.config.pipeline.chains.curvature_refresh_packets)
         {
             self.refresh_curvature()?;
-        }
-        if self.report.had_calibration
-            && matches!(self.stage, Stage::Measuring { .. })
-            && let Ok(csi) = raw_csi(record, self.config.aoa.tx, 3)
-        {
-            self.curvature.push(&csi, 3);
         }
         if let Stage::Decided(p) = &mut self.stage {
             return Ok(Released {
@@ -233,6 +217,7 @@ impl ChainResolver {
         }
         let timing = self.timing();
         if let Stage::Decided(p) = &self.stage {
+            self.report.phase_offsets_rad = p.chain_calibration().phase_offsets_rad.clone();
             self.report.sin_bias = p.wins().sin_bias();
             let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
             self.report.refined_deg = self
@@ -281,28 +266,27 @@ impl ChainResolver {
             return Ok(Released::default());
         };
         let has_prior = self.report.had_calibration;
-        self.base = self.measured_base();
+        let correction = self.measure_curvature();
         // With a prior the measured curvature only ranks the restart's steps on chain 2: the
         // nearest and the next are both tried (at rest, reflections biased it by more than 90°).
         let curvatures = if has_prior {
             let step = restart_step_rad(self.rig.center_freq_hz);
-            let nearest = self.report.curvature_applied_deg.to_radians();
-            let change = self
-                .report
-                .curvature_measured_deg
-                .zip(curvature_of(&self.prior))
-                .map_or(0.0, |(m, p)| wrap(m.to_radians() - p));
+            let nearest = correction.applied_rad;
+            let change = correction
+                .measured_rad
+                .zip(correction.prior_rad)
+                .map_or(0.0, |(m, p)| wrap(m - p));
             let side = if wrap(change - nearest) >= 0.0 {
                 step
             } else {
                 -step
             };
-            self.base = self.prior.clone();
             // The prior's own curvature first (the fallback of a flight that ends undecided).
             let mut options = vec![nearest, wrap(nearest + side)];
             options.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
             options
         } else {
+            self.base = correction.calibration;
             vec![0.0]
         };
         let n = if has_prior {
@@ -352,8 +336,8 @@ impl ChainResolver {
         Ok(out)
     }
 
-    /// The prior with the curvature measured so far (recorded in the report).
-    fn measured_base(&mut self) -> ChainCalibration {
+    /// The prior corrected by the curvature measured so far (recorded in the report).
+    fn measure_curvature(&mut self) -> Correction {
         let step = restart_step_rad(self.rig.center_freq_hz);
         let correction = self
             .curvature
@@ -362,13 +346,13 @@ impl ChainResolver {
         self.report.curvature_measured_deg = correction.measured_rad.map(f64::to_degrees);
         self.report.curvature_agreement = self.curvature.agreement();
         self.report.curvature_applied_deg = correction.applied_rad.to_degrees();
-        correction.calibration
+        correction
     }
 
     /// Applies the curvature measured so far to every pipeline running, when it moved by more
     /// than [`CURVATURE_TOLERANCE_RAD`].
     fn refresh_curvature(&mut self) -> Result<(), PipelineError> {
-        let base = self.measured_base();
+        let base = self.measure_curvature().calibration;
         let moved = base
             .phase_offsets_rad
             .iter()
@@ -408,8 +392,7 @@ impl ChainResolver {
         let dt_s = self.last_imu.map_or(0.0, |t| s.t.secs_since(t).max(0.0));
         self.last_imu = Some(s.t);
         for c in candidates.iter_mut() {
-            let wins = c.pipeline.wins();
-            c.converged = wins.is_converged() && wins.fits_its_bearings();
+            c.converged = c.pipeline.wins().is_converged();
             if c.converged {
                 c.converged_s += dt_s;
             }
@@ -463,9 +446,7 @@ impl ChainResolver {
             if i == pick {
                 kept = Some(c);
             } else {
-                let t = c.pipeline.timing();
-                self.dropped_timing.aoa_s += t.aoa_s;
-                self.dropped_timing.estimator_s += t.estimator_s;
+                self.dropped_timing += c.pipeline.timing();
             }
         }
         let Some(c) = kept else {
@@ -474,56 +455,30 @@ impl ChainResolver {
         self.report.chosen_deg = Some(c.step_rad.to_degrees());
         self.report.chosen_curvature_deg = Some(c.curvature_rad.to_degrees());
         self.report.decided_at_s = at.zip(self.first_imu).map(|(t, t0)| t.secs_since(t0));
-        self.report.phase_offsets_rad = c
-            .pipeline
-            .rig()
-            .calibration
-            .as_ref()
-            .map(|cal| cal.phase_offsets_rad.clone())
-            .unwrap_or_default();
         self.stage = Stage::Decided(Box::new(c.pipeline));
         c.held
-    }
-
-    /// The kept pipeline (the prior's while undecided): its estimator.
-    pub fn wins(&self) -> Option<&Estimator> {
-        self.current().map(Pipeline::wins)
-    }
-
-    /// Packet counters of the kept pipeline (the prior hypothesis's while undecided).
-    pub fn stats(&self) -> PipelineStats {
-        self.current()
-            .map(|p| p.stats().clone())
-            .unwrap_or_else(|| PipelineStats::new(&self.rig.ap_names))
     }
 
     /// Wall time per stage over every hypothesis run.
     pub fn timing(&self) -> StageTiming {
         let mut t = self.dropped_timing;
-        let mut add = |p: &Pipeline| {
-            t.aoa_s += p.timing().aoa_s;
-            t.estimator_s += p.timing().estimator_s;
-        };
         match &self.stage {
             Stage::Measuring { .. } => {}
-            Stage::Testing(c) => c.iter().for_each(|c| add(&c.pipeline)),
-            Stage::Decided(p) => add(p),
+            Stage::Testing(c) => c.iter().for_each(|c| t += c.pipeline.timing()),
+            Stage::Decided(p) => t += p.timing(),
         }
         t
     }
+}
 
-    /// The rig (with its stored calibration, the prior).
-    pub fn rig(&self) -> &Rig {
-        &self.rig
-    }
-
-    fn current(&self) -> Option<&Pipeline> {
-        match &self.stage {
-            Stage::Measuring { .. } => None,
-            Stage::Testing(c) => c.first().map(|c| &c.pipeline),
-            Stage::Decided(p) => Some(p),
-        }
-    }
+/// Whether the offsets are resolved from the flight for `config` on an array `geometry`: asked
+/// for, three antennas, and the nonlinear estimator (the paper's tests its fit only when it
+/// declares convergence: it converged on π aliases and fitted them better than the truth, so it
+/// cannot choose).
+pub fn resolves(config: &Config, geometry: ArrayGeometry) -> bool {
+    config.pipeline.chains.resolve
+        && geometry.num_antennas == 3
+        && config.estimator == EstimatorKind::Nonlinear
 }
 
 /// The curvature is applied again when it moved by more than this, rad (1°).
@@ -550,29 +505,6 @@ fn with_step(base: &ChainCalibration, step_rad: f64) -> ChainCalibration {
         *phase = wrap(*phase + m as f64 * step_rad);
     }
     calibration
-}
-
-/// One input into one pipeline; a sample the estimator refuses is counted, not an error.
-fn feed(p: &mut Pipeline, input: &Input) -> Released {
-    let mut out = Released::default();
-    match input {
-        Input::Imu(s) => match p.push_imu(s) {
-            Ok(step) => out.frames = step.frames,
-            Err(_) => out.imu_refused = 1,
-        },
-        // A refused barometer sample is counted by the estimator.
-        Input::Baro(t, h) => {
-            let _ = p.push_baro(*t, *h);
-        }
-        Input::Csi(ap, t, record) => out.packets.push(p.push_csi(*ap, *t, record)),
-    }
-    out
-}
-
-fn append(to: &mut Released, from: Released) {
-    to.frames.extend(from.frames);
-    to.packets.extend(from.packets);
-    to.imu_refused += from.imu_refused;
 }
 
 #[cfg(test)]

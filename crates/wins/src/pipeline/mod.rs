@@ -80,6 +80,13 @@ pub struct StageTiming {
     pub estimator_s: f64,
 }
 
+impl std::ops::AddAssign for StageTiming {
+    fn add_assign(&mut self, other: Self) {
+        self.aoa_s += other.aoa_s;
+        self.estimator_s += other.estimator_s;
+    }
+}
+
 /// WINS as one object (module doc).
 #[derive(Debug)]
 pub struct Pipeline {

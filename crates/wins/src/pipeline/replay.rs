@@ -1,5 +1,6 @@
-//! A dataset directory through the pipeline (a [`ChainResolver`] over [`super::Pipeline`]s): IMU samples and every AP's packets merged by
-//! time (a packet before the IMU samples after it), as a live driver would push them.
+//! A dataset directory through the pipeline (a [`ChainResolver`] over [`super::Pipeline`]s): IMU
+//! samples and every AP's packets merged by time (a packet before the IMU samples after it), as a
+//! live driver would push them.
 
 use std::time::Instant;
 

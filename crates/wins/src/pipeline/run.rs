@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use super::Config;
+use super::chains::resolves;
 use super::replay::{ReplayError, RunOutput, replay, rig_of};
 use crate::dataset::truth::{TRUTH_DIR, Truth, TruthError};
 use crate::dataset::{Dataset, DatasetError};
@@ -73,22 +74,26 @@ pub fn run_dataset_with(
         path: path.display().to_string(),
         source: Box::new(source),
     })?;
+    let mut rig = rig_of(
+        &data,
+        options.imu_noise.clone(),
+        options.calibration.clone(),
+    )?;
+    if options.no_calibration {
+        rig.calibration = None;
+    }
     let mut warnings = Vec::new();
-    let uncalibrated =
-        options.no_calibration || (data.calibration.is_none() && options.calibration.is_none());
-    let resolves = config.pipeline.chains.resolve
-        && config.estimator == crate::fusion::choice::EstimatorKind::Nonlinear;
-    if uncalibrated && resolves {
+    if rig.calibration.is_none() && resolves(config, rig.geometry) {
         warnings.push(
             "no chain calibration: the chains' phase offsets are resolved from the flight alone \
              (stats.json chain_offsets; a calibration makes the start faster and surer)"
                 .to_string(),
         );
-    } else if uncalibrated {
+    } else if rig.calibration.is_none() {
         warnings.push(
             "no chain calibration, and the offsets are not resolved from the flight \
-             (pipeline.chains.resolve = false, or the paper's estimator): AoA will be wrong by \
-             tens of degrees"
+             (pipeline.chains.resolve = false, the paper's estimator or two antennas): AoA will \
+             be wrong by tens of degrees"
                 .to_string(),
         );
     }
@@ -102,14 +107,6 @@ pub fn run_dataset_with(
     } else {
         None
     };
-    let mut rig = rig_of(
-        &data,
-        options.imu_noise.clone(),
-        options.calibration.clone(),
-    )?;
-    if options.no_calibration {
-        rig.calibration = None;
-    }
     let mut run = replay(&data, rig, config)?;
     run.warnings.extend(warnings);
     if let Some(truth) = &truth {

@@ -30,8 +30,9 @@ fn wrap_deg(x: f64) -> f64 {
 }
 
 /// Seed 4's restart flipped chain 1 by π (a uniform step of π: every bearing at its alias) and
-/// seed 1's chains 1 and 2 (the curvature too): the stored calibration is wrong by those steps. The pipeline finds
-/// them and flies as with the right calibration; told not to, it does not converge.
+/// seed 1's chains 1 and 2 (the curvature too): the stored calibration is wrong by those steps.
+/// The pipeline finds them and flies as with the right calibration; told not to, it does not
+/// converge.
 #[test]
 fn a_restart_since_the_calibration_is_resolved_from_the_flight() {
     let config = Config::default();

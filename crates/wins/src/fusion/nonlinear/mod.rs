@@ -3,8 +3,8 @@
 //! State per keyframe `k` ([`state::NavState`]): attitude `R_k` on SO(3), position, velocity,
 //! gyro and accelerometer biases, in a gravity-aligned world frame `w` (z up); every AP's position
 //! in 3-D; the barometer's offset when there is one; without a chain calibration, a common offset
-//! of every bearing's `sin θ` (what an error in the receive chains' uniform phase step does). The error state of a keyframe is
-//! `[δθ, δp, δv, δb_g, δb_a]` with `R = R̂ Exp(δθ)` (15 numbers).
+//! of every bearing's `sin θ` (what an error in the receive chains' uniform phase step does). The
+//! error state of a keyframe is `[δθ, δp, δv, δb_g, δb_a]` with `R = R̂ Exp(δθ)` (15 numbers).
 //!
 //! Factors, each with an analytic Jacobian beside its finite-difference test:
 //! - [`imu_factor`]: IMU preintegration on the manifold with first-order bias correction;

@@ -5,8 +5,8 @@
 //! **Border**: `[o (when there is a barometer), β (when estimated), c_0, c_1, …]`, so an AP seen
 //! later appends. `β` is a common offset of every bearing's `sin θ`: what an error `Δφ` in the
 //! receive chains' uniform phase step does to a linear array (`Δ sin θ = Δφ·λ/(2πd)`, the same for
-//! every path and AP; [`crate::pipeline::chains`]). The cone residual becomes `s − (sin θ_measured − β)`,
-//! `∂r/∂β = 1`.
+//! every path and AP; [`crate::pipeline::chains`]). The cone residual becomes
+//! `s − (sin θ_measured − β)`, `∂r/∂β = 1`.
 //!
 //! **First-estimate Jacobians** (Huang, Mourikis, Roumeliotis 2008; OpenVINS): once a state
 //! takes part in the marginalization prior (the second keyframe when the oldest leaves, every AP
