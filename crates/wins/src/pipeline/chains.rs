@@ -28,7 +28,11 @@
 //! while the AP stays on one side of broadside: such hypotheses rarely converge, and less well.
 //!
 //! Until the decision nothing is released: the frames and packet rows of every hypothesis are
-//! held, and the winner's are released at once. A flight that ends undecided keeps the
+//! held, and the winner's are released at once. Without a prior the kept step, refined by its
+//! window's common offset, is first flown again from the start of the flight
+//! ([`ChainOffsetsConfig::second_pass_max_s`]; the inputs are kept until the decision): the
+//! hypotheses' early windows were pulled by steps up to half their spacing off, and the second
+//! pass converges as early as a calibrated run. A flight that ends undecided keeps the
 //! hypothesis converged longest, else the prior's.
 //!
 //! Only with the nonlinear estimator: the paper's tests its fit only when it declares convergence,
@@ -38,20 +42,21 @@
 use std::f64::consts::TAU;
 
 mod inputs;
+mod second_pass;
 mod settings;
 
 use self::inputs::{Input, append, feed};
+use self::second_pass::{History, fly_again, with_curvature, with_step};
 
-pub use self::settings::{ChainOffsetsConfig, ChainReport, Finished, Released};
+pub use self::settings::{ChainOffsetsConfig, ChainReport, Finished, Released, resolves};
 use super::{Config, Pipeline, PipelineError, StageTiming};
 use crate::aoa::{AoaEstimator, ChainCurvature, Correction, raw_csi, restart_step_rad};
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::wrap;
 #[cfg(doc)]
 use crate::fusion::choice::Estimator;
-use crate::fusion::choice::EstimatorKind;
 use crate::imu::ImuSample;
-use crate::rig::{ArrayGeometry, ChainCalibration, Rig};
+use crate::rig::{ChainCalibration, Rig};
 use crate::time::Timestamp;
 
 struct Candidate {
@@ -89,6 +94,11 @@ pub struct ChainResolver {
     first_imu: Option<Timestamp>,
     last_imu: Option<Timestamp>,
     dropped_timing: StageTiming,
+    /// Every input since the start, kept until the decision to fly the kept step again from the
+    /// start (without a prior; `None` once longer than [`ChainOffsetsConfig::second_pass_max_s`]).
+    history: Option<History>,
+    /// The uniform step of the kept pipeline, rad.
+    step_rad: f64,
 }
 
 impl std::fmt::Debug for ChainResolver {
@@ -113,9 +123,10 @@ impl ChainResolver {
         .calibration()
         .clone();
         let resolve = resolves(config, rig.geometry);
+        let had_calibration = rig.calibration.is_some();
         let report = ChainReport {
             resolved: resolve,
-            had_calibration: rig.calibration.is_some(),
+            had_calibration,
             ..ChainReport::default()
         };
         let stage = if resolve {
@@ -142,6 +153,8 @@ impl ChainResolver {
             first_imu: None,
             last_imu: None,
             dropped_timing: StageTiming::default(),
+            history: History::new(resolve && !had_calibration, &config.pipeline.chains),
+            step_rad: 0.0,
         })
     }
 
@@ -153,12 +166,12 @@ impl ChainResolver {
     /// Integrates one IMU sample ([`Pipeline::push_imu`]).
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Released, PipelineError> {
         self.first_imu.get_or_insert(s.t);
-        self.forward(Input::Imu(*s))
+        self.remember(Input::Imu(*s))
     }
 
     /// Queues a barometer altitude ([`Pipeline::push_baro`]); a refused one is counted there.
     pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<Released, PipelineError> {
-        self.forward(Input::Baro(t, altitude_m))
+        self.remember(Input::Baro(t, altitude_m))
     }
 
     /// Processes one packet ([`Pipeline::push_csi`]).
@@ -192,7 +205,15 @@ impl ChainResolver {
         if let Stage::Measuring { packets, .. } = &mut self.stage {
             *packets += 1;
         }
-        self.forward(Input::Csi(ap, t, Box::new(record.clone())))
+        self.remember(Input::Csi(ap, t, Box::new(record.clone())))
+    }
+
+    /// Keeps `input` for the second pass ([`History`]) and forwards it.
+    fn remember(&mut self, input: Input) -> Result<Released, PipelineError> {
+        if !matches!(self.stage, Stage::Decided(_)) {
+            History::keep(&mut self.history, &input, self.first_imu);
+        }
+        self.forward(input)
     }
 
     /// The end of the inputs: starts the hypotheses if the curvature was still being measured,
@@ -213,18 +234,20 @@ impl ChainResolver {
                         .then(b.0.cmp(&a.0))
                 })
                 .map_or(0, |(i, _)| i);
-            append(&mut released, self.decide(pick, None));
+            append(&mut released, self.decide(pick, None)?);
         }
         let timing = self.timing();
         if let Stage::Decided(p) = &self.stage {
             self.report.phase_offsets_rad = p.chain_calibration().phase_offsets_rad.clone();
             self.report.sin_bias = p.wins().sin_bias();
             let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
+            let step_rad = self.step_rad;
+            self.report.flown_deg = self.report.chosen_deg.map(|_| step_rad.to_degrees());
+            let bias = self.report.sin_bias.map_or(0.0, |(b, _)| b);
             self.report.refined_deg = self
                 .report
                 .chosen_deg
-                .zip(self.report.sin_bias)
-                .map(|(step, (b, _))| wrap((step + 360.0 * b / period).to_radians()).to_degrees());
+                .map(|_| wrap(step_rad + TAU * bias / period).to_degrees());
         }
         match self.stage {
             Stage::Decided(pipeline) => Ok(Finished {
@@ -252,7 +275,7 @@ impl ChainResolver {
                     let r = feed(&mut c.pipeline, &input);
                     append(&mut c.held, r);
                 }
-                Ok(self.maybe_decide(&input))
+                self.maybe_decide(&input)
             }
             Stage::Decided(p) => Ok(feed(p, &input)),
         }
@@ -374,20 +397,19 @@ impl ChainResolver {
                 }
             }
             Stage::Decided(p) => {
-                let step_rad = self.report.chosen_deg.unwrap_or(0.0).to_radians();
-                apply(p, step_rad)?;
+                apply(p, self.step_rad)?;
             }
         }
         Ok(())
     }
 
     /// After an IMU sample: the decision, once one hypothesis has been converged long enough.
-    fn maybe_decide(&mut self, input: &Input) -> Released {
+    fn maybe_decide(&mut self, input: &Input) -> Result<Released, PipelineError> {
         let Input::Imu(s) = input else {
-            return Released::default();
+            return Ok(Released::default());
         };
         let Stage::Testing(candidates) = &mut self.stage else {
-            return Released::default();
+            return Ok(Released::default());
         };
         let dt_s = self.last_imu.map_or(0.0, |t| s.t.secs_since(t).max(0.0));
         self.last_imu = Some(s.t);
@@ -416,7 +438,7 @@ impl ChainResolver {
                 .iter()
                 .any(|c| c.converged && c.converged_s >= needed_s);
         if !ripe {
-            return Released::default();
+            return Ok(Released::default());
         }
         let scores: Vec<Option<f64>> = candidates
             .iter()
@@ -435,11 +457,11 @@ impl ChainResolver {
         self.decide(pick, Some(s.t))
     }
 
-    fn decide(&mut self, pick: usize, at: Option<Timestamp>) -> Released {
+    fn decide(&mut self, pick: usize, at: Option<Timestamp>) -> Result<Released, PipelineError> {
         let Stage::Testing(candidates) =
             std::mem::replace(&mut self.stage, Stage::Testing(Vec::new()))
         else {
-            return Released::default();
+            return Ok(Released::default());
         };
         let mut kept = None;
         for (i, c) in candidates.into_iter().enumerate() {
@@ -450,13 +472,32 @@ impl ChainResolver {
             }
         }
         let Some(c) = kept else {
-            return Released::default();
+            return Ok(Released::default());
         };
         self.report.chosen_deg = Some(c.step_rad.to_degrees());
         self.report.chosen_curvature_deg = Some(c.curvature_rad.to_degrees());
         self.report.decided_at_s = at.zip(self.first_imu).map(|(t, t0)| t.secs_since(t0));
+        self.step_rad = c.step_rad;
+        // Without a prior the kept step, refined by its window's common offset, is flown again
+        // from the start: the hypotheses' early windows were pulled by steps up to half their
+        // spacing off.
+        if let Some(history) = self.history.take()
+            && let Some((bias, _)) = c.pipeline.wins().sin_bias()
+        {
+            let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
+            self.step_rad = wrap(c.step_rad + TAU * bias / period);
+            self.dropped_timing += c.pipeline.timing();
+            let mut rig = self.rig.clone();
+            rig.calibration = Some(with_step(&self.base, self.step_rad));
+            let sigma = self.config.pipeline.chains.second_pass_sin_bias_sigma;
+            let (pipeline, out) =
+                fly_again(&self.config, rig, self.has_baro, sigma, &history.inputs)?;
+            self.report.second_pass = true;
+            self.stage = Stage::Decided(Box::new(pipeline));
+            return Ok(out);
+        }
         self.stage = Stage::Decided(Box::new(c.pipeline));
-        c.held
+        Ok(c.held)
     }
 
     /// Wall time per stage over every hypothesis run.
@@ -471,41 +512,8 @@ impl ChainResolver {
     }
 }
 
-/// Whether the offsets are resolved from the flight for `config` on an array `geometry`: asked
-/// for, three antennas, and the nonlinear estimator (the paper's tests its fit only when it
-/// declares convergence: it converged on π aliases and fitted them better than the truth, so it
-/// cannot choose).
-pub fn resolves(config: &Config, geometry: ArrayGeometry) -> bool {
-    config.pipeline.chains.resolve
-        && geometry.num_antennas == 3
-        && config.estimator == EstimatorKind::Nonlinear
-}
-
 /// The curvature is applied again when it moved by more than this, rad (1°).
 const CURVATURE_TOLERANCE_RAD: f64 = 0.017_453_292_519_943_295;
-
-/// `base` with chain 2's offset moved by `curvature_rad` (a restart's step).
-fn with_curvature(base: &ChainCalibration, curvature_rad: f64) -> ChainCalibration {
-    let mut calibration = base.clone();
-    if curvature_rad != 0.0
-        && let Some(phase) = calibration.phase_offsets_rad.get_mut(2)
-    {
-        *phase = wrap(*phase + curvature_rad);
-    }
-    calibration
-}
-
-/// `base` with the uniform step `step_rad` added (chain `m` moved by `m·step`).
-fn with_step(base: &ChainCalibration, step_rad: f64) -> ChainCalibration {
-    let mut calibration = base.clone();
-    if step_rad == 0.0 {
-        return calibration;
-    }
-    for (m, phase) in calibration.phase_offsets_rad.iter_mut().enumerate() {
-        *phase = wrap(*phase + m as f64 * step_rad);
-    }
-    calibration
-}
 
 #[cfg(test)]
 mod tests;

@@ -82,13 +82,31 @@ fn an_uncalibrated_nic_is_resolved_from_the_flight() {
     let applied = &chains.phase_offsets_rad;
     let (sin_bias, _) = chains.sin_bias.expect("the window estimates the offset");
     let refined = chains.refined_deg.expect("decided");
-    let chosen = chains.chosen_deg.expect("decided");
+    let flown = chains.flown_deg.expect("decided");
+    // Flown again from the start on the kept step refined by its window.
+    assert!(chains.second_pass);
     // The mean step between neighbours the run ended with (its calibration's, moved by β).
-    let step = wrap_deg((applied[2] - applied[0]).to_degrees() / 2.0 + refined - chosen);
+    let step = wrap_deg((applied[2] - applied[0]).to_degrees() / 2.0 + refined - flown);
     let true_step = wrap_deg((truth[2] - truth[0]).to_degrees() / 2.0);
     // The mean step of a three-antenna array is known modulo 180° from chains 0 and 2.
     let err = wrap_deg(2.0 * (step - true_step)) / 2.0;
     println!("step {step:.1}° (β {sin_bias:.3}), true {true_step:.1}°: {err:.1}° off");
     assert!(err.abs() < 5.0, "{err}");
     assert!(ate(&run) < 0.6, "{}", ate(&run));
+}
+
+/// Without a calibration the flight is flown again on the refined step only while the inputs
+/// since the start are within `second_pass_max_s`: a decision after the limit keeps the
+/// hypothesis as it flew, and the estimate is still usable.
+#[test]
+fn the_second_pass_is_skipped_when_the_decision_comes_after_its_limit() {
+    let mut config = Config::default();
+    config.pipeline.chains.second_pass_max_s = 5.0;
+    let (run, _) = fly("paper-circle-uncalibrated", 5, 50.0, &config);
+    let chains = &run.chains;
+    let decided_at = chains.decided_at_s.expect("decided before the end");
+    assert!(decided_at > 5.0, "{decided_at}");
+    assert!(!chains.second_pass);
+    assert_eq!(chains.flown_deg, chains.chosen_deg);
+    assert!(ate(&run) < 1.0, "{}", ate(&run));
 }

@@ -8,6 +8,7 @@ use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
 /// One input of a pipeline's push API.
+#[derive(Clone)]
 pub(super) enum Input {
     Imu(ImuSample),
     Baro(Timestamp, f64),

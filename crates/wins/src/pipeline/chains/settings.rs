@@ -2,9 +2,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::super::{PacketLog, Pipeline, StageTiming};
+use super::super::{Config, PacketLog, Pipeline, StageTiming};
 use crate::check::Problems;
+use crate::fusion::choice::EstimatorKind;
 use crate::fusion::estimator::PoseEstimate;
+use crate::rig::ArrayGeometry;
 
 /// Settings of the in-flight resolution of the chain offsets (`[pipeline.chains]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -30,6 +32,12 @@ pub struct ChainOffsetsConfig {
     /// the reflections out, which a drone at rest on the ground does not); every this many
     /// packets it is applied again when it moved.
     pub curvature_refresh_packets: usize,
+    /// Without a stored calibration, the kept step (refined by its window) is flown again from
+    /// the start of the flight when the decision comes within this flight time, s (the inputs
+    /// are kept until then); 0 turns the second pass off.
+    pub second_pass_max_s: f64,
+    /// The prior σ of the bearings' common `sin θ` offset in the second pass.
+    pub second_pass_sin_bias_sigma: f64,
 }
 
 impl Default for ChainOffsetsConfig {
@@ -42,6 +50,8 @@ impl Default for ChainOffsetsConfig {
             decide_alone_after_s: 10.0,
             uncalibrated_hypotheses: 8,
             curvature_refresh_packets: 250,
+            second_pass_max_s: 120.0,
+            second_pass_sin_bias_sigma: 0.03,
         }
     }
 }
@@ -76,6 +86,20 @@ impl ChainOffsetsConfig {
             prefix,
             "curvature_refresh_packets",
             format!("{} is not in [1, 1000000]", self.curvature_refresh_packets),
+        );
+        p.in_range(
+            prefix,
+            "second_pass_max_s",
+            self.second_pass_max_s,
+            0.0,
+            600.0,
+        );
+        p.in_range(
+            prefix,
+            "second_pass_sin_bias_sigma",
+            self.second_pass_sin_bias_sigma,
+            0.0,
+            2.0,
         );
         p.require(
             (1..=36).contains(&self.uncalibrated_hypotheses),
@@ -125,7 +149,12 @@ pub struct ChainReport {
     /// The bearings' common `sin θ` offset the window estimated at the end and its σ
     /// ([`crate::fusion::nonlinear::NonlinearConfig::sin_bias_sigma`]).
     pub sin_bias: Option<(f64, f64)>,
-    /// The chosen step refined by that offset (`Δφ = 2π·β·d/λ`), degrees.
+    /// Whether the kept step, refined by its window, was flown again from the start.
+    pub second_pass: bool,
+    /// The uniform step in the kept pipeline's calibration (`phase_offsets_rad`): the chosen
+    /// one, or after a second pass the chosen one refined by its window, degrees.
+    pub flown_deg: Option<f64>,
+    /// The flown step refined by that offset (`Δφ = 2π·β·d/λ`), degrees.
     pub refined_deg: Option<f64>,
 }
 
@@ -152,4 +181,14 @@ pub struct Released {
     pub packets: Vec<PacketLog>,
     /// IMU samples refused.
     pub imu_refused: u64,
+}
+
+/// Whether the offsets are resolved from the flight for `config` on an array `geometry`: asked
+/// for, three antennas, and the nonlinear estimator (the paper's tests its fit only when it
+/// declares convergence: it converged on π aliases and fitted them better than the truth, so it
+/// cannot choose).
+pub fn resolves(config: &Config, geometry: ArrayGeometry) -> bool {
+    config.pipeline.chains.resolve
+        && geometry.num_antennas == 3
+        && config.estimator == EstimatorKind::Nonlinear
 }

@@ -10,6 +10,8 @@ fn settings_out_of_range_are_named() {
         decide_alone_after_s: 1e9,
         uncalibrated_hypotheses: 100,
         curvature_refresh_packets: 0,
+        second_pass_max_s: f64::INFINITY,
+        second_pass_sin_bias_sigma: -0.1,
         ..ChainOffsetsConfig::default()
     };
     let text = bad.problems("pipeline.chains").to_string();
@@ -20,6 +22,8 @@ fn settings_out_of_range_are_named() {
         "decide_alone_after_s",
         "uncalibrated_hypotheses",
         "curvature_refresh_packets",
+        "second_pass_max_s",
+        "second_pass_sin_bias_sigma",
     ] {
         assert!(
             text.contains(&format!("pipeline.chains.{key}")),
