@@ -57,16 +57,39 @@ pub fn write(out: &mut impl Write, samples: &[ImuSample]) -> io::Result<()> {
     Ok(())
 }
 
-/// Reads samples. Lines starting with `#` and blank lines are skipped; every other line must hold
-/// 7 numbers (integer ns, then 6 floats) with strictly increasing time.
-pub fn read(input: impl BufRead) -> Result<Vec<ImuSample>, ImuCsvError> {
-    let mut out: Vec<ImuSample> = Vec::new();
-    for (i, line) in input.lines().enumerate() {
-        let line = line?;
-        let number = i + 1;
+/// The rows of an IMU CSV in file order, before any check of their values or times
+/// ([`crate::dataset::checks`] counts and drops what cannot be used).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImuRows {
+    /// Every row that holds 7 numbers (values may be non-finite; times in file order).
+    pub samples: Vec<ImuSample>,
+    /// The 1-based line of each of `samples`.
+    pub lines: Vec<usize>,
+    /// The 1-based line of a last row that had no line end and was dropped (a file cut while it
+    /// was written: its last number may be cut short too).
+    pub cut_last_line: Option<usize>,
+}
+
+/// Reads rows. Lines starting with `#` and blank lines are skipped; every other line must hold
+/// 7 numbers (integer ns, then 6 floats, `NaN` and `inf` allowed here). A last line without a
+/// line end is dropped and reported.
+pub fn read_rows(mut input: impl BufRead) -> Result<ImuRows, ImuCsvError> {
+    let mut out = ImuRows::default();
+    let mut line = String::new();
+    let mut number = 0;
+    loop {
+        line.clear();
+        if input.read_line(&mut line)? == 0 {
+            break;
+        }
+        number += 1;
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
+        }
+        if !line.ends_with('\n') {
+            out.cut_last_line = Some(number);
+            break;
         }
         let fields: Vec<&str> = text.split(',').map(str::trim).collect();
         if fields.len() != 7 {
@@ -81,31 +104,52 @@ pub fn read(input: impl BufRead) -> Result<Vec<ImuSample>, ImuCsvError> {
         })?;
         let mut v = [0.0; 6];
         for (k, f) in fields[1..].iter().enumerate() {
-            v[k] = f
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| ImuCsvError::Row {
-                    line: number,
-                    reason: format!("field {} ({f:?}) is not a finite number", k + 2),
-                })?;
-        }
-        if let Some(prev) = out.last()
-            && prev.t.as_nanos() >= t_ns
-        {
-            return Err(ImuCsvError::NotIncreasing {
+            v[k] = f.parse::<f64>().map_err(|_| ImuCsvError::Row {
                 line: number,
-                t_ns,
-                previous_ns: prev.t.as_nanos(),
-            });
+                reason: format!("field {} ({f:?}) is not a number", k + 2),
+            })?;
         }
-        out.push(ImuSample {
+        out.samples.push(ImuSample {
             t: Timestamp(t_ns),
             gyro_rad_s: Vector3::new(v[0], v[1], v[2]),
             accel_m_s2: Vector3::new(v[3], v[4], v[5]),
         });
+        out.lines.push(number);
     }
     Ok(out)
+}
+
+/// Reads samples strictly: every row (the last one too) must hold 7 finite numbers with
+/// strictly increasing time ([`read_rows`] plus those checks, for files that must be clean).
+pub fn read(input: impl BufRead) -> Result<Vec<ImuSample>, ImuCsvError> {
+    let rows = read_rows(input)?;
+    if let Some(line) = rows.cut_last_line {
+        return Err(ImuCsvError::Row {
+            line,
+            reason: "no line end: the file was cut".into(),
+        });
+    }
+    let mut previous: Option<Timestamp> = None;
+    for (s, &line) in rows.samples.iter().zip(&rows.lines) {
+        let values = s.gyro_rad_s.iter().chain(s.accel_m_s2.iter());
+        if let Some((k, v)) = values.enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(ImuCsvError::Row {
+                line,
+                reason: format!("field {} ({v}) is not a finite number", k + 2),
+            });
+        }
+        if let Some(prev) = previous
+            && prev >= s.t
+        {
+            return Err(ImuCsvError::NotIncreasing {
+                line,
+                t_ns: s.t.as_nanos(),
+                previous_ns: prev.as_nanos(),
+            });
+        }
+        previous = Some(s.t);
+    }
+    Ok(rows.samples)
 }
 
 #[cfg(test)]

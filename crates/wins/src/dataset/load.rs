@@ -5,12 +5,16 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use super::baro_csv::{self, BaroCsvError, BaroSample};
+use super::checks::{self, ImuLimits, InputError, InputReport};
 use super::imu_csv::{self, ImuCsvError};
 use super::manifest::{FORMAT, Manifest, VERSION};
 use crate::csi::intel5300::{CsiRecord, ReadError, Skip, read_log};
 use crate::imu::ImuSample;
 use crate::rig::{CalibrationError, ChainCalibration};
 use crate::time::{NANOS_PER_MICRO, Timestamp};
+
+/// The highest IMU rate a manifest may declare, Hz.
+pub const MAX_IMU_RATE_HZ: f64 = 10_000.0;
 
 /// The manifest's file name inside a dataset directory.
 pub const MANIFEST_FILE: &str = "dataset.toml";
@@ -64,6 +68,14 @@ pub enum DatasetError {
     /// The calibration file the manifest names cannot be used.
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
+    /// The inputs cannot give a meaningful estimate ([`checks`]).
+    #[error("{source}")]
+    Inputs {
+        /// The dataset directory.
+        dir: PathBuf,
+        /// Why.
+        source: InputError,
+    },
 }
 
 /// One CSI record with its time on the IMU clock.
@@ -103,6 +115,8 @@ pub struct Dataset {
     pub calibration: Option<ChainCalibration>,
     /// Barometer readings, strictly increasing in time; empty when the manifest names none.
     pub baro: Vec<BaroSample>,
+    /// What the input checks dropped, counted and found ([`checks`]).
+    pub inputs: InputReport,
 }
 
 impl Dataset {
@@ -115,33 +129,50 @@ impl Dataset {
             path: imu_path.clone(),
             source,
         })?;
-        let imu = imu_csv::read(BufReader::new(file)).map_err(|source| DatasetError::Imu {
-            path: imu_path.clone(),
+        let rows =
+            imu_csv::read_rows(BufReader::new(file)).map_err(|source| DatasetError::Imu {
+                path: imu_path.clone(),
+                source,
+            })?;
+        let inputs_error = |source| DatasetError::Inputs {
+            dir: dir.to_path_buf(),
             source,
-        })?;
+        };
+        let mut inputs = InputReport::default();
+        let limits = ImuLimits {
+            rate_hz: manifest.imu.rate_hz,
+            accel_range_m_s2: manifest.imu.accel_range_m_s2,
+            gyro_range_rad_s: manifest.imu.gyro_range_rad_s,
+        };
+        let imu = checks::check_imu(rows, limits, &mut inputs).map_err(inputs_error)?;
         let mut aps = Vec::with_capacity(manifest.aps.len());
+        let mut placed = Vec::with_capacity(manifest.aps.len());
         for entry in &manifest.aps {
             let log = read_log(dir.join(&entry.log))?;
-            let offset = entry.imu_minus_nic_ns;
             let bandwidth_mismatches = log
                 .records
                 .iter()
                 .filter(|r| r.header.rate.bandwidth() != manifest.channel.bandwidth)
                 .count();
-            let packets = log
-                .records
-                .into_iter()
-                .map(|record| CsiPacket {
-                    t: Timestamp(record.timestamp.as_nanos() + offset),
-                    record,
-                })
-                .collect();
+            let packets = checks::check_ap(
+                &entry.name,
+                log.records,
+                entry.imu_minus_nic_ns,
+                &mut inputs,
+            )
+            .map_err(inputs_error)?;
+            placed.push(packets);
             aps.push(ApLog {
                 name: entry.name.clone(),
-                packets,
+                packets: Vec::new(),
                 skips: log.skips,
                 bandwidth_mismatches,
             });
+        }
+        checks::check_spans(&imu, &placed, &mut inputs).map_err(inputs_error)?;
+        checks::summarize(&mut inputs);
+        for (ap, packets) in aps.iter_mut().zip(placed) {
+            ap.packets = packets;
         }
         let calibration = match &manifest.array.calibration {
             Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
@@ -166,6 +197,7 @@ impl Dataset {
             aps,
             calibration,
             baro,
+            inputs,
         })
     }
 }
@@ -201,6 +233,28 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
         && !(b.rate_hz.is_finite() && b.rate_hz > 0.0)
     {
         return Err(invalid(format!("baro.rate_hz {} is not > 0", b.rate_hz)));
+    }
+    let imu = &manifest.imu;
+    for (key, v) in [
+        ("imu.rate_hz", imu.rate_hz),
+        ("imu.accel_range_m_s2", imu.accel_range_m_s2),
+        ("imu.gyro_range_rad_s", imu.gyro_range_rad_s),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(invalid(format!("{key} {v} is not > 0")));
+        }
+    }
+    if imu.rate_hz > MAX_IMU_RATE_HZ {
+        return Err(invalid(format!(
+            "imu.rate_hz {} is above {MAX_IMU_RATE_HZ} Hz",
+            imu.rate_hz
+        )));
+    }
+    let t = manifest.array.translation_m;
+    if !t.iter().all(|v| v.is_finite() && v.abs() <= 10.0) {
+        return Err(invalid(format!(
+            "array.translation_m {t:?} is not finite within 10 m of the IMU"
+        )));
     }
     if manifest.aps.is_empty() {
         return Err(invalid("no access point".into()));

@@ -54,6 +54,13 @@ pub struct ImuEntry {
     pub file: String,
     /// Nominal sample rate, Hz.
     pub rate_hz: f64,
+    /// Accelerometer full scale per axis, m/s²: a sample at or beyond it is dropped and counted
+    /// (saturated or corrupt). Default 16 g.
+    #[serde(default = "default_accel_range")]
+    pub accel_range_m_s2: f64,
+    /// Gyroscope full scale per axis, rad/s (default 2000 °/s).
+    #[serde(default = "default_gyro_range")]
+    pub gyro_range_rad_s: f64,
     /// Noise densities and turn-on bias spreads (from the datasheet or an Allan-variance
     /// analysis); the estimator's weights. Absent: the user must give them to `wins run`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -120,4 +127,17 @@ pub struct ApEntry {
     /// IMU time = unwrapped NIC time + this offset, ns. The NIC time is the log's
     /// `timestamp_low` in µs, unwrapped from the first record of the log (lap 0).
     pub imu_minus_nic_ns: i64,
+}
+
+/// 16 g, the usual full scale of a flight controller's accelerometer, m/s².
+pub const DEFAULT_ACCEL_RANGE_M_S2: f64 = 16.0 * 9.806_65;
+/// 2000 °/s, the usual full scale of a flight controller's gyroscope, rad/s.
+pub const DEFAULT_GYRO_RANGE_RAD_S: f64 = 2000.0 * std::f64::consts::PI / 180.0;
+
+fn default_accel_range() -> f64 {
+    DEFAULT_ACCEL_RANGE_M_S2
+}
+
+fn default_gyro_range() -> f64 {
+    DEFAULT_GYRO_RANGE_RAD_S
 }

@@ -18,7 +18,8 @@
 //! ```
 
 pub mod baro_csv;
-pub(crate) mod imu_csv;
+pub mod checks;
+pub mod imu_csv;
 pub(crate) mod load;
 pub(crate) mod manifest;
 pub mod truth;

@@ -18,6 +18,7 @@ use serde::Serialize;
 
 use super::replay::RunOutput;
 use super::{ChainReport, PacketStatus, PipelineStats, StageTiming};
+use crate::dataset::checks::InputReport;
 use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
 use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
@@ -71,6 +72,8 @@ pub struct RunStats<'a> {
     pub imu_refused: u64,
     /// How the receive chains' offsets were resolved from the flight.
     pub chain_offsets: &'a ChainReport,
+    /// What the input checks dropped, counted and found.
+    pub inputs: &'a InputReport,
     /// What limits the result, in words.
     pub warnings: &'a [String],
 }
@@ -116,6 +119,7 @@ impl RunOutput {
             estimator: self.wins,
             imu_refused: self.imu_refused,
             chain_offsets: &self.chains,
+            inputs: &self.inputs,
             warnings: &self.warnings,
         }
     }

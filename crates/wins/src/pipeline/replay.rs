@@ -11,6 +11,7 @@ use super::{
     ChainReport, ChainResolver, Config, PacketLog, PipelineError, PipelineStats, StageTiming,
 };
 use crate::dataset::Dataset;
+use crate::dataset::checks::InputReport;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalOptions, Metrics};
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
@@ -74,7 +75,10 @@ pub struct RunOutput {
     pub metrics: Option<Metrics>,
     /// The figures' data against the truth, with `metrics`.
     pub figures: Option<RunFigures>,
-    /// What limits the result, in words (no calibration, a run that cannot be scored).
+    /// What the input checks dropped, counted and found.
+    pub inputs: InputReport,
+    /// What limits the result, in words (input problems, no calibration, a run that cannot be
+    /// scored).
     pub warnings: Vec<String>,
 }
 
@@ -132,14 +136,15 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
     };
     let flight_s = last.t.secs_since(first.t);
     let started = Instant::now();
-    let (baro, warnings) = if config.pipeline.use_barometer || dataset.baro.is_empty() {
-        (&dataset.baro[..], Vec::new())
+    let mut warnings = dataset.inputs.warnings.clone();
+    let baro = if config.pipeline.use_barometer || dataset.baro.is_empty() {
+        &dataset.baro[..]
     } else {
-        let ignored = format!(
+        warnings.push(format!(
             "the barometer's {} samples were not used (pipeline.use_barometer = false)",
             dataset.baro.len()
-        );
-        (&[][..], vec![ignored])
+        ));
+        &[][..]
     };
     let mut pipeline = ChainResolver::new(config, rig, !baro.is_empty())?;
     // (time, 0 = packet / 1 = barometer / 2 = IMU, AP, index): packets and barometer samples
@@ -212,6 +217,7 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         imu_refused,
         metrics: None,
         figures: None,
+        inputs: dataset.inputs.clone(),
         warnings,
     })
 }

@@ -12,6 +12,7 @@ use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
     ApEntry, ArrayEntry, BaroEntry, ChannelEntry, FORMAT, ImuEntry, Manifest, VERSION,
 };
+use crate::dataset::manifest::{DEFAULT_ACCEL_RANGE_M_S2, DEFAULT_GYRO_RANGE_RAD_S};
 use crate::dataset::truth::{
     self, ApRow, BaroRow, BiasRow, PacketRow, Pose, TRUTH_DIR, TruthInfo, packets_file,
 };
@@ -245,6 +246,8 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
         imu: ImuEntry {
             file: IMU_FILE.into(),
             rate_hz: scenario.imu.rate_hz,
+            accel_range_m_s2: DEFAULT_ACCEL_RANGE_M_S2,
+            gyro_range_rad_s: DEFAULT_GYRO_RANGE_RAD_S,
             noise: Some(scenario.imu.model.noise()),
         },
         array: ArrayEntry {
