@@ -150,8 +150,7 @@ pub fn refuse_overlap(out: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
     let out_resolved = resolved(out)?;
     for input in inputs {
         let input_resolved = resolved(input)?;
-        if out_resolved.starts_with(&input_resolved) || input_resolved.starts_with(&out_resolved)
-        {
+        if out_resolved.starts_with(&input_resolved) || input_resolved.starts_with(&out_resolved) {
             return Err(OutputError::OntoInput {
                 out: out.to_path_buf(),
                 input: input.to_path_buf(),

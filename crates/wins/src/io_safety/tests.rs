@@ -16,8 +16,14 @@ fn a_missing_path_resolves_through_its_existing_parent() {
     let dir = scratch("resolve");
     fs::create_dir_all(dir.join("a")).unwrap();
     let canonical = dir.canonicalize().unwrap();
-    assert_eq!(resolve(&dir.join("a/./b/c")).unwrap(), canonical.join("a/b/c"));
-    assert_eq!(resolve(&dir.join("a/x/../y")).unwrap(), canonical.join("a/y"));
+    assert_eq!(
+        resolve(&dir.join("a/./b/c")).unwrap(),
+        canonical.join("a/b/c")
+    );
+    assert_eq!(
+        resolve(&dir.join("a/x/../y")).unwrap(),
+        canonical.join("a/y")
+    );
     assert_eq!(resolve(&dir.join("a/../a")).unwrap(), canonical.join("a"));
     fs::remove_dir_all(&dir).unwrap();
 }
@@ -29,7 +35,10 @@ fn the_same_file_is_refused_under_any_spelling() {
     fs::write(&log, b"csi").unwrap();
     let err = refuse_same_file(&log, &dir.join("./log.dat")).unwrap_err();
     let text = err.to_string();
-    assert!(text.contains("log.dat") && text.contains("is the input"), "{text}");
+    assert!(
+        text.contains("log.dat") && text.contains("is the input"),
+        "{text}"
+    );
     #[cfg(unix)]
     {
         let link = dir.join("link.dat");
@@ -78,7 +87,11 @@ fn a_folder_under_a_regular_file_is_not_writable() {
     let err = check_writable_dir(&file.join("out")).unwrap_err();
     assert!(matches!(err, OutputError::NotWritable { .. }), "{err}");
     check_writable_dir(&dir.join("out/deeper")).unwrap();
-    assert_eq!(fs::read_dir(dir.join("out/deeper")).unwrap().count(), 0, "probe removed");
+    assert_eq!(
+        fs::read_dir(dir.join("out/deeper")).unwrap().count(),
+        0,
+        "probe removed"
+    );
     fs::remove_dir_all(&dir).unwrap();
 }
 

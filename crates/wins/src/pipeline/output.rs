@@ -190,12 +190,13 @@ impl RunOutput {
 fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     let mut written = Vec::new();
-    let mut put = |name: &str, f: &mut dyn FnMut(&mut io::BufWriter<std::fs::File>) -> io::Result<()>| {
-        let path = dir.join(name);
-        write_atomically(&path, f)?;
-        written.push(path);
-        Ok::<(), io::Error>(())
-    };
+    let mut put =
+        |name: &str, f: &mut dyn FnMut(&mut io::BufWriter<std::fs::File>) -> io::Result<()>| {
+            let path = dir.join(name);
+            write_atomically(&path, f)?;
+            written.push(path);
+            Ok::<(), io::Error>(())
+        };
     put(TRAJECTORY_FILE, &mut |w| {
         write_tum(w, &run.converged_poses())
     })?;

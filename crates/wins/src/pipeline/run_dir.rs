@@ -138,9 +138,10 @@ impl RunManifest {
             complete: false,
             dataset: canonical(inputs.dataset),
             inputs: inputs.files().iter().map(|f| canonical(f)).collect(),
-            config_file: inputs
-                .config_file
-                .map_or_else(|| "defaults".to_string(), |f| canonical(f).display().to_string()),
+            config_file: inputs.config_file.map_or_else(
+                || "defaults".to_string(),
+                |f| canonical(f).display().to_string(),
+            ),
             config: config.clone(),
             options: ManifestOptions {
                 calibration_file: inputs.calibration_file.map(canonical),
@@ -201,7 +202,10 @@ impl RunDir {
         let stale: Vec<String> = self.previous.iter().cloned().chain(temporaries).collect();
         for name in &stale {
             let mut parts = Path::new(name).components();
-            let plain = matches!((parts.next(), parts.next()), (Some(Component::Normal(_)), None));
+            let plain = matches!(
+                (parts.next(), parts.next()),
+                (Some(Component::Normal(_)), None)
+            );
             let path = self.path.join(name);
             let is_file = fs::symlink_metadata(&path).is_ok_and(|m| m.is_file());
             if plain && is_file && name != MANIFEST_FILE {

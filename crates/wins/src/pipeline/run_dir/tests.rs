@@ -26,9 +26,17 @@ fn the_dataset_its_truth_and_the_settings_file_are_refused_as_output() {
         config_file: Some(&config),
         calibration_file: None,
     };
-    for out in [data.clone(), data.join("truth"), data.join("x"), config.clone()] {
+    for out in [
+        data.clone(),
+        data.join("truth"),
+        data.join("x"),
+        config.clone(),
+    ] {
         let err = RunDir::prepare(&out, &inputs).unwrap_err();
-        assert!(matches!(err, OutputError::OntoInput { .. }), "{out:?}: {err}");
+        assert!(
+            matches!(err, OutputError::OntoInput { .. }),
+            "{out:?}: {err}"
+        );
     }
     assert!(!data.join("x").exists(), "nothing created");
     assert!(data.join("truth/poses.tum").is_file());
@@ -65,7 +73,10 @@ fn a_previous_run_is_cleared_of_its_own_files_only() {
         serde_json::from_str(&fs::read_to_string(out.join(MANIFEST_FILE)).unwrap()).unwrap();
     assert!(done.complete);
     assert_eq!(done.config_file, "defaults");
-    assert_eq!(done.inputs, [resolve(&data.join("truth/poses.tum")).unwrap()]);
+    assert_eq!(
+        done.inputs,
+        [resolve(&data.join("truth/poses.tum")).unwrap()]
+    );
 
     // A hand-edited manifest cannot reach out of the folder.
     let text = fs::read_to_string(out.join(MANIFEST_FILE)).unwrap();
@@ -95,7 +106,10 @@ fn a_non_empty_folder_without_a_readable_manifest_is_refused() {
     fs::create_dir_all(&out).unwrap();
     fs::write(out.join("cat.jpg"), "meow").unwrap();
     let err = RunDir::prepare(&out, &inputs).unwrap_err();
-    assert!(err.to_string().contains("not a wins run directory"), "{err}");
+    assert!(
+        err.to_string().contains("not a wins run directory"),
+        "{err}"
+    );
     fs::write(out.join(MANIFEST_FILE), "{").unwrap();
     let err = RunDir::prepare(&out, &inputs).unwrap_err();
     assert!(matches!(err, OutputError::BadManifest { .. }), "{err}");
