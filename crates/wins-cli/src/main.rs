@@ -202,6 +202,10 @@ fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
 }
 
 fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()> {
+    if let Some(p) = &out {
+        // Before anything is opened: creating the output would empty the input.
+        wins::io_safety::refuse_same_file(file, p)?;
+    }
     let input = File::open(file).with_context(|| format!("cannot open {}", file.display()))?;
     let format = match format {
         Format::Jsonl => ExportFormat::Jsonl,

@@ -5,7 +5,12 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use wins::io_safety::replace_atomically;
 use wins::pipeline::figures::RunFigures;
+use wins::pipeline::replay::Evaluation;
+use wins::pipeline::run_dir::{
+    AOA_PNG, POSITION_ERROR_PNG, RunDir, RunInputs, RunManifest, TRAJECTORY_PNG,
+};
 use wins::rig::ChainCalibration;
 use wins::sim::{self, Scenario};
 use wins::{Config, RunOptions, RunOutput, run_dataset_with};
@@ -16,7 +21,8 @@ use wins_plot::{Marker, MarkerStyle, Series, SeriesStyle, VerticalLine, XyPlot, 
 pub struct RunArgs {
     /// Dataset directory (`dataset.toml`, `imu.csv`, one `.dat` per AP; `truth/` optional).
     dataset: PathBuf,
-    /// Output directory (created; files in it are replaced).
+    /// Output directory: new, empty or a previous run's (whose files are replaced); never the
+    /// dataset folder, inside it, or holding an input file.
     #[arg(long, short)]
     out: PathBuf,
     /// Settings (TOML: `[aoa]`, `[pipeline]`, `[window]`, `[eval]`; missing keys take the
@@ -62,6 +68,12 @@ pub struct DemoArgs {
 
 pub fn run(args: RunArgs) -> Result<()> {
     let config = load_config(args.config.as_deref())?;
+    let inputs = RunInputs {
+        dataset: &args.dataset,
+        config_file: args.config.as_deref(),
+        calibration_file: args.calibration.as_deref(),
+    };
+    let dir = RunDir::prepare(&args.out, &inputs)?;
     let calibration = match &args.calibration {
         Some(p) => Some(ChainCalibration::load(p)?),
         None => None,
@@ -71,7 +83,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         imu_noise: None,
         no_calibration: args.no_calibration,
     };
-    process(&args.dataset, &args.out, &config, &options, !args.no_plots)
+    process(&dir, &inputs, &config, &options, !args.no_plots)
 }
 
 pub fn demo(args: DemoArgs) -> Result<()> {
@@ -86,6 +98,13 @@ pub fn demo(args: DemoArgs) -> Result<()> {
         scenario = scenario.airborne();
     }
     let data_dir = args.out.join("dataset");
+    let config = load_config(args.config.as_deref())?;
+    let inputs = RunInputs {
+        dataset: &data_dir,
+        config_file: args.config.as_deref(),
+        calibration_file: None,
+    };
+    let dir = RunDir::prepare(&args.out.join("run"), &inputs)?;
     let output = sim::simulate(&scenario, &mut |_| {})?;
     sim::write_dataset(&data_dir, &scenario, &output)?;
     println!(
@@ -95,14 +114,7 @@ pub fn demo(args: DemoArgs) -> Result<()> {
         scenario.duration_s,
         data_dir.display()
     );
-    let config = load_config(args.config.as_deref())?;
-    process(
-        &data_dir,
-        &args.out.join("run"),
-        &config,
-        &RunOptions::default(),
-        true,
-    )
+    process(&dir, &inputs, &config, &RunOptions::default(), true)
 }
 
 /// `--config FILE`, or the defaults.
@@ -113,18 +125,23 @@ pub fn load_config(path: Option<&Path>) -> Result<Config> {
     })
 }
 
+/// Runs `inputs` into the checked folder `dir`: the data files, the figures, then the manifest
+/// last. A truth that cannot be read fails the command once everything else is written.
 fn process(
-    dataset: &Path,
-    out: &Path,
+    dir: &RunDir,
+    inputs: &RunInputs<'_>,
     config: &Config,
     options: &RunOptions,
     plots: bool,
 ) -> Result<()> {
-    let run = run_dataset_with(dataset, config, options)?;
+    let run = run_dataset_with(inputs.dataset, config, options)?;
     for w in &run.warnings {
         eprintln!("warning: {w}");
     }
-    let written = run
+    let out = dir.path();
+    let mut manifest = RunManifest::new(inputs, config, options.no_calibration);
+    dir.start(&manifest)?;
+    let mut written = run
         .write(out)
         .with_context(|| format!("writing {}", out.display()))?;
     let mut stdout = std::io::stdout().lock();
@@ -133,12 +150,22 @@ fn process(
         write!(stdout, "{}", m.report())?;
     }
     if plots && let Some(fig) = &run.figures {
-        for p in draw(out, fig)? {
+        let figures = draw(out, fig)?;
+        for p in &figures {
+            writeln!(stdout, "wrote {}", p.display())?;
+        }
+        written.extend(figures);
+    }
+    for p in &written {
+        if p.extension().is_none_or(|e| e != "png") {
             writeln!(stdout, "wrote {}", p.display())?;
         }
     }
-    for p in written {
-        writeln!(stdout, "wrote {}", p.display())?;
+    manifest.record(&run);
+    let manifest_path = dir.finish(&manifest, &written)?;
+    writeln!(stdout, "wrote {}", manifest_path.display())?;
+    if let Evaluation::Failed(why) = &run.evaluation {
+        anyhow::bail!("evaluation failed: {why}");
     }
     Ok(())
 }
@@ -238,7 +265,7 @@ fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
     }
     let plots = [
         (
-            "trajectory.png",
+            TRAJECTORY_PNG,
             XyPlot {
                 title: "trajectory from above (estimate aligned to the truth)",
                 x_label: "x (m)",
@@ -251,7 +278,7 @@ fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
             700,
         ),
         (
-            "position_error.png",
+            POSITION_ERROR_PNG,
             XyPlot {
                 title: "position error after alignment",
                 x_label: "time (s)",
@@ -264,7 +291,7 @@ fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
             500,
         ),
         (
-            "aoa.png",
+            AOA_PNG,
             XyPlot {
                 title: "AoA per packet fed to the estimator vs truth",
                 x_label: "time (s)",
@@ -280,7 +307,11 @@ fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for (name, plot, height) in &plots {
         let path = out.join(name);
-        xy_plot_png(&path, plot, 900, *height)?;
+        // Drawn to a temporary file beside it and renamed: never half an image.
+        replace_atomically(&path, |temp| {
+            xy_plot_png(temp, plot, 900, *height).map_err(std::io::Error::other)
+        })
+        .with_context(|| format!("drawing {}", path.display()))?;
         files.push(path);
     }
     Ok(files)

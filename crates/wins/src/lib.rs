@@ -89,6 +89,7 @@ pub mod dataset;
 pub mod eval;
 pub mod fusion;
 pub mod imu;
+pub mod io_safety;
 pub mod pipeline;
 pub mod rig;
 pub mod sim;

@@ -26,6 +26,7 @@ pub mod figures;
 pub mod output;
 pub mod replay;
 pub mod run;
+pub mod run_dir;
 pub(crate) mod slot;
 pub mod stats;
 pub(crate) mod track;

@@ -9,9 +9,13 @@
 //! | `aoa.csv` | one row per packet ([`super::PacketLog`]) |
 //! | `stats.json` | packets used/dropped per AP and why, estimator counters, per-stage wall time |
 //! | `metrics.json`, `report.txt` | with a truth only: [`crate::eval::Metrics`] and its text |
+//!
+//! Each file is written to a temporary file beside it and renamed into place
+//! ([`crate::io_safety::write_atomically`]): a failure or a crash never leaves half a file. The
+//! run's manifest, `run.json`, and the refusals of an output folder that overlaps the inputs are
+//! [`super::run_dir`]'s.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
@@ -24,6 +28,7 @@ use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
 };
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::io_safety::write_atomically;
 use crate::time::NANOS_PER_SEC;
 
 /// Converged trajectory file.
@@ -177,8 +182,10 @@ impl RunOutput {
 }
 
 impl RunOutput {
-    /// Writes the run directory (created if needed): the trajectories, APs, packet log and
-    /// statistics, and with `metrics` the metrics and the report; returns the files written.
+    /// Writes the run directory's data files (the folder is created if needed): the
+    /// trajectories, APs, packet log and statistics, and with `metrics` the metrics and the
+    /// report, each atomically; returns the files written. The manifest and the removal of a
+    /// previous run's files are [`super::run_dir::RunDir`]'s.
     pub fn write(&self, dir: &Path) -> io::Result<Vec<PathBuf>> {
         write_run(dir, self, self.metrics.as_ref())
     }
@@ -187,14 +194,13 @@ impl RunOutput {
 fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     let mut written = Vec::new();
-    let mut put = |name: &str, f: &mut dyn FnMut(&mut BufWriter<File>) -> io::Result<()>| {
-        let path = dir.join(name);
-        let mut w = BufWriter::new(File::create(&path)?);
-        f(&mut w)?;
-        w.flush()?;
-        written.push(path);
-        Ok::<(), io::Error>(())
-    };
+    let mut put =
+        |name: &str, f: &mut dyn FnMut(&mut io::BufWriter<std::fs::File>) -> io::Result<()>| {
+            let path = dir.join(name);
+            write_atomically(&path, f)?;
+            written.push(path);
+            Ok::<(), io::Error>(())
+        };
     put(TRAJECTORY_FILE, &mut |w| {
         write_tum(w, &run.converged_poses())
     })?;

@@ -71,8 +71,10 @@ pub struct RunOutput {
     /// IMU samples the estimator refused (non-finite, out of order).
     pub imu_refused: u64,
     /// The run scored against the dataset's truth (`None`: no truth, or it could not be scored;
-    /// then `warnings` says why).
+    /// then `warnings` and `evaluation` say why).
     pub metrics: Option<Metrics>,
+    /// What became of the scoring against the truth.
+    pub evaluation: Evaluation,
     /// The figures' data against the truth, with `metrics`.
     pub figures: Option<RunFigures>,
     /// What the input checks dropped, counted and found.
@@ -80,6 +82,31 @@ pub struct RunOutput {
     /// What limits the result, in words (input problems, no calibration, a run that cannot be
     /// scored).
     pub warnings: Vec<String>,
+}
+
+/// What became of a run's scoring against its dataset's truth.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Evaluation {
+    /// The dataset has no `truth/` folder (or the run was not scored).
+    #[default]
+    NoTruth,
+    /// Scored: [`RunOutput::metrics`] holds the metrics.
+    Scored,
+    /// The truth was read but the run cannot be scored (it never converged, say): why.
+    NotScored(String),
+    /// The truth cannot be read (a malformed `truth/poses.tum`, say): why, naming the file.
+    Failed(String),
+}
+
+impl std::fmt::Display for Evaluation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoTruth => write!(f, "no truth"),
+            Self::Scored => write!(f, "ok"),
+            Self::NotScored(why) => write!(f, "not scored: {why}"),
+            Self::Failed(why) => write!(f, "failed: {why}"),
+        }
+    }
 }
 
 impl RunOutput {
@@ -95,7 +122,7 @@ impl RunOutput {
 
     /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics and the
     /// figures' data; when it cannot be scored (it never converged, say), says why in
-    /// `warnings`.
+    /// `warnings` and `evaluation`.
     pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
         let scored = self
             .score(truth, options)
@@ -104,8 +131,12 @@ impl RunOutput {
             Ok((figures, metrics)) => {
                 self.metrics = Some(metrics);
                 self.figures = Some(figures);
+                self.evaluation = Evaluation::Scored;
             }
-            Err(e) => self.warnings.push(format!("cannot score the run: {e}")),
+            Err(e) => {
+                self.warnings.push(format!("cannot score the run: {e}"));
+                self.evaluation = Evaluation::NotScored(e.to_string());
+            }
         }
     }
 }
@@ -216,6 +247,7 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         flight_s,
         imu_refused,
         metrics: None,
+        evaluation: Evaluation::NoTruth,
         figures: None,
         inputs: dataset.inputs.clone(),
         warnings,

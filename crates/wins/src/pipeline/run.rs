@@ -5,8 +5,8 @@ use std::path::Path;
 
 use super::Config;
 use super::chains::resolves;
-use super::replay::{ReplayError, RunOutput, replay, rig_of};
-use crate::dataset::truth::{TRUTH_DIR, Truth, TruthError};
+use super::replay::{Evaluation, ReplayError, RunOutput, replay, rig_of};
+use crate::dataset::truth::{TRUTH_DIR, Truth};
 use crate::dataset::{Dataset, DatasetError};
 use crate::rig::{ChainCalibration, ImuNoise};
 
@@ -36,14 +36,6 @@ pub enum RunError {
         /// Why (boxed: a dataset error carries the reader's details).
         source: Box<DatasetError>,
     },
-    /// The dataset's `truth/` folder cannot be read.
-    #[error("reading the truth of {path}: {source}")]
-    Truth {
-        /// The dataset folder.
-        path: String,
-        /// Why.
-        source: TruthError,
-    },
     /// The replay failed.
     #[error(transparent)]
     Replay(#[from] ReplayError),
@@ -64,6 +56,9 @@ pub fn run_dataset(path: &Path, config: &Config) -> Result<RunOutput, RunError> 
 /// Loads the dataset at `path`, replays it through the [`super::Pipeline`], and when it has a
 /// `truth/` folder scores the converged trajectory against it (`metrics`, `figures`). What
 /// limits the result (no chain calibration, a run that cannot be scored) is in `warnings`.
+///
+/// A truth that cannot be read does not stop the run: the estimate is returned, with
+/// [`Evaluation::Failed`] naming the file in `evaluation` and a warning.
 pub fn run_dataset_with(
     path: &Path,
     config: &Config,
@@ -97,20 +92,37 @@ pub fn run_dataset_with(
                 .to_string(),
         );
     }
-    // Read before the replay: a truth that cannot be read fails the run before its work.
-    let truth = if path.join(TRUTH_DIR).is_dir() {
-        let truth = Truth::load(path).map_err(|source| RunError::Truth {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Some(truth)
-    } else {
-        None
-    };
+    // Read before the replay, used after it: a truth that cannot be read fails the evaluation,
+    // not the estimate.
+    let truth = path
+        .join(TRUTH_DIR)
+        .is_dir()
+        .then(|| Truth::load(path).map_err(|e| with_causes(&e)));
     let mut run = replay(&data, rig, config)?;
     run.warnings.extend(warnings);
-    if let Some(truth) = &truth {
-        run.score_against(truth, &config.eval);
+    match &truth {
+        Some(Ok(truth)) => run.score_against(truth, &config.eval),
+        Some(Err(why)) => {
+            let why = format!("reading the truth of {}: {why}", path.display());
+            run.warnings.push(format!("evaluation failed: {why}"));
+            run.evaluation = Evaluation::Failed(why);
+        }
+        None => {}
     }
     Ok(run)
+}
+
+/// An error's text followed by its causes', `: `-separated (a cause already in the text once).
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let more = c.to_string();
+        if !text.contains(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        cause = c.source();
+    }
+    text
 }
