@@ -1,6 +1,7 @@
-//! The checks a dataset's inputs pass before a run ([`check`]): what can be used is used, what
-//! cannot is dropped and counted, each event is reported with the time it happened, and inputs
-//! that cannot give a meaningful estimate are an error that says why.
+//! The checks a dataset's inputs pass as it is loaded ([`check_imu`], [`check_ap`],
+//! [`check_spans`]): what can be used is used, what cannot is dropped and counted, each event is
+//! reported with the time it happened, and inputs that cannot give a meaningful estimate are an
+//! error that says why.
 //!
 //! IMU: rows whose time does not increase, values that are not finite or at or beyond the
 //! sensor's range (`[imu] accel_range_m_s2`, `gyro_range_rad_s`; a saturated or corrupted
