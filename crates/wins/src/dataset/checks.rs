@@ -19,7 +19,6 @@
 use serde::Serialize;
 
 use super::imu_csv::ImuRows;
-use super::load::CsiPacket;
 use crate::csi::intel5300::CsiRecord;
 use crate::imu::ImuSample;
 use crate::time::{NANOS_PER_SEC, Timestamp};
@@ -36,6 +35,15 @@ const SPAN_WARN_S: f64 = 2.0;
 const JUMP_BACK_NS: i64 = 100_000_000;
 /// Events listed with their times (the counts go on).
 const MAX_LISTED: usize = 20;
+
+/// One CSI record with its time on the IMU clock.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CsiPacket {
+    /// Reception time on the IMU clock (the NIC time shifted by the manifest's offset).
+    pub t: Timestamp,
+    /// The record as logged (its `timestamp` stays on the NIC clock).
+    pub record: CsiRecord,
+}
 
 /// Inputs that cannot give a meaningful estimate.
 #[derive(Debug, thiserror::Error)]

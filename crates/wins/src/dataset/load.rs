@@ -5,13 +5,14 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use super::baro_csv::{self, BaroCsvError, BaroSample};
+pub use super::checks::CsiPacket;
 use super::checks::{self, ImuLimits, InputError, InputReport};
 use super::imu_csv::{self, ImuCsvError};
 use super::manifest::{FORMAT, Manifest, VERSION};
-use crate::csi::intel5300::{CsiRecord, ReadError, Skip, read_log};
+use crate::csi::intel5300::{ReadError, Skip, read_log};
 use crate::imu::ImuSample;
 use crate::rig::{CalibrationError, ChainCalibration};
-use crate::time::{NANOS_PER_MICRO, Timestamp};
+use crate::time::NANOS_PER_MICRO;
 
 /// The highest IMU rate a manifest may declare, Hz.
 pub const MAX_IMU_RATE_HZ: f64 = 10_000.0;
@@ -76,15 +77,6 @@ pub enum DatasetError {
         /// Why.
         source: InputError,
     },
-}
-
-/// One CSI record with its time on the IMU clock.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CsiPacket {
-    /// Reception time on the IMU clock (the NIC time shifted by the manifest's offset).
-    pub t: Timestamp,
-    /// The record as logged (its `timestamp` stays on the NIC clock).
-    pub record: CsiRecord,
 }
 
 /// One AP's log, decoded.
