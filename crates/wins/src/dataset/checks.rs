@@ -16,6 +16,8 @@
 //! IMU's time span counted (no IMU to place them). No overlap between the IMU and any AP's
 //! packets is an error; a log or the IMU ending well before the other is a warning.
 
+use std::collections::BTreeMap;
+
 use serde::Serialize;
 
 use super::imu_csv::ImuRows;
@@ -163,10 +165,26 @@ pub struct InputReport {
     pub events_not_listed: u64,
     /// What limits the run, in words (also printed as warnings).
     pub warnings: Vec<String>,
+    /// The time of each kind's first event, listed or not, s.
+    #[serde(skip)]
+    first_s: BTreeMap<Kind, f64>,
+}
+
+/// The kinds of events, for their first times (an AP's by its index).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Kind {
+    NotFinite,
+    BeyondRange,
+    TimeBack,
+    CutLine,
+    Gap,
+    Repeated(usize),
+    ClockJump(usize),
 }
 
 impl InputReport {
-    fn event(&mut self, t: Timestamp, what: String) {
+    fn event(&mut self, kind: Kind, t: Timestamp, what: String) {
+        self.first_s.entry(kind).or_insert(t.as_secs_f64());
         if self.events.len() < MAX_LISTED {
             self.events.push(InputEvent {
                 t_s: t.as_secs_f64(),
@@ -175,6 +193,13 @@ impl InputReport {
         } else {
             self.events_not_listed += 1;
         }
+    }
+
+    /// `, the first at T s` for `kind`'s first event, or nothing.
+    fn first(&self, kind: Kind) -> String {
+        self.first_s
+            .get(&kind)
+            .map_or(String::new(), |t| format!(", the first at {t:.3} s"))
     }
 }
 
@@ -198,10 +223,11 @@ pub fn check_imu(
     let mut kept: Vec<ImuSample> = Vec::with_capacity(rows.samples.len());
     report.imu.rows = rows.samples.len() as u64;
     for s in rows.samples {
-        let values = s.gyro_rad_s.iter().chain(s.accel_m_s2.iter());
-        if values.clone().any(|v| !v.is_finite()) {
+        let mut values = s.gyro_rad_s.iter().chain(s.accel_m_s2.iter());
+        if values.any(|v| !v.is_finite()) {
             report.imu.not_finite += 1;
             report.event(
+                Kind::NotFinite,
                 s.t,
                 "IMU sample with a value that is not finite: dropped".into(),
             );
@@ -212,6 +238,7 @@ pub fn check_imu(
         if beyond {
             report.imu.beyond_range += 1;
             report.event(
+                Kind::BeyondRange,
                 s.t,
                 format!(
                     "IMU sample at or beyond the sensor's range (|a| {:.1} m/s² of {:.1}, |ω| \
@@ -229,6 +256,7 @@ pub fn check_imu(
         {
             report.imu.time_not_increasing += 1;
             report.event(
+                Kind::TimeBack,
                 s.t,
                 format!(
                     "IMU time goes back from {:.6} s: sample dropped",
@@ -243,6 +271,7 @@ pub fn check_imu(
         report.imu.cut_last_line = true;
         let t = kept.last().map_or(Timestamp(0), |s| s.t);
         report.event(
+            Kind::CutLine,
             t,
             format!("the IMU file's last line ({line}) has no line end (cut?): dropped"),
         );
@@ -261,7 +290,7 @@ pub fn check_imu(
             report.imu.gaps += 1;
             let dt_s = dt as f64 / NANOS_PER_SEC as f64;
             report.imu.longest_gap_s = report.imu.longest_gap_s.max(dt_s);
-            report.event(w[0].t, format!("IMU gap of {dt_s:.3} s"));
+            report.event(Kind::Gap, w[0].t, format!("IMU gap of {dt_s:.3} s"));
         }
     }
     dts.sort_unstable();
@@ -298,6 +327,8 @@ pub fn check_ap(
         records: records.len() as u64,
         ..ApInputReport::default()
     };
+    // This AP's index in the report.
+    let index = report.aps.len();
     let mut kept: Vec<CsiPacket> = Vec::with_capacity(records.len());
     let mut latest = i64::MIN;
     let mut after_jump = false;
@@ -318,6 +349,16 @@ pub fn check_ap(
                 .take_while(|p| p.t.0 == t)
                 .any(|p| p.record.header == record.header);
             if repeat {
+                if ap.repeated == 0 {
+                    report.event(
+                        Kind::Repeated(index),
+                        Timestamp(t),
+                        format!(
+                            "AP {name}: records repeat earlier ones (the log written twice?): \
+                             dropped"
+                        ),
+                    );
+                }
                 ap.repeated += 1;
                 continue;
             }
@@ -327,6 +368,7 @@ pub fn check_ap(
                 after_jump = true;
                 ap.clock_jumps_back += 1;
                 report.event(
+                    Kind::ClockJump(index),
                     Timestamp(latest),
                     format!(
                         "AP {name}: the NIC clock jumped back by {:.3} s (a NIC restart?): the \
@@ -345,16 +387,6 @@ pub fn check_ap(
             record,
         });
     }
-    if ap.repeated > 0 {
-        let t = kept.last().map_or(Timestamp(0), |p| p.t);
-        report.event(
-            t,
-            format!(
-                "AP {name}: {} records repeat earlier ones (the log written twice?): dropped",
-                ap.repeated
-            ),
-        );
-    }
     ap.kept = kept.len() as u64;
     ap.span_s = kept
         .first()
@@ -368,7 +400,7 @@ pub fn check_ap(
 /// apart a warning.
 pub fn check_spans(
     imu: &[ImuSample],
-    aps: &[Vec<CsiPacket>],
+    aps: &[&[CsiPacket]],
     report: &mut InputReport,
 ) -> Result<(), InputError> {
     let (Some(first), Some(last)) = (imu.first(), imu.last()) else {
@@ -382,7 +414,7 @@ pub fn check_spans(
         ap.before_imu = packets.iter().filter(|p| p.t < from).count() as u64;
         ap.after_imu = packets.iter().filter(|p| p.t > to).count() as u64;
         inside += packets.len() as u64 - ap.before_imu - ap.after_imu;
-        for p in packets {
+        for p in packets.iter() {
             csi_span = Some(csi_span.map_or((p.t, p.t), |(a, b)| (a.min(p.t), b.max(p.t))));
         }
     }
@@ -438,34 +470,27 @@ pub fn check_spans(
 
 /// The report's counts as warning lines (each with the first event's time).
 pub fn summarize(report: &mut InputReport) {
-    let imu = report.imu.clone();
-    let first = |report: &InputReport, needle: &str| {
-        report
-            .events
-            .iter()
-            .find(|e| e.what.contains(needle))
-            .map_or(String::new(), |e| format!(", the first at {:.3} s", e.t_s))
-    };
+    let imu = &report.imu;
     let mut lines = Vec::new();
-    for (n, what, needle) in [
+    for (n, what, kind) in [
         (
             imu.not_finite,
             "IMU samples not finite, dropped",
-            "not finite",
+            Kind::NotFinite,
         ),
         (
             imu.beyond_range,
             "IMU samples at or beyond the sensor's range, dropped",
-            "range",
+            Kind::BeyondRange,
         ),
         (
             imu.time_not_increasing,
             "IMU samples with time going back, dropped",
-            "goes back",
+            Kind::TimeBack,
         ),
     ] {
         if n > 0 {
-            lines.push(format!("{what}: {n}{}", first(report, needle)));
+            lines.push(format!("{what}: {n}{}", report.first(kind)));
         }
     }
     if imu.gaps > 0 {
@@ -473,17 +498,19 @@ pub fn summarize(report: &mut InputReport) {
             "IMU gaps longer than {GAP_PERIODS} sample periods: {} (the longest {:.3} s){}",
             imu.gaps,
             imu.longest_gap_s,
-            first(report, "IMU gap")
+            report.first(Kind::Gap)
         ));
     }
     if imu.cut_last_line {
         lines.push("the IMU file's last line has no line end (cut?): dropped".into());
     }
-    for ap in &report.aps {
+    for (index, ap) in report.aps.iter().enumerate() {
         if ap.repeated > 0 {
             lines.push(format!(
-                "AP {}: {} repeated records dropped (the log written twice?)",
-                ap.name, ap.repeated
+                "AP {}: {} repeated records dropped (the log written twice?){}",
+                ap.name,
+                ap.repeated,
+                report.first(Kind::Repeated(index))
             ));
         }
         if ap.clock_jumps_back > 0 {
@@ -492,7 +519,7 @@ pub fn summarize(report: &mut InputReport) {
                  dropped",
                 ap.name,
                 ap.clock_jumps_back,
-                first(report, "jumped back"),
+                report.first(Kind::ClockJump(index)),
                 ap.after_clock_jump
             ));
         }

@@ -138,7 +138,6 @@ impl Dataset {
         };
         let imu = checks::check_imu(rows, limits, &mut inputs).map_err(inputs_error)?;
         let mut aps = Vec::with_capacity(manifest.aps.len());
-        let mut placed = Vec::with_capacity(manifest.aps.len());
         for entry in &manifest.aps {
             let log = read_log(dir.join(&entry.log))?;
             let bandwidth_mismatches = log
@@ -153,19 +152,16 @@ impl Dataset {
                 &mut inputs,
             )
             .map_err(inputs_error)?;
-            placed.push(packets);
             aps.push(ApLog {
                 name: entry.name.clone(),
-                packets: Vec::new(),
+                packets,
                 skips: log.skips,
                 bandwidth_mismatches,
             });
         }
+        let placed: Vec<&[CsiPacket]> = aps.iter().map(|a| a.packets.as_slice()).collect();
         checks::check_spans(&imu, &placed, &mut inputs).map_err(inputs_error)?;
         checks::summarize(&mut inputs);
-        for (ap, packets) in aps.iter_mut().zip(placed) {
-            ap.packets = packets;
-        }
         let calibration = match &manifest.array.calibration {
             Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
             None => None,

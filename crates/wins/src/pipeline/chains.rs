@@ -240,14 +240,10 @@ impl ChainResolver {
         if let Stage::Decided(p) = &self.stage {
             self.report.phase_offsets_rad = p.chain_calibration().phase_offsets_rad.clone();
             self.report.sin_bias = p.wins().sin_bias();
-            let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
-            let step_rad = self.step_rad;
-            self.report.flown_deg = self.report.chosen_deg.map(|_| step_rad.to_degrees());
-            let bias = self.report.sin_bias.map_or(0.0, |(b, _)| b);
-            self.report.refined_deg = self
-                .report
-                .chosen_deg
-                .map(|_| wrap(step_rad + TAU * bias / period).to_degrees());
+            let flown = self.step_rad;
+            let refined = self.refined(flown, self.report.sin_bias.map_or(0.0, |(b, _)| b));
+            self.report.flown_deg = self.report.chosen_deg.map(|_| flown.to_degrees());
+            self.report.refined_deg = self.report.chosen_deg.map(|_| refined.to_degrees());
         }
         match self.stage {
             Stage::Decided(pipeline) => Ok(Finished {
@@ -484,8 +480,7 @@ impl ChainResolver {
         if let Some(history) = self.history.take()
             && let Some((bias, _)) = c.pipeline.wins().sin_bias()
         {
-            let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
-            self.step_rad = wrap(c.step_rad + TAU * bias / period);
+            self.step_rad = self.refined(c.step_rad, bias);
             self.dropped_timing += c.pipeline.timing();
             let mut rig = self.rig.clone();
             rig.calibration = Some(with_step(&self.base, self.step_rad));
@@ -498,6 +493,13 @@ impl ChainResolver {
         }
         self.stage = Stage::Decided(Box::new(c.pipeline));
         Ok(c.held)
+    }
+
+    /// The uniform step `step_rad` moved by the bearings' common `sin θ` offset `sin_bias`
+    /// (`Δφ = 2π·β·d/λ`), rad.
+    fn refined(&self, step_rad: f64, sin_bias: f64) -> f64 {
+        let period = self.rig.geometry.alias_period(self.rig.center_freq_hz);
+        wrap(step_rad + TAU * sin_bias / period)
     }
 
     /// Wall time per stage over every hypothesis run.
