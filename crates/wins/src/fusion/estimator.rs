@@ -20,7 +20,7 @@ use nalgebra::{Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3};
 use super::bearing::Bearing;
 use super::window::arrow::Vec9;
 use super::window::{FrameEstimate, SlidingWindow, StartPrior, WindowConfig, WindowError};
-use crate::imu::{ImuBiases, ImuSample, PreintegrationError, Preintegrator};
+use crate::imu::{ImuBiases, ImuGap, ImuSample, PreintegrationError, Preintegrator};
 use crate::rig::ImuNoise;
 use crate::time::Timestamp;
 
@@ -31,6 +31,8 @@ pub struct WinsConfig {
     pub window: WindowConfig,
     /// IMU noise densities.
     pub imu_noise: ImuNoise,
+    /// How a gap in the IMU stream is integrated.
+    pub imu_gap: ImuGap,
 }
 
 impl WinsConfig {
@@ -52,7 +54,11 @@ impl WinsConfig {
             body_from_array,
             ..window
         };
-        Self { window, imu_noise }
+        Self {
+            window,
+            imu_noise,
+            imu_gap: ImuGap::default(),
+        }
     }
 }
 
@@ -100,6 +106,11 @@ pub struct WinsStats {
     pub restarts: u64,
     /// Candidate convergences rejected as implausible.
     pub rejected_convergences: u64,
+    /// Gaps in the IMU stream ([`crate::imu::ImuGap`]).
+    pub imu_gaps: u64,
+    /// Frames dropped because they fell inside an IMU gap (no pose for a time the IMU did not
+    /// see).
+    pub frames_in_imu_gap: u64,
 }
 
 /// Why an input was refused (the estimator's state is unchanged; the refusal is counted).
@@ -151,7 +162,8 @@ impl Wins {
     /// A fresh estimator (initialization-free: no state is needed).
     pub fn new(config: WinsConfig) -> Self {
         Self {
-            pre: Preintegrator::new(config.imu_noise.clone(), ImuBiases::zero()),
+            pre: Preintegrator::new(config.imu_noise.clone(), ImuBiases::zero())
+                .with_gap(config.imu_gap),
             window: SlidingWindow::new(config.window.clone()),
             pending: VecDeque::new(),
             stats: WinsStats::default(),
@@ -172,7 +184,8 @@ impl Wins {
                 gyro_rad_s: start.gyro_bias_rad_s,
                 accel_m_s2: Vector3::zeros(),
             },
-        );
+        )
+        .with_gap(w.config.imu_gap);
         w.window = SlidingWindow::with_start(w.config.window.clone(), start);
         w
     }
@@ -226,6 +239,12 @@ impl Wins {
         if let Err(e) = self.pre.check(s) {
             self.stats.imu_refused += 1;
             return Err(e.into());
+        }
+        if let Some(from) = self.pre.gap_before(s) {
+            self.stats.imu_gaps += 1;
+            let before = self.pending.len();
+            self.pending.retain(|(t, _)| !(*t > from && *t < s.t));
+            self.stats.frames_in_imu_gap += (before - self.pending.len()) as u64;
         }
         let mut step = Step::default();
         while let Some((t, _)) = self.pending.front() {

@@ -2,10 +2,12 @@
 //! PAoA frames (paper `eqn:alpha`, `eqn:beta`, `eqn:rotation`).
 
 pub(crate) mod biases;
+pub mod gap;
 pub mod preintegration;
 pub(crate) mod sample;
 
 pub use biases::ImuBiases;
+pub use gap::ImuGap;
 pub use preintegration::{Preintegrated, PreintegrationError, Preintegrator};
 pub use sample::ImuSample;
 

@@ -37,12 +37,15 @@
 //! other. Bias random walk is not part of the interval covariance (the estimator has no bias
 //! states; biases enter through the Jacobians below).
 //!
+//! **Gaps**: samples further apart than a set limit are integrated the same way, with the
+//! covariance of the motion the IMU did not see added ([`super::gap`]).
+//!
 //! **Bias Jacobians**: `J = ∂[α, β, θ]/∂[b_a, b_g]`, propagated as `J' = F J − G`, so that a later
 //! stage corrects a bias estimate without re-integrating: [`Preintegrated::corrected`].
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::{ImuBiases, ImuSample};
+use super::{ImuBiases, ImuGap, ImuSample};
 use crate::rig::ImuNoise;
 use crate::so3::{exp, right_jacobian};
 use crate::time::Timestamp;
@@ -228,6 +231,8 @@ pub struct Preintegrator {
     last: Option<ImuSample>,
     /// Spacing of the last two pushed samples, s (the sample period for the noise variance).
     period_s: Option<f64>,
+    /// How a gap between samples is integrated (`None`: as any other spacing).
+    gap: Option<ImuGap>,
     running: Preintegrated,
     /// `Cov(δx, η)` with the noise of the last endpoint.
     cross: BiasJacobian,
@@ -241,9 +246,25 @@ impl Preintegrator {
             bias,
             last: None,
             period_s: None,
+            gap: None,
             running: Preintegrated::empty(Timestamp(0), bias),
             cross: BiasJacobian::zeros(),
         }
+    }
+
+    /// The same integrator, with samples further apart than `gap.max_s` integrated as a gap:
+    /// their interval's covariance grows by [`ImuGap::covariance`].
+    pub fn with_gap(mut self, gap: ImuGap) -> Self {
+        self.gap = Some(gap);
+        self
+    }
+
+    /// When `s` comes after a gap ([`Self::with_gap`]) since the last sample: the gap's start,
+    /// the last sample's time.
+    pub fn gap_before(&self, s: &ImuSample) -> Option<Timestamp> {
+        let gap = self.gap?;
+        let last = self.last?;
+        gap.is_gap(s.t.secs_since(last.t)).then_some(last.t)
     }
 
     /// The bias estimate used from the next interval on.
@@ -290,7 +311,8 @@ impl Preintegrator {
         };
         if s.t > last.t {
             self.period_s = Some(s.t.secs_since(last.t));
-            self.step(&last, s);
+            let in_gap = self.gap_before(s).is_some();
+            self.step(&last, s, in_gap);
         }
         self.last = Some(*s);
         Ok(())
@@ -320,7 +342,8 @@ impl Preintegrator {
             self.period_s = Some(next.t.secs_since(last.t));
         }
         if t > last.t {
-            self.step(&last, &at_cut);
+            let in_gap = self.gap_before(next).is_some();
+            self.step(&last, &at_cut, in_gap);
         }
         let done = std::mem::replace(&mut self.running, Preintegrated::empty(t, self.bias));
         self.cross = BiasJacobian::zeros();
@@ -328,8 +351,9 @@ impl Preintegrator {
         Ok(done)
     }
 
-    /// One sub-interval from `a` to `b` (see the module doc for F and G).
-    fn step(&mut self, a: &ImuSample, b: &ImuSample) {
+    /// One sub-interval from `a` to `b` (see the module doc for F and G); `in_gap`: part of a
+    /// gap between samples, whose covariance is added ([`ImuGap`]).
+    fn step(&mut self, a: &ImuSample, b: &ImuSample, in_gap: bool) {
         let h = b.t.secs_since(a.t);
         let q = self.sample_noise_variances();
         let pre = &mut self.running;
@@ -377,6 +401,9 @@ impl Preintegrator {
             + gq * gm.transpose() * 0.5
             + (fc_gt + fc_gt.transpose()) * 0.5;
         self.cross = gq * 0.5;
+        if let Some(gap) = self.gap.filter(|_| in_gap) {
+            pre.covariance += gap.covariance(h);
+        }
 
         // Bias Jacobians: the bias enters like the input error with the opposite sign.
         pre.jacobian_bias = fm * pre.jacobian_bias - gm;

@@ -17,6 +17,7 @@ use crate::eval::EvalOptions;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::nonlinear::NonlinearConfig;
 use crate::fusion::window::WindowConfig;
+use crate::imu::ImuGap;
 
 /// Every setting of a run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -33,6 +34,8 @@ pub struct Config {
     pub window: WindowConfig,
     /// The nonlinear sliding window.
     pub nonlinear: NonlinearConfig,
+    /// How both estimators integrate across a gap in the IMU stream.
+    pub imu_gap: ImuGap,
     /// Scoring against a truth (association, RPE).
     pub eval: EvalOptions,
 }
@@ -181,6 +184,7 @@ impl Config {
         p.extend(self.pipeline.problems("pipeline"));
         p.extend(self.window.problems("window"));
         p.extend(self.nonlinear.problems("nonlinear"));
+        p.extend(self.imu_gap.problems("imu_gap"));
         p.extend(self.eval.problems("eval"));
         p
     }

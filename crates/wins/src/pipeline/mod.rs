@@ -135,11 +135,14 @@ impl Pipeline {
             rig.center_freq_hz,
             rig.calibration.clone(),
         )?;
-        let wins_config = WinsConfig::for_rig(
-            config.window.clone(),
-            rig.imu_noise.clone(),
-            rig.body_from_array,
-        );
+        let wins_config = WinsConfig {
+            imu_gap: config.imu_gap,
+            ..WinsConfig::for_rig(
+                config.window.clone(),
+                rig.imu_noise.clone(),
+                rig.body_from_array,
+            )
+        };
         Ok(Self {
             tracks: vec![Track::default(); rig.ap_names.len()],
             stats: PipelineStats::new(&rig.ap_names),

@@ -100,6 +100,13 @@ pub fn run_dataset_with(
         .then(|| Truth::load(path).map_err(|e| with_causes(&e)));
     let mut run = replay(&data, rig, config)?;
     run.warnings.extend(warnings);
+    if run.wins.imu_gaps > 0 {
+        run.warnings.push(format!(
+            "the estimator met {} IMU gap(s) longer than {} s: {} frame(s) inside them got no \
+             pose, and a tracking estimate restarted after each",
+            run.wins.imu_gaps, config.imu_gap.max_s, run.wins.frames_in_imu_gap
+        ));
+    }
     match &truth {
         Some(Ok(truth)) => run.score_against(truth, &config.eval),
         Some(Err(why)) => {

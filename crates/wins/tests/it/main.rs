@@ -16,6 +16,7 @@ mod data;
 mod fusion_ekf;
 mod fusion_nonlinear;
 mod fusion_wins;
+mod imu_gap;
 mod input_checks;
 mod intel5300_corrupt;
 mod intel5300_real;

@@ -59,6 +59,10 @@ pub struct NonlinearConfig {
     pub max_start_window_s: f64,
     /// The loss test runs over the bearings of this many seconds.
     pub loss_window_s: f64,
+    /// The longest the pose is carried by the IMU alone after the newest keyframe (a CSI
+    /// outage), s; past it the window ends and restarts at the next bearings, placed by its APs
+    /// ([`super::holes`]).
+    pub max_dead_reckoning_s: f64,
 }
 
 impl Default for NonlinearConfig {
@@ -83,6 +87,7 @@ impl Default for NonlinearConfig {
             inertial_start_max_s: 25.0,
             max_start_window_s: 30.0,
             loss_window_s: 2.0,
+            max_dead_reckoning_s: 10.0,
         }
     }
 }
@@ -185,6 +190,13 @@ impl NonlinearConfig {
             600.0,
         );
         p.in_range(prefix, "loss_window_s", self.loss_window_s, 0.1, 60.0);
+        p.in_range(
+            prefix,
+            "max_dead_reckoning_s",
+            self.max_dead_reckoning_s,
+            0.1,
+            600.0,
+        );
         p
     }
 }

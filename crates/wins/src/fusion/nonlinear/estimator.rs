@@ -77,7 +77,7 @@ pub struct NonlinearEstimator {
     /// Whether `reference` is the end of the rest (its accelerometer bias then is the rest's).
     pub(super) reference_is_rest: bool,
     /// The IMU's dead reckoning from `reference` to the newest frame.
-    dead_reckoned: Option<NavState>,
+    pub(super) dead_reckoned: Option<NavState>,
     /// The IMU between the last frames before the motion was detected (the motion starts before
     /// the detector can see it).
     rest_intervals: VecDeque<Preintegrated>,
@@ -96,6 +96,10 @@ pub struct NonlinearEstimator {
     pub(super) converged_at: Option<Timestamp>,
     /// Changes of the frame poses are given in (a start or a restart).
     pub(super) epoch: u64,
+    /// An IMU gap came since the last frame ([`super::holes`]).
+    imu_gap_seen: bool,
+    /// The APs of a window lost to a hole, to place the next one by ([`super::holes`]).
+    pub(super) ap_fix: Option<super::holes::ApFix>,
 }
 
 impl NonlinearEstimator {
@@ -107,7 +111,8 @@ impl NonlinearEstimator {
         let candidate_ap_sigma_m = linear_config.window.converged_ap_sigma_m;
         linear_config.window.converged_ap_sigma_m = 0.0;
         Self {
-            pre: Preintegrator::new(linear_config.imu_noise.clone(), ImuBiases::zero()),
+            pre: Preintegrator::new(linear_config.imu_noise.clone(), ImuBiases::zero())
+                .with_gap(linear_config.imu_gap),
             rest: RestDetector::new(config.clone(), STANDARD_GRAVITY_M_S2),
             config,
             linear_config,
@@ -132,6 +137,8 @@ impl NonlinearEstimator {
             stats: WinsStats::default(),
             converged_at: None,
             epoch: 0,
+            imu_gap_seen: false,
+            ap_fix: None,
         }
     }
 
@@ -231,6 +238,13 @@ impl NonlinearEstimator {
         if let Err(e) = self.pre.check(s) {
             self.stats.imu_refused += 1;
             return Err(e.into());
+        }
+        if let Some(from) = self.pre.gap_before(s) {
+            self.stats.imu_gaps += 1;
+            let before = self.pending.len();
+            self.pending.retain(|p| !(p.t > from && p.t < s.t));
+            self.stats.frames_in_imu_gap += (before - self.pending.len()) as u64;
+            self.imu_gap_seen = true;
         }
         let mut step = Step::default();
         if !self.rest.moved() {
@@ -353,6 +367,7 @@ impl NonlinearEstimator {
     fn on_frame(&mut self, frame: PendingFrame, interval: Preintegrated) -> Option<PoseEstimate> {
         self.stats.bearings += frame.bearings.len() as u64;
         self.stats.frames += 1;
+        let imu_gap = std::mem::take(&mut self.imu_gap_seen);
         // Frames at rest carry no geometry; their IMU is kept for the motion's onset.
         if self.moving_since.is_none() {
             let keep_s = 2.0 * super::rest::ONSET_MARGIN_S + 0.2;
@@ -367,6 +382,15 @@ impl NonlinearEstimator {
             return None;
         }
         let t = frame.t;
+        if self.after_hole(t, imu_gap) {
+            self.restart_after_hole(t, &interval);
+            return None;
+        }
+        if imu_gap && self.window.is_none() {
+            self.begin_start(t, None);
+            self.forget_reference();
+            return None;
+        }
         if self.window.is_none() {
             self.dead_reckon(t, &interval);
         }

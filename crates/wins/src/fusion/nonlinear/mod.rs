@@ -25,6 +25,7 @@ pub mod baro_factor;
 pub mod cone_factor;
 pub mod config;
 pub mod estimator;
+mod holes;
 pub mod imu_factor;
 mod late_ap;
 mod nullspace;

@@ -96,6 +96,7 @@ impl NonlinearEstimator {
             Some(w) => {
                 self.window = Some(w);
                 self.trim_window();
+                self.place_by_aps();
                 self.last_good = self.window.as_ref().and_then(|w| w.newest().copied());
                 self.linear = None;
                 self.start.clear();
@@ -110,6 +111,11 @@ impl NonlinearEstimator {
     /// the start has a known state to leave from, else the linear window's) and iterated; `None`
     /// when it is not accepted.
     fn start_window(&self) -> Option<NonlinearWindow> {
+        if self.ap_fix.is_some() {
+            // After a hole the carried state is a guess: each proposal gets its chance.
+            return (self.propose_inertial().and_then(|p| self.refine(p)))
+                .or_else(|| self.propose_linear().and_then(|p| self.refine(p)));
+        }
         let proposal = self.propose_inertial().or_else(|| self.propose_linear())?;
         self.refine(proposal)
     }

@@ -450,3 +450,38 @@ fn append_refuses_a_gap_and_corrects_another_bias() {
     d.append(&Preintegrated::empty(a.end, bias)).unwrap();
     assert!((d.alpha - a.alpha).norm() < 1e-15 && (d.covariance - a.covariance).norm() < 1e-20);
 }
+
+#[test]
+fn a_gap_adds_the_unseen_motions_covariance_and_is_reported() {
+    let (samples, _, _) = circle(400);
+    // A 1 s hole: samples 100..300 never came.
+    let kept: Vec<ImuSample> = samples
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !(100..300).contains(i))
+        .map(|(_, s)| *s)
+        .collect();
+    let noise = ImuNoise {
+        gyro_noise_density_rad_s_sqrt_hz: 1e-4,
+        accel_noise_density_m_s2_sqrt_hz: 1e-3,
+        ..zero_noise()
+    };
+    let gap = ImuGap::default();
+    let mut plain = Preintegrator::new(noise.clone(), ImuBiases::zero());
+    let mut gapped = Preintegrator::new(noise, ImuBiases::zero()).with_gap(gap);
+    for s in &kept[..100] {
+        plain.push(s).unwrap();
+        gapped.push(s).unwrap();
+    }
+    let after = kept[100];
+    assert_eq!(plain.gap_before(&after), None, "no gap model, no gap");
+    assert_eq!(gapped.gap_before(&after), Some(kept[99].t));
+    assert_eq!(gapped.gap_before(&kept[1]), None);
+    plain.push(&after).unwrap();
+    gapped.push(&after).unwrap();
+    let h = after.t.secs_since(kept[99].t);
+    let added = gapped.running().covariance - plain.running().covariance;
+    assert!((added - gap.covariance(h)).abs().max() < 1e-9, "{added}");
+    // The means are the straight line either way.
+    assert_eq!(gapped.running().alpha, plain.running().alpha);
+}
