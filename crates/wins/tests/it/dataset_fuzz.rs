@@ -170,3 +170,40 @@ fn the_undamaged_base_runs_and_a_miscounted_run_is_caught() {
         assert!(checked.is_err(), "miscount {k} passed");
     }
 }
+
+#[test]
+fn times_at_the_ends_of_the_clock_are_refused_or_accounted() {
+    use self::mutate::At;
+    // Found by this fuzzing: a first IMU row at i64::MIN ns overflowed the checks' sample
+    // spacing (a panic with overflow checks, a wrong gap without). The others are the same
+    // bound on the other files' times (`wins::time::MAX_ABS_NANOS`).
+    let cases = [
+        Mutation::ImuField {
+            row: At::First,
+            field: 0,
+            value: "-9223372036854775808",
+        },
+        Mutation::ImuField {
+            row: At::Last,
+            field: 0,
+            value: "9223372036854775807",
+        },
+        Mutation::ImuShift {
+            from: At::Last,
+            by_ns: 4_611_686_018_427_387_903,
+        },
+        Mutation::TruthField {
+            line: At::Last,
+            field: 0,
+            value: "1e300",
+        },
+        Mutation::BaroField {
+            line: At::First,
+            field: 0,
+            value: "-9223372036854775808",
+        },
+    ];
+    for m in cases {
+        run_case(std::slice::from_ref(&m)).unwrap();
+    }
+}

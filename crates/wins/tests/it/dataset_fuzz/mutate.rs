@@ -55,25 +55,57 @@ const SHIFTS: &[i64] = &[
     -4_611_686_018_427_387_904,
 ];
 
+/// A position in a list of rows, lines or bytes: either end (where damage tells most: the first
+/// sample sets the time origin, the last ends the flight) or anywhere.
+#[derive(Clone, Copy, Debug)]
+pub enum At {
+    /// The first.
+    First,
+    /// The last (for a cut: the end, nothing cut).
+    Last,
+    /// Any.
+    Any(Index),
+}
+
+impl At {
+    /// The position in a list of `len > 0` items.
+    fn index(&self, len: usize) -> usize {
+        match self {
+            Self::First => 0,
+            Self::Last => len - 1,
+            Self::Any(i) => i.index(len),
+        }
+    }
+}
+
+/// A position, an end one time in three.
+fn at() -> impl Strategy<Value = At> {
+    prop_oneof![
+        1 => Just(At::First),
+        1 => Just(At::Last),
+        4 => any::<Index>().prop_map(At::Any),
+    ]
+}
+
 /// One change to a dataset folder.
 #[derive(Clone, Debug)]
 pub enum Mutation {
     /// Delete `n` IMU rows from row `at`.
-    ImuDelete { at: Index, n: usize },
+    ImuDelete { at: At, n: usize },
     /// Repeat `n` IMU rows from row `at` right after them.
-    ImuDuplicate { at: Index, n: usize },
+    ImuDuplicate { at: At, n: usize },
     /// Swap two IMU rows.
-    ImuSwap { a: Index, b: Index },
+    ImuSwap { a: At, b: At },
     /// Replace one field of an IMU row.
     ImuField {
-        row: Index,
+        row: At,
         field: usize,
         value: &'static str,
     },
     /// Add `by_ns` to the timestamps of the rows from `from` on.
-    ImuShift { from: Index, by_ns: i64 },
+    ImuShift { from: At, by_ns: i64 },
     /// Cut the IMU file at a byte (mid-line, most likely).
-    ImuCut { at: Index },
+    ImuCut { at: At },
     /// Set a manifest value (any key, arrays included) to another value.
     TomlSet { key: Index, value: toml::Value },
     /// Multiply a numeric manifest value.
@@ -83,26 +115,26 @@ pub enum Mutation {
     /// Add an unknown key to a manifest table.
     TomlBogus { table: Index },
     /// XOR `n` log bytes from `at` with `xor`.
-    LogFlip { at: Index, n: usize, xor: u8 },
+    LogFlip { at: At, n: usize, xor: u8 },
     /// Cut the log at a byte.
-    LogTruncate { at: Index },
+    LogTruncate { at: At },
     /// Insert bytes into the log.
-    LogInsert { at: Index, bytes: Vec<u8> },
+    LogInsert { at: At, bytes: Vec<u8> },
     /// Copy `len` log bytes from `from` to `to` (a log written twice, in part).
-    LogDuplicate { from: Index, len: usize, to: Index },
+    LogDuplicate { from: At, len: usize, to: At },
     /// Cut the truth poses at a byte.
-    TruthTruncate { at: Index },
+    TruthTruncate { at: At },
     /// Replace a truth pose line.
-    TruthLine { line: Index, text: &'static str },
+    TruthLine { line: At, text: &'static str },
     /// Replace one field of a truth pose line.
     TruthField {
-        line: Index,
+        line: At,
         field: usize,
         value: &'static str,
     },
     /// Replace a barometer line's field.
     BaroField {
-        line: Index,
+        line: At,
         field: usize,
         value: &'static str,
     },
@@ -138,38 +170,38 @@ fn toml_value() -> impl Strategy<Value = toml::Value> {
 pub fn mutation() -> impl Strategy<Value = Mutation> {
     let field = || select(FIELDS.to_vec());
     prop_oneof![
-        (any::<Index>(), 1usize..40).prop_map(|(at, n)| Mutation::ImuDelete { at, n }),
-        (any::<Index>(), 1usize..40).prop_map(|(at, n)| Mutation::ImuDuplicate { at, n }),
-        (any::<Index>(), any::<Index>()).prop_map(|(a, b)| Mutation::ImuSwap { a, b }),
-        (any::<Index>(), 0usize..7, field()).prop_map(|(row, field, value)| Mutation::ImuField {
+        (at(), 1usize..40).prop_map(|(at, n)| Mutation::ImuDelete { at, n }),
+        (at(), 1usize..40).prop_map(|(at, n)| Mutation::ImuDuplicate { at, n }),
+        (at(), at()).prop_map(|(a, b)| Mutation::ImuSwap { a, b }),
+        (at(), 0usize..7, field()).prop_map(|(row, field, value)| Mutation::ImuField {
             row,
             field,
             value
         }),
-        (any::<Index>(), select(SHIFTS.to_vec()))
+        (at(), select(SHIFTS.to_vec()))
             .prop_map(|(from, by_ns)| Mutation::ImuShift { from, by_ns }),
-        any::<Index>().prop_map(|at| Mutation::ImuCut { at }),
+        at().prop_map(|at| Mutation::ImuCut { at }),
         (any::<Index>(), toml_value()).prop_map(|(key, value)| Mutation::TomlSet { key, value }),
         (any::<Index>(), select(vec![-1.0, 0.0, 0.5, 2.0, 1e6, 1e-6]))
             .prop_map(|(key, by)| Mutation::TomlScale { key, by }),
         any::<Index>().prop_map(|key| Mutation::TomlRemove { key }),
         any::<Index>().prop_map(|table| Mutation::TomlBogus { table }),
-        (any::<Index>(), 1usize..16, 1u8..=255).prop_map(|(at, n, xor)| Mutation::LogFlip {
-            at,
-            n,
-            xor
+        (at(), 1usize..16, 1u8..=255).prop_map(|(at, n, xor)| Mutation::LogFlip { at, n, xor }),
+        at().prop_map(|at| Mutation::LogTruncate { at }),
+        (at(), vec(any::<u8>(), 1..64)).prop_map(|(at, bytes)| Mutation::LogInsert { at, bytes }),
+        (at(), 1usize..3000, at()).prop_map(|(from, len, to)| Mutation::LogDuplicate {
+            from,
+            len,
+            to
         }),
-        any::<Index>().prop_map(|at| Mutation::LogTruncate { at }),
-        (any::<Index>(), vec(any::<u8>(), 1..64))
-            .prop_map(|(at, bytes)| Mutation::LogInsert { at, bytes }),
-        (any::<Index>(), 1usize..3000, any::<Index>())
-            .prop_map(|(from, len, to)| Mutation::LogDuplicate { from, len, to }),
-        any::<Index>().prop_map(|at| Mutation::TruthTruncate { at }),
-        (any::<Index>(), select(LINES.to_vec()))
-            .prop_map(|(line, text)| Mutation::TruthLine { line, text }),
-        (any::<Index>(), 0usize..8, field())
-            .prop_map(|(line, field, value)| Mutation::TruthField { line, field, value }),
-        (any::<Index>(), 0usize..2, field()).prop_map(|(line, field, value)| Mutation::BaroField {
+        at().prop_map(|at| Mutation::TruthTruncate { at }),
+        (at(), select(LINES.to_vec())).prop_map(|(line, text)| Mutation::TruthLine { line, text }),
+        (at(), 0usize..8, field()).prop_map(|(line, field, value)| Mutation::TruthField {
+            line,
+            field,
+            value
+        }),
+        (at(), 0usize..2, field()).prop_map(|(line, field, value)| Mutation::BaroField {
             line,
             field,
             value
