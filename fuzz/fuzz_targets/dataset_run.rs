@@ -7,7 +7,8 @@
 //! Input: sections, each a little-endian `u32` length then that many bytes (a length past the
 //! end takes the rest): `dataset.toml`, `imu.csv`, `ap0.dat`, `truth/poses.tum` (no truth folder
 //! when the last section is absent). The manifest names the other files; a seed from a simulated
-//! flight names these. Run with a nightly toolchain and `cargo-fuzz`:
+//! flight names these. Run with `cargo-fuzz` (on stable with `-s none`, as `intel5300_decode`;
+//! `cargo +nightly fuzz run dataset_run` with the sanitizers):
 //!
 //! ```text
 //! wins simulate --scenario paper-circle --seed 1 --duration 12 -o /tmp/seed-flight
@@ -16,7 +17,7 @@
 //!   struct.pack("<I", len(b)) + b for b in (open(d + "/" + n, "rb").read() for n in
 //!   ("dataset.toml", "imu.csv", "ap0.dat", "truth/poses.tum"))))' /tmp/seed-flight \
 //!   > fuzz/corpus/dataset_run/seed
-//! cd fuzz && cargo +nightly fuzz run dataset_run -- -max_len=2000000
+//! cd fuzz && cargo fuzz run -s none dataset_run -- -max_len=2000000
 //! ```
 //!
 //! Each input is a whole run (a fraction of a second for a seed of a few seconds): a slow
