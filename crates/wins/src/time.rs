@@ -7,6 +7,11 @@ pub const NANOS_PER_MICRO: i64 = 1_000;
 /// Nanoseconds per second.
 pub const NANOS_PER_SEC: i64 = 1_000_000_000;
 
+/// The farthest a time read from a file may be from its clock's origin, ns (2⁶², 146 years):
+/// the difference of any two such times, and a time moved by a second, fit in an `i64`. The
+/// readers refuse a time beyond it ([`Timestamp::is_in_range`]).
+pub const MAX_ABS_NANOS: i64 = 1 << 62;
+
 /// A point in time in integer nanoseconds on some clock (which clock is said where it is used).
 #[derive(
     Copy, Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
@@ -28,6 +33,11 @@ impl Timestamp {
     /// Seconds as a float (for printing and for maths, never for storage).
     pub fn as_secs_f64(self) -> f64 {
         self.0 as f64 / NANOS_PER_SEC as f64
+    }
+
+    /// Whether the time is less than [`MAX_ABS_NANOS`] from its clock's origin.
+    pub const fn is_in_range(self) -> bool {
+        -MAX_ABS_NANOS < self.0 && self.0 < MAX_ABS_NANOS
     }
 
     /// Signed difference `self − earlier` in seconds.
@@ -109,5 +119,17 @@ mod tests {
         assert_eq!(t.as_nanos(), 1_500_000_000);
         assert!((t.as_secs_f64() - 1.5).abs() < 1e-15);
         assert!((t.secs_since(Timestamp(500_000_000)) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn times_in_range_differ_by_what_an_i64_holds() {
+        let (lo, hi) = (Timestamp(1 - MAX_ABS_NANOS), Timestamp(MAX_ABS_NANOS - 1));
+        assert!(lo.is_in_range() && hi.is_in_range());
+        assert!(hi.0.checked_sub(lo.0).is_some() && lo.0.checked_sub(hi.0).is_some());
+        // A Unix-epoch time in ns (EuRoC's) is in range until 2116.
+        assert!(Timestamp(1_760_000_000_000_000_000).is_in_range());
+        for t in [MAX_ABS_NANOS, -MAX_ABS_NANOS, i64::MAX, i64::MIN] {
+            assert!(!Timestamp(t).is_in_range(), "{t}");
+        }
     }
 }

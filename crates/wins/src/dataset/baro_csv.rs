@@ -68,6 +68,11 @@ pub fn read(input: impl BufRead) -> Result<Vec<BaroSample>, BaroCsvError> {
         let t_ns: i64 = t
             .parse()
             .map_err(|_| row(format!("time {t:?} is not an integer number of ns")))?;
+        if !Timestamp(t_ns).is_in_range() {
+            return Err(row(format!(
+                "time {t_ns} ns is 146 years or more from the clock's origin"
+            )));
+        }
         let altitude_m = altitude
             .parse::<f64>()
             .ok()
@@ -110,6 +115,7 @@ mod tests {
             ("1,2,3\n", 1, "3 fields"),
             ("1.5,2\n", 1, "integer"),
             ("1,inf\n", 1, "finite"),
+            ("-9223372036854775808,2\n", 1, "146 years"),
         ] {
             match read(text.as_bytes()) {
                 Err(BaroCsvError::Row { line: l, reason }) => {

@@ -10,7 +10,7 @@
 //! far from the declared one: a warning; so far that the timestamps' unit must be wrong: an
 //! error.
 //!
-//! CSI, per AP: the clock offset applied with checked arithmetic (an overflow is an error);
+//! CSI, per AP: the clock offset applied with checked arithmetic (a time out of range is an error);
 //! records repeated (same NIC time and header as one kept: a log written twice) and records after
 //! the NIC clock jumped back (a NIC restart mid-log) dropped and counted; records outside the
 //! IMU's time span counted (no IMU to place them). No overlap between the IMU and any AP's
@@ -64,10 +64,10 @@ pub enum InputError {
         /// `imu.rate_hz`, Hz.
         declared_hz: f64,
     },
-    /// The clock offset overflows a timestamp.
+    /// The clock offset moves a packet's time out of range ([`crate::time::MAX_ABS_NANOS`]).
     #[error(
         "AP {ap}: imu_minus_nic_ns = {offset_ns} moves the NIC time {nic_ns} ns out of range \
-         (more than 292 years)"
+         (146 years or more from the IMU clock's origin)"
     )]
     OffsetOverflow {
         /// The AP's name.
@@ -336,6 +336,7 @@ pub fn check_ap(
         let nic_ns = record.timestamp.as_nanos();
         let t = nic_ns
             .checked_add(imu_minus_nic_ns)
+            .filter(|&t| Timestamp(t).is_in_range())
             .ok_or_else(|| InputError::OffsetOverflow {
                 ap: name.to_string(),
                 offset_ns: imu_minus_nic_ns,

@@ -92,6 +92,12 @@ pub fn read_rows(mut input: impl BufRead) -> Result<ImuRows, ImuCsvError> {
             line: number,
             reason: format!("timestamp {:?} is not an integer number of ns", fields[0]),
         })?;
+        if !Timestamp(t_ns).is_in_range() {
+            return Err(ImuCsvError::Row {
+                line: number,
+                reason: format!("timestamp {t_ns} ns is 146 years or more from the clock's origin"),
+            });
+        }
         let mut v = [0.0; 6];
         for (k, f) in fields[1..].iter().enumerate() {
             v[k] = f.parse::<f64>().map_err(|_| ImuCsvError::Row {
@@ -136,6 +142,12 @@ mod tests {
         let text = format!("{HEADER}\n1,0,0,0,0,0,9.8\n2,0,0,0,0,x,9.8\n");
         match read_rows(text.as_bytes()) {
             Err(ImuCsvError::Row { line: 3, reason }) => assert!(reason.contains("field 6")),
+            other => panic!("{other:?}"),
+        }
+        // A time whose difference to the next would overflow (a corrupt first row): refused.
+        let text = format!("{HEADER}\n{},0,0,0,0,0,9.8\n5,0,0,0,0,0,9.8\n", i64::MIN);
+        match read_rows(text.as_bytes()) {
+            Err(ImuCsvError::Row { line: 2, reason }) => assert!(reason.contains("146 years")),
             other => panic!("{other:?}"),
         }
         assert!(matches!(

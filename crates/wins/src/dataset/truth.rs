@@ -199,8 +199,16 @@ pub fn read_tum(input: impl BufRead) -> Result<Vec<Pose>, String> {
         if v.len() != 8 {
             return Err(format!("line {}: {} fields, expected 8", i + 1, v.len()));
         }
+        let t = Timestamp((v[0] * NANOS_PER_SEC as f64).round() as i64);
+        if !t.is_in_range() {
+            return Err(format!(
+                "line {}: time {} s is 146 years or more from the clock's origin",
+                i + 1,
+                v[0]
+            ));
+        }
         out.push(Pose {
-            t: Timestamp((v[0] * NANOS_PER_SEC as f64).round() as i64),
+            t,
             p_b_in_w: Vector3::new(v[1], v[2], v[3]),
             world_from_body: UnitQuaternion::from_quaternion(Quaternion::new(
                 v[7], v[4], v[5], v[6],
@@ -283,4 +291,18 @@ fn read_csv<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<Vec<T>, Stri
         .enumerate()
         .map(|(i, r)| r.map_err(|e| format!("row {}: {e}", i + 1)))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pose_time_out_of_range_is_refused_with_its_line() {
+        let ok = read_tum("# t x y z qx qy qz qw\n1.5 0 0 0 0 0 0 1\n".as_bytes()).unwrap();
+        assert_eq!(ok[0].t, Timestamp(1_500_000_000));
+        // 1e300 s would saturate to i64::MAX ns and overflow the association's differences.
+        let e = read_tum("1.5 0 0 0 0 0 0 1\n1e300 0 0 0 0 0 0 1\n".as_bytes()).unwrap_err();
+        assert!(e.contains("line 2") && e.contains("146 years"), "{e}");
+    }
 }

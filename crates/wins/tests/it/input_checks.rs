@@ -167,6 +167,11 @@ fn a_clock_offset_that_puts_no_packet_under_the_imu_or_overflows_is_refused() {
     set_offset(&dir, |_| i64::MAX.to_string());
     let e = load_err(&dir);
     assert!(e.contains("out of range") && e.contains("ap0"), "{e}");
+    // No overflow, but a packet time the pipeline's frame grid would overflow: refused too.
+    let dir = flight("far");
+    set_offset(&dir, |_| (i64::MAX - 5_000_000_000_000).to_string());
+    let e = load_err(&dir);
+    assert!(e.contains("out of range") && e.contains("146 years"), "{e}");
 }
 
 /// Rewrites `ap0.dat` from its records, `edit` applied to the record list.

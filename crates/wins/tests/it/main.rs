@@ -13,6 +13,7 @@ mod aoa_accuracy;
 mod aoa_real;
 mod chain_offsets;
 mod data;
+mod dataset_fuzz;
 mod fusion_ekf;
 mod fusion_nonlinear;
 mod fusion_wins;
