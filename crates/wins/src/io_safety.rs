@@ -4,7 +4,7 @@
 //! file ([`write_atomically`], [`replace_atomically`]).
 
 use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter, Read, Write};
 use std::path::{Component, Path, PathBuf};
 
 /// Prefix of the temporary files [`replace_atomically`] writes next to their target.
@@ -77,6 +77,44 @@ impl OutputError {
             source,
         }
     }
+}
+
+/// Largest text file read whole (a manifest, a calibration, a configuration), bytes.
+pub const MAX_TEXT_FILE_BYTES: u64 = 16 << 20;
+
+/// Opens an input file, refusing anything but a regular file: a device (`/dev/zero`), a FIFO or
+/// a folder would be read without end, or block.
+pub fn open_regular(path: &Path) -> io::Result<File> {
+    let not_regular = || {
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "not a regular file (a device, a FIFO or a folder): inputs must be regular files",
+        )
+    };
+    // The type is checked before opening: opening a FIFO blocks until a writer comes.
+    if !fs::metadata(path)?.is_file() {
+        return Err(not_regular());
+    }
+    let file = File::open(path)?;
+    if !file.metadata()?.is_file() {
+        return Err(not_regular());
+    }
+    Ok(file)
+}
+
+/// Reads a whole text file that must be a regular file of at most [`MAX_TEXT_FILE_BYTES`].
+pub fn read_text(path: &Path) -> io::Result<String> {
+    let file = open_regular(path)?;
+    let len = file.metadata()?.len();
+    if len > MAX_TEXT_FILE_BYTES {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("{len} bytes; a settings file holds at most {MAX_TEXT_FILE_BYTES}"),
+        ));
+    }
+    let mut text = String::new();
+    file.take(MAX_TEXT_FILE_BYTES).read_to_string(&mut text)?;
+    Ok(text)
 }
 
 /// `path` made absolute and canonical (symbolic links, `.` and `..` resolved). A path that does

@@ -1,6 +1,6 @@
 //! `imu.csv`: EuRoC-style IMU samples (`#timestamp [ns]`, gyro xyz rad/s, accel xyz m/s²).
 
-use std::io::{self, BufRead, Write};
+use std::io::{self, BufRead, Read, Write};
 
 use nalgebra::Vector3;
 
@@ -68,11 +68,10 @@ pub fn read_rows(mut input: impl BufRead) -> Result<ImuRows, ImuCsvError> {
     let mut line = String::new();
     let mut number = 0;
     loop {
-        line.clear();
-        if input.read_line(&mut line)? == 0 {
+        number += 1;
+        if !read_line(&mut input, &mut line, number)? {
             break;
         }
-        number += 1;
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
@@ -113,6 +112,35 @@ pub fn read_rows(mut input: impl BufRead) -> Result<ImuRows, ImuCsvError> {
         out.lines.push(number);
     }
     Ok(out)
+}
+
+/// Longest line of an IMU CSV, bytes (a row takes about 130): a file without line ends (a wrong
+/// file, a device) is refused, not read whole into one line.
+pub const MAX_LINE_BYTES: usize = 4096;
+
+/// Reads line `number` into `line` (its end kept); `false` at the end of the input. A line longer
+/// than [`MAX_LINE_BYTES`] or not UTF-8 is an error.
+pub(crate) fn read_line(
+    input: &mut impl BufRead,
+    line: &mut String,
+    number: usize,
+) -> Result<bool, ImuCsvError> {
+    let mut bytes = Vec::new();
+    let n = input
+        .take(MAX_LINE_BYTES as u64 + 1)
+        .read_until(b'\n', &mut bytes)?;
+    if n > MAX_LINE_BYTES {
+        return Err(ImuCsvError::Row {
+            line: number,
+            reason: format!("longer than {MAX_LINE_BYTES} bytes (not an IMU CSV?)"),
+        });
+    }
+    line.clear();
+    line.push_str(std::str::from_utf8(&bytes).map_err(|_| ImuCsvError::Row {
+        line: number,
+        reason: "not UTF-8 text".into(),
+    })?);
+    Ok(n > 0)
 }
 
 #[cfg(test)]

@@ -1,6 +1,5 @@
 //! Reading a dataset directory back into typed data.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
@@ -117,10 +116,11 @@ impl Dataset {
         let dir = dir.as_ref();
         let manifest = read_manifest(dir)?;
         let imu_path = dir.join(&manifest.imu.file);
-        let file = File::open(&imu_path).map_err(|source| DatasetError::Io {
-            path: imu_path.clone(),
-            source,
-        })?;
+        let file =
+            crate::io_safety::open_regular(&imu_path).map_err(|source| DatasetError::Io {
+                path: imu_path.clone(),
+                source,
+            })?;
         let rows =
             imu_csv::read_rows(BufReader::new(file)).map_err(|source| DatasetError::Imu {
                 path: imu_path.clone(),
@@ -169,10 +169,11 @@ impl Dataset {
         let baro = match &manifest.baro {
             Some(entry) => {
                 let path = dir.join(&entry.file);
-                let file = File::open(&path).map_err(|source| DatasetError::Io {
-                    path: path.clone(),
-                    source,
-                })?;
+                let file =
+                    crate::io_safety::open_regular(&path).map_err(|source| DatasetError::Io {
+                        path: path.clone(),
+                        source,
+                    })?;
                 baro_csv::read(BufReader::new(file))
                     .map_err(|source| DatasetError::Baro { path, source })?
             }
@@ -193,7 +194,7 @@ impl Dataset {
 /// Reads and checks `dir/dataset.toml`.
 pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
     let path = dir.join(MANIFEST_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|source| DatasetError::Io {
+    let text = crate::io_safety::read_text(&path).map_err(|source| DatasetError::Io {
         path: path.clone(),
         source,
     })?;

@@ -233,7 +233,7 @@ impl Config {
 
     /// Reads a configuration file ([`Config::from_toml_str`]).
     pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        let text = crate::io_safety::read_text(path).map_err(|source| ConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;

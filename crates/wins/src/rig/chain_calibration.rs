@@ -188,7 +188,7 @@ impl ChainCalibration {
 
     /// Reads a calibration file.
     pub fn load(path: &Path) -> Result<Self, CalibrationError> {
-        let text = std::fs::read_to_string(path).map_err(|source| CalibrationError::Io {
+        let text = crate::io_safety::read_text(path).map_err(|source| CalibrationError::Io {
             path: path.display().to_string(),
             source,
         })?;

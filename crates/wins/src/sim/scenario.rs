@@ -15,6 +15,7 @@ use super::radio::RadioConfig;
 use super::room::{ObstacleConfig, RoomConfig};
 use super::trajectory::TrajectoryConfig;
 use super::yaw::YawConfig;
+use crate::check::num;
 use crate::rig::ArrayGeometry;
 
 mod built_in;
@@ -26,6 +27,13 @@ const VALIDATION_STEP_S: f64 = 0.05;
 const WALL_MARGIN_M: f64 = 0.1;
 /// Closest the array may come to an AP, m (the far-field model needs a few wavelengths).
 const MIN_AP_DISTANCE_M: f64 = 0.3;
+
+/// Most IMU samples one simulation holds (the simulator keeps the whole flight in memory, about
+/// 300 bytes per sample with its truth): 1 h at 400 Hz.
+pub const MAX_SIM_IMU_SAMPLES: f64 = 1_440_000.0;
+/// Most packet slots, every AP's together, one simulation holds (about 1 kB each with the CSI and
+/// its truth): 1 h at 200 packets/s.
+pub const MAX_SIM_PACKETS: f64 = 720_000.0;
 
 /// How the antenna array sits on the body.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -300,7 +308,46 @@ impl Scenario {
             b.validate("baro")?;
         }
         self.validate_aps()?;
+        self.validate_size()?;
         self.validate_flight()
+    }
+
+    /// The flight's IMU samples and packet slots within what the simulator may hold.
+    fn validate_size(&self) -> Result<(), ConfigError> {
+        let imu = self.duration_s * self.imu.rate_hz;
+        if imu > MAX_SIM_IMU_SAMPLES {
+            return Err(ConfigError::new(
+                "imu.rate_hz",
+                format!(
+                    "duration_s {} at imu.rate_hz {} gives {} IMU samples; at most {} (the \
+                     simulator holds the whole flight in memory): shorten the flight or lower \
+                     the rate",
+                    num(self.duration_s),
+                    num(self.imu.rate_hz),
+                    num(imu.ceil()),
+                    num(MAX_SIM_IMU_SAMPLES)
+                ),
+            ));
+        }
+        let packets: f64 = self
+            .aps
+            .iter()
+            .map(|ap| self.duration_s * ap.packet_rate_hz.unwrap_or(self.radio.packet_rate_hz))
+            .sum();
+        if packets > MAX_SIM_PACKETS {
+            return Err(ConfigError::new(
+                "radio.packet_rate_hz",
+                format!(
+                    "duration_s {} at the APs' packet rates gives {} packet slots; at most {} \
+                     (the simulator holds the whole flight in memory): shorten the flight, \
+                     lower the rates or use fewer APs",
+                    num(self.duration_s),
+                    num(packets.ceil()),
+                    num(MAX_SIM_PACKETS)
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn validate_aps(&self) -> Result<(), ConfigError> {

@@ -11,6 +11,7 @@
 
 mod aoa_accuracy;
 mod aoa_real;
+mod bounds;
 mod chain_offsets;
 mod data;
 mod dataset_fuzz;

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use super::MAX_WINDOW_ANTENNAS;
 use crate::aoa::subspace::PathCount;
-use crate::check::Problems;
+use crate::check::{Problems, num};
 use crate::csi::NUM_SUBCARRIERS;
 
 /// MUSIC settings. Defaults follow SpotFi where it is exact (see `super::smoothing`).
@@ -41,6 +41,8 @@ pub struct MusicConfig {
 pub const MIN_AOA_STEP_DEG: f64 = 0.05;
 /// Finest ToF grid step, s.
 pub const MIN_TOF_STEP_S: f64 = 0.5e-9;
+/// Most (AoA, ToF) grid points: a packet's spectrum holds one `f64` per point (8 MB here).
+pub const MAX_GRID_POINTS: usize = 1_000_000;
 /// The ToF span must stay below HT40's unambiguous span `1/Δf` (Δf = 1.25 MHz between the Intel
 /// 5300's reported HT40 subcarriers), s; HT20's is twice that.
 pub const MAX_TOF_SPAN_S: f64 = 800e-9;
@@ -125,6 +127,24 @@ impl MusicConfig {
                  unambiguous {MAX_TOF_SPAN_S:e} s of HT40"
             ),
         );
+        if let Some(points) = self.grid_points()
+            && points > MAX_GRID_POINTS
+        {
+            p.push(
+                prefix,
+                "aoa_step_deg",
+                format!(
+                    "aoa_step_deg {} and tof_step_s {} give {} grid points ({} AoA × {} ToF); \
+                     at most {} (a coarser step on either axis)",
+                    num(self.aoa_step_deg),
+                    num(self.tof_step_s),
+                    num(points as f64),
+                    self.aoa_points(),
+                    self.tof_points(),
+                    num(MAX_GRID_POINTS as f64),
+                ),
+            );
+        }
         p.in_range(
             prefix,
             "max_residual",
@@ -140,6 +160,32 @@ impl MusicConfig {
             100.0,
         );
         p
+    }
+}
+
+impl MusicConfig {
+    /// AoA grid points over −90°…90° (meaningful for a step in range).
+    pub fn aoa_points(&self) -> usize {
+        (180.0 / self.aoa_step_deg).round() as usize + 1
+    }
+
+    /// ToF grid points from `tof_min_s` to `tof_max_s` (meaningful for a step and span in range).
+    pub fn tof_points(&self) -> usize {
+        ((self.tof_max_s - self.tof_min_s) / self.tof_step_s).floor() as usize + 1
+    }
+
+    /// The grid's points when both steps and the span are in range, else `None` (those are
+    /// problems of their own).
+    fn grid_points(&self) -> Option<usize> {
+        let span = self.tof_max_s - self.tof_min_s;
+        let steps_ok = self.aoa_step_deg.is_finite()
+            && self.aoa_step_deg >= MIN_AOA_STEP_DEG
+            && self.tof_step_s.is_finite()
+            && self.tof_step_s >= MIN_TOF_STEP_S
+            && span.is_finite()
+            && span > 0.0
+            && span < MAX_TOF_SPAN_S;
+        steps_ok.then(|| self.aoa_points().saturating_mul(self.tof_points()))
     }
 }
 

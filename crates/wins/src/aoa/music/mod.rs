@@ -139,12 +139,11 @@ impl Music {
             );
             return Err(MusicError::Config(p));
         }
-        let n_aoa = (180.0 / config.aoa_step_deg).round() as usize + 1;
+        let n_aoa = config.aoa_points();
         let aoa_rad: Vec<f64> = (0..n_aoa)
             .map(|i| (-90.0 + 180.0 * i as f64 / (n_aoa - 1) as f64).to_radians())
             .collect();
-        let n_tof =
-            ((config.tof_max_s - config.tof_min_s) / config.tof_step_s).floor() as usize + 1;
+        let n_tof = config.tof_points();
         let tof_s: Vec<f64> = (0..n_tof)
             .map(|i| config.tof_min_s + i as f64 * config.tof_step_s)
             .collect();

@@ -252,9 +252,27 @@ impl ReadError {
 }
 
 /// Reads and decodes a whole log file into memory (about 600 bytes per record; use [`LogReader`]
-/// for long captures).
+/// for long captures). The file must be a regular file (a device or a FIFO is refused); it is
+/// decoded as it is read, so only its records are held, and skipped stretches that follow each
+/// other with the same reason are merged into one (a long run of garbage is one skip).
 pub fn read_log(path: impl AsRef<Path>) -> Result<CsiLog, ReadError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(ReadError::io(path))?;
-    Ok(CsiLog::from_bytes(&bytes))
+    let file = crate::io_safety::open_regular(path).map_err(ReadError::io(path))?;
+    let bytes = file.metadata().map_err(ReadError::io(path))?.len();
+    let mut log = CsiLog {
+        bytes,
+        ..CsiLog::default()
+    };
+    for event in LogReader::new(file) {
+        match event.map_err(ReadError::io(path))? {
+            Event::Csi(r) => log.records.push(*r),
+            Event::Skipped(s) => match log.skips.last_mut() {
+                Some(last) if last.offset + last.len == s.offset && last.reason == s.reason => {
+                    last.len += s.len;
+                }
+                _ => log.skips.push(s),
+            },
+        }
+    }
+    Ok(log)
 }

@@ -9,10 +9,17 @@ use crate::csi::sanitize::wrap;
 use crate::rig::{ChainCalibration, Rig};
 use crate::time::Timestamp;
 
+/// Most inputs the history keeps (120 s at the 10 kHz the manifest allows): past it the second
+/// pass is skipped, as past `second_pass_max_s`.
+pub(crate) const MAX_HISTORY_INPUTS: usize = 1_200_000;
+/// Most CSI records the history keeps (about 600 bytes each; 120 s at 2000 packets/s).
+pub(crate) const MAX_HISTORY_PACKETS: usize = 240_000;
+
 /// Every input since the start of the flight, kept until the decision for the second pass.
 pub(super) struct History {
     pub(super) inputs: Vec<Input>,
     max_s: f64,
+    packets: usize,
 }
 
 impl History {
@@ -21,11 +28,13 @@ impl History {
         (wanted && chains.second_pass_max_s > 0.0).then(|| Self {
             inputs: Vec::new(),
             max_s: chains.second_pass_max_s,
+            packets: 0,
         })
     }
 
     /// Keeps `input` in `history`, or drops the history once the flight (from `first_imu`)
-    /// is longer than its limit: the second pass is then skipped.
+    /// is longer than its limit, or the history would hold more than [`MAX_HISTORY_INPUTS`]
+    /// inputs or [`MAX_HISTORY_PACKETS`] records: the second pass is then skipped.
     pub(super) fn keep(history: &mut Option<Self>, input: &Input, first_imu: Option<Timestamp>) {
         let Some(h) = history else {
             return;
@@ -34,9 +43,13 @@ impl History {
             (Input::Imu(s), Some(t0)) => s.t.secs_since(t0) > h.max_s,
             _ => false,
         };
-        if too_long {
+        let is_packet = matches!(input, Input::Csi(..));
+        let too_many =
+            h.inputs.len() >= MAX_HISTORY_INPUTS || (is_packet && h.packets >= MAX_HISTORY_PACKETS);
+        if too_long || too_many {
             *history = None;
         } else {
+            h.packets += usize::from(is_packet);
             h.inputs.push(input.clone());
         }
     }
