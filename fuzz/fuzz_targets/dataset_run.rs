@@ -11,7 +11,7 @@
 //! `cargo +nightly fuzz run dataset_run` with the sanitizers):
 //!
 //! ```text
-//! wins simulate --scenario paper-circle --seed 1 --duration 12 -o /tmp/seed-flight
+//! wins simulate --scenario paper-circle --seed 1 --duration 20 -o /tmp/seed-flight
 //! mkdir -p fuzz/corpus/dataset_run
 //! python3 -c 'import struct,sys; d=sys.argv[1]; sys.stdout.buffer.write(b"".join(
 //!   struct.pack("<I", len(b)) + b for b in (open(d + "/" + n, "rb").read() for n in
@@ -20,8 +20,8 @@
 //! cd fuzz && cargo fuzz run -s none dataset_run -- -max_len=2000000
 //! ```
 //!
-//! Each input is a whole run (a fraction of a second for a seed of a few seconds): a slow
-//! target, for long unattended campaigns.
+//! Each input is a whole run (about a second for the 20 s seed): a slow target, for long
+//! unattended campaigns.
 #![no_main]
 
 use std::path::PathBuf;
