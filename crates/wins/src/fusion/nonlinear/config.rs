@@ -61,7 +61,7 @@ pub struct NonlinearConfig {
     pub loss_window_s: f64,
     /// The longest the pose is carried by the IMU alone after the newest keyframe (a CSI
     /// outage), s; past it the window ends and restarts at the next bearings, placed by its APs
-    /// ([`super::holes`]).
+    /// (docs/CONFIG.md `[imu_gap]`).
     pub max_dead_reckoning_s: f64,
 }
 
