@@ -240,12 +240,13 @@ impl Wins {
             self.stats.imu_refused += 1;
             return Err(e.into());
         }
-        if let Some(from) = self.pre.gap_before(s) {
-            self.stats.imu_gaps += 1;
-            let before = self.pending.len();
-            self.pending.retain(|(t, _)| !(*t > from && *t < s.t));
-            self.stats.frames_in_imu_gap += (before - self.pending.len()) as u64;
-        }
+        drop_frames_in_gap(
+            &mut self.pending,
+            |(t, _)| *t,
+            &self.pre,
+            s,
+            &mut self.stats,
+        );
         let mut step = Step::default();
         while let Some((t, _)) = self.pending.front() {
             if *t > s.t {
@@ -402,6 +403,26 @@ pub(crate) fn check_frame_order(
         }
         None => Ok(()),
     }
+}
+
+/// When `s` comes after an IMU gap ([`crate::imu::ImuGap`]): counts it, drops the queued frames
+/// strictly inside it (no pose for a time the IMU did not see; `time` gives a frame's time) and
+/// returns `true`.
+pub(crate) fn drop_frames_in_gap<F>(
+    pending: &mut VecDeque<F>,
+    time: impl Fn(&F) -> Timestamp,
+    pre: &Preintegrator,
+    s: &ImuSample,
+    stats: &mut WinsStats,
+) -> bool {
+    let Some(from) = pre.gap_before(s) else {
+        return false;
+    };
+    stats.imu_gaps += 1;
+    let before = pending.len();
+    pending.retain(|f| !(time(f) > from && time(f) < s.t));
+    stats.frames_in_imu_gap += (before - pending.len()) as u64;
+    true
 }
 
 /// The rotation about z with the heading of `r` (its x axis projected on the horizontal plane);

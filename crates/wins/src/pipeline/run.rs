@@ -103,7 +103,7 @@ pub fn run_dataset_with(
     if run.wins.imu_gaps > 0 {
         run.warnings.push(format!(
             "the estimator met {} IMU gap(s) longer than {} s: {} frame(s) inside them got no \
-             pose, and a tracking estimate restarted after each",
+             pose; the nonlinear estimator restarts after a gap met while tracking",
             run.wins.imu_gaps, config.imu_gap.max_s, run.wins.frames_in_imu_gap
         ));
     }

@@ -32,7 +32,8 @@ use super::state::{NavState, pose_at};
 use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::estimator::{
-    PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats, check_frame_order, heading,
+    PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats, check_frame_order,
+    drop_frames_in_gap, heading,
 };
 use crate::fusion::window::StartPrior;
 use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
@@ -98,8 +99,9 @@ pub struct NonlinearEstimator {
     pub(super) epoch: u64,
     /// An IMU gap came since the last frame ([`super::holes`]).
     imu_gap_seen: bool,
-    /// The APs of a window lost to a hole, to place the next one by ([`super::holes`]).
-    pub(super) ap_fix: Option<super::holes::ApFix>,
+    /// `(AP index, position in the output frame)` of every AP a window lost to a hole had
+    /// placed, to place the next one by ([`super::holes`]).
+    pub(super) ap_fix: Option<Vec<(usize, Vector3<f64>)>>,
 }
 
 impl NonlinearEstimator {
@@ -239,11 +241,7 @@ impl NonlinearEstimator {
             self.stats.imu_refused += 1;
             return Err(e.into());
         }
-        if let Some(from) = self.pre.gap_before(s) {
-            self.stats.imu_gaps += 1;
-            let before = self.pending.len();
-            self.pending.retain(|p| !(p.t > from && p.t < s.t));
-            self.stats.frames_in_imu_gap += (before - self.pending.len()) as u64;
+        if drop_frames_in_gap(&mut self.pending, |p| p.t, &self.pre, s, &mut self.stats) {
             self.imu_gap_seen = true;
         }
         let mut step = Step::default();

@@ -6,8 +6,9 @@
 //! that guess with two iterations and a marginalization prior linearized at it; on the simulated
 //! circle a 2 s gap then drifted to metres. So a hole while tracking ends the window: at the
 //! first frame after it the estimator restarts from the newest keyframe carried across the hole
-//! by the IMU ([`super::start`]), no pose is given until the new window is accepted, and the
-//! APs the lost window had placed are kept. When the new window is accepted, it is placed so
+//! by the IMU ([`super::start`]; its linear window starts from zeros, the carried velocity and
+//! attitude being guesses), no pose is given until the new window is accepted, and the APs the
+//! lost window had placed are kept. When the new window is accepted, it is placed so
 //! that its APs fall where the lost window had them ([`relocated`]): the APs do not move, so
 //! they undo the drift of the guess. With one AP that fixes the position; with two or more, the
 //! heading too (a rotation about the vertical through one AP leaves every bearing of it
@@ -20,13 +21,6 @@ use super::state::{NavState, pose_at};
 use crate::fusion::estimator::Wins;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
-
-/// The APs of a lost window, in the output frame, to place the next window by.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub(super) struct ApFix {
-    /// `(AP index, position in the output frame)` of every AP the lost window had placed.
-    pub(super) aps_in_w: Vec<(usize, Vector3<f64>)>,
-}
 
 impl NonlinearEstimator {
     /// Whether a frame at `t` comes after a hole in the tracking window's information: an IMU
@@ -72,7 +66,7 @@ impl NonlinearEstimator {
         self.begin_start(t, Some(from));
         // The carried velocity and attitude are guesses: the linear window starts from zeros.
         self.linear = Some(Wins::new(self.linear_config.clone()));
-        self.ap_fix = Some(ApFix { aps_in_w });
+        self.ap_fix = Some(aps_in_w);
     }
 
     /// After a hole the start cannot leave from a known state: the dead reckoning is dropped
@@ -94,7 +88,6 @@ impl NonlinearEstimator {
             return;
         };
         let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = fix
-            .aps_in_w
             .iter()
             .filter_map(|(l, old)| {
                 let new = self.anchor.transform_point(&w.ap(*l)?.into()).coords;
