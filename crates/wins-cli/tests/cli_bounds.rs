@@ -16,10 +16,7 @@ mod common;
 use common::{s, stderr, wins};
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("wins-cli-bounds-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::fresh_dir("bounds", name)
 }
 
 #[test]

@@ -17,9 +17,7 @@ mod common;
 use common::{s, stderr, wins};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wins-cli-eval-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+    common::fresh_dir("eval", name)
 }
 
 /// A pose as TUM numbers: t [s], p [m], q = [x, y, z, w].

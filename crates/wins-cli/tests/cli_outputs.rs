@@ -19,12 +19,8 @@ use std::process::Output;
 mod common;
 use common::{s, stderr, wins};
 
-/// A fresh folder for one test.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wins-cli-outputs-{name}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir("outputs", name)
 }
 
 /// Simulates the paper's circle for `duration_s` into `dir`: 20 s (with the take-off) converges

@@ -31,12 +31,8 @@ fn wins(dir: &Path, args: &[&str]) -> Output {
     out
 }
 
-/// A fresh directory under the temp dir.
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wins-cli-sweep-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir("sweep", name)
 }
 
 /// `runs.csv` as its header and one `column → cell` map per row.

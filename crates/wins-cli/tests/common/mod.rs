@@ -2,7 +2,7 @@
 //! part of them).
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the `wins` binary with `args` in the current directory.
@@ -27,4 +27,12 @@ pub fn stderr(out: &Output) -> String {
 /// A path as an argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
+}
+
+/// A fresh, empty folder `wins-cli-{group}-{name}-{pid}` under the system's temporary folder.
+pub fn fresh_dir(group: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wins-cli-{group}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
 }
