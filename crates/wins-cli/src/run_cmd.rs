@@ -82,6 +82,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         calibration,
         imu_noise: None,
         no_calibration: args.no_calibration,
+        no_figures: args.no_plots,
     };
     process(&dir, &inputs, &config, &options, !args.no_plots)
 }

@@ -133,7 +133,7 @@ impl RunOutput {
             frames_converged: self
                 .spooled
                 .as_ref()
-                .map_or_else(|| self.converged_frames().count(), |s| s.converged.len()),
+                .map_or_else(|| self.converged_frames().count(), |s| s.frames_converged),
             timing: self.timing,
             packets: &self.stats,
             estimator: self.wins,

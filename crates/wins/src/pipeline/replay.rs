@@ -1,4 +1,4 @@
-//! A dataset directory through the pipeline (a [`ChainResolver`] over [`super::Pipeline`]s): IMU
+//! A dataset directory through the pipeline (a [`super::ChainResolver`] over [`super::Pipeline`]s): IMU
 //! samples and every AP's packets merged by time (a packet before the IMU samples after it), as a
 //! live driver would push them.
 
@@ -131,13 +131,21 @@ impl RunOutput {
     /// figures' data; when it cannot be scored (it never converged, say), says why in
     /// `warnings` and `evaluation`.
     pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
-        let scored = self
-            .score(truth, options)
-            .and_then(|m| Ok((self.figures(truth, &m, options)?, m)));
+        self.score_against_with(truth, options, true);
+    }
+
+    /// [`RunOutput::score_against`], the figures' data made only when `figures` is true.
+    pub fn score_against_with(&mut self, truth: &Truth, options: &EvalOptions, figures: bool) {
+        let scored = self.score(truth, options).and_then(|m| {
+            let f = figures
+                .then(|| self.figures(truth, &m, options))
+                .transpose()?;
+            Ok((f, m))
+        });
         match scored {
             Ok((figures, metrics)) => {
                 self.metrics = Some(metrics);
-                self.figures = Some(figures);
+                self.figures = figures;
                 self.evaluation = Evaluation::Scored;
             }
             Err(e) => {

@@ -23,6 +23,8 @@ pub struct RunOptions {
     /// Use no chain calibration, not even the dataset's: the offsets are resolved from the
     /// flight alone ([`super::chains`]).
     pub no_calibration: bool,
+    /// Make no figures' data (`figures` stays `None`; `wins run --no-plots`).
+    pub no_figures: bool,
 }
 
 /// Why a dataset could not be run.
@@ -73,25 +75,26 @@ pub fn run_dataset_with(
     let mut run = run_into_sink(path, config, options, &mut sink)?;
     run.frames = sink.frames;
     run.packets = sink.packets;
-    score(&mut run, path, config);
+    score(&mut run, path, config, !options.no_figures);
     Ok(run)
 }
 
 /// [`run_dataset_with`], with the per-frame and per-packet files (`trajectory.tum`,
 /// `trajectory_all.tum`, `covariance.csv`, `aoa.csv`) written into `out` as they are produced
 /// ([`Spool`]; [`RunOutput::write`] into `out` renames them into place): the run holds neither
-/// the dataset nor those rows, only the converged poses and the fed packets' AoA for the
-/// scoring.
+/// the dataset nor those rows, only, when the dataset has a truth, the converged poses and the
+/// fed packets' AoA for the scoring (without a truth [`RunOutput::converged_poses`] is empty).
 pub fn run_dataset_into(
     path: &Path,
     config: &Config,
     options: &RunOptions,
     out: &Path,
 ) -> Result<RunOutput, RunError> {
-    let mut spool = Spool::create(out).map_err(ReplayError::Output)?;
+    let for_scoring = path.join(TRUTH_DIR).is_dir();
+    let mut spool = Spool::create(out, for_scoring).map_err(ReplayError::Output)?;
     let mut run = run_into_sink(path, config, options, &mut spool)?;
     run.spooled = Some(spool.finish().map_err(ReplayError::Output)?);
-    score(&mut run, path, config);
+    score(&mut run, path, config, !options.no_figures);
     Ok(run)
 }
 
@@ -138,12 +141,12 @@ fn run_into_sink(
 
 /// Scores `run` against the truth of the dataset at `path`, when it has one: a truth that
 /// cannot be read fails the evaluation, not the estimate.
-fn score(run: &mut RunOutput, path: &Path, config: &Config) {
+fn score(run: &mut RunOutput, path: &Path, config: &Config, figures: bool) {
     if !path.join(TRUTH_DIR).is_dir() {
         return;
     }
     match Truth::load_for_scoring(path) {
-        Ok(truth) => run.score_against(&truth, &config.eval),
+        Ok(truth) => run.score_against_with(&truth, &config.eval, figures),
         Err(e) => {
             let why = format!(
                 "reading the truth of {}: {}",

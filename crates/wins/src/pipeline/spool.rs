@@ -46,6 +46,10 @@ impl Drop for SpoolFiles {
 pub struct Spooled {
     /// Frames solved.
     pub frames: usize,
+    /// Frames after convergence.
+    pub frames_converged: usize,
+    /// Whether the poses, covariances and AoAs below are kept (for scoring against a truth).
+    pub kept_for_scoring: bool,
     /// The poses after convergence.
     pub converged: Vec<Pose>,
     /// Their position covariance in `w`, m² (`None`: none given).
@@ -83,8 +87,9 @@ pub struct Spool {
 }
 
 impl Spool {
-    /// Spool files in `dir` (created if needed), named after this process.
-    pub fn create(dir: &Path) -> io::Result<Self> {
+    /// Spool files in `dir` (created if needed), named after this process; `for_scoring`: keep
+    /// what scoring reads ([`Spooled`]; without it the run holds nothing per frame or packet).
+    pub fn create(dir: &Path, for_scoring: bool) -> io::Result<Self> {
         std::fs::create_dir_all(dir)?;
         let names = [
             TRAJECTORY_FILE,
@@ -111,6 +116,7 @@ impl Spool {
             trajectory_all,
             aoa,
             kept: Spooled {
+                kept_for_scoring: for_scoring,
                 files: Some(Arc::new(files)),
                 ..Spooled::default()
             },
@@ -139,6 +145,10 @@ impl RunSink for Spool {
         if frame.converged {
             write_tum_pose(&mut self.trajectory, &pose)?;
             write_covariance_row(&mut self.covariance, &frame)?;
+            self.kept.frames_converged += 1;
+            if !self.kept.kept_for_scoring {
+                return Ok(());
+            }
             self.kept.converged.push(pose);
             self.kept.position_covariance.push(
                 frame
@@ -151,7 +161,7 @@ impl RunSink for Spool {
 
     fn packet(&mut self, row: PacketLog) -> io::Result<()> {
         self.aoa.serialize(&row).map_err(io::Error::other)?;
-        if row.status == PacketStatus::Fed {
+        if self.kept.kept_for_scoring && row.status == PacketStatus::Fed {
             self.kept.fed_aoa.push((row.ap, row.t_ns, row.aoa_deg));
         }
         Ok(())
