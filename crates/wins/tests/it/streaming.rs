@@ -131,3 +131,36 @@ fn a_spooled_run_writes_the_same_files_and_statistics_as_one_in_memory() {
     assert!(left.is_empty(), "{left:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn on_damaged_inputs_the_stream_reports_and_keeps_what_the_loader_does() {
+    let dir = flight("damaged", "paper-circle", 20.0);
+    // The log written twice, then a stretch of garbage; an IMU row back in time.
+    let log = dir.join("ap0.dat");
+    let bytes = std::fs::read(&log).unwrap();
+    std::fs::write(&log, [bytes.clone(), bytes, vec![0x5A; 5000]].concat()).unwrap();
+    let imu = dir.join("imu.csv");
+    let text = std::fs::read_to_string(&imu).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines.swap(500, 501);
+    std::fs::write(&imu, lines.join("\n") + "\n").unwrap();
+    let data = Dataset::load(&dir).unwrap();
+    let stream = DatasetStream::open(&dir).unwrap();
+    assert_eq!(stream.inputs, data.inputs);
+    assert!(data.inputs.aps[0].repeated > 0 && data.inputs.imu.time_not_increasing == 1);
+    let (events, _) = stream_all(&dir);
+    let packets: Vec<_> = events
+        .iter()
+        .filter_map(|e| match e {
+            DatasetEvent::Csi { packet, .. } => Some(packet.as_ref().clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(packets, data.aps[0].packets);
+    let imu_kept = events
+        .iter()
+        .filter(|e| matches!(e, DatasetEvent::Imu(_)))
+        .count();
+    assert_eq!(imu_kept, data.imu.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
