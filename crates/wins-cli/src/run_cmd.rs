@@ -13,7 +13,7 @@ use wins::pipeline::run_dir::{
 };
 use wins::rig::ChainCalibration;
 use wins::sim::{self, Scenario};
-use wins::{Config, RunOptions, RunOutput, run_dataset_with};
+use wins::{Config, RunOptions, RunOutput, run_dataset_into};
 use wins_plot::{Marker, MarkerStyle, Series, SeriesStyle, VerticalLine, XyPlot, xy_plot_png};
 
 /// Arguments of `wins run`.
@@ -82,6 +82,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         calibration,
         imu_noise: None,
         no_calibration: args.no_calibration,
+        no_figures: args.no_plots,
     };
     process(&dir, &inputs, &config, &options, !args.no_plots)
 }
@@ -134,7 +135,7 @@ fn process(
     options: &RunOptions,
     plots: bool,
 ) -> Result<()> {
-    let run = run_dataset_with(inputs.dataset, config, options)?;
+    let run = run_dataset_into(inputs.dataset, config, options, dir.path())?;
     for w in &run.warnings {
         eprintln!("warning: {w}");
     }

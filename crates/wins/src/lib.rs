@@ -99,7 +99,7 @@ pub mod time;
 
 pub use pipeline::config::{Config, ConfigError};
 pub use pipeline::replay::RunOutput;
-pub use pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_with};
+pub use pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_into, run_dataset_with};
 pub use pipeline::{Pipeline, PipelineError};
 
 /// The names most programs need: `use wins::prelude::*;`.

@@ -21,22 +21,17 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::imu_csv::ImuRows;
+use super::incremental::{ApCheck, ImuCheck};
 use crate::csi::intel5300::CsiRecord;
 use crate::imu::ImuSample;
-use crate::time::{NANOS_PER_SEC, Timestamp};
+use crate::time::Timestamp;
 
 /// A gap between IMU samples longer than this many nominal periods is an event.
 pub const GAP_PERIODS: f64 = 5.0;
-/// A measured IMU rate this far (as a factor) from the declared one is a warning.
-const RATE_WARN_FACTOR: f64 = 1.5;
-/// A measured IMU rate this far from the declared one is an error (the timestamps' unit).
-const RATE_ERROR_FACTOR: f64 = 20.0;
 /// The IMU and the CSI ending (or starting) more than this apart is a warning, s.
 const SPAN_WARN_S: f64 = 2.0;
-/// A NIC clock going back by more than this is a jump (a restart), not a reordered packet, ns.
-const JUMP_BACK_NS: i64 = 100_000_000;
 /// Events listed with their times (the counts go on).
-const MAX_LISTED: usize = 20;
+pub(crate) const MAX_LISTED: usize = 20;
 
 /// One CSI record with its time on the IMU clock.
 #[derive(Clone, Debug, PartialEq)]
@@ -172,7 +167,7 @@ pub struct InputReport {
 
 /// The kinds of events, for their first times (an AP's by its index).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-enum Kind {
+pub(crate) enum Kind {
     NotFinite,
     BeyondRange,
     TimeBack,
@@ -183,7 +178,7 @@ enum Kind {
 }
 
 impl InputReport {
-    fn event(&mut self, kind: Kind, t: Timestamp, what: String) {
+    pub(crate) fn event(&mut self, kind: Kind, t: Timestamp, what: String) {
         self.first_s.entry(kind).or_insert(t.as_secs_f64());
         if self.events.len() < MAX_LISTED {
             self.events.push(InputEvent {
@@ -220,97 +215,12 @@ pub fn check_imu(
     limits: ImuLimits,
     report: &mut InputReport,
 ) -> Result<Vec<ImuSample>, InputError> {
+    let mut check = ImuCheck::new(limits);
     let mut kept: Vec<ImuSample> = Vec::with_capacity(rows.samples.len());
-    report.imu.rows = rows.samples.len() as u64;
     for s in rows.samples {
-        let mut values = s.gyro_rad_s.iter().chain(s.accel_m_s2.iter());
-        if values.any(|v| !v.is_finite()) {
-            report.imu.not_finite += 1;
-            report.event(
-                Kind::NotFinite,
-                s.t,
-                "IMU sample with a value that is not finite: dropped".into(),
-            );
-            continue;
-        }
-        let beyond = s.accel_m_s2.amax() >= limits.accel_range_m_s2
-            || s.gyro_rad_s.amax() >= limits.gyro_range_rad_s;
-        if beyond {
-            report.imu.beyond_range += 1;
-            report.event(
-                Kind::BeyondRange,
-                s.t,
-                format!(
-                    "IMU sample at or beyond the sensor's range (|a| {:.1} m/s² of {:.1}, |ω| \
-                     {:.2} rad/s of {:.2}): dropped",
-                    s.accel_m_s2.amax(),
-                    limits.accel_range_m_s2,
-                    s.gyro_rad_s.amax(),
-                    limits.gyro_range_rad_s
-                ),
-            );
-            continue;
-        }
-        if let Some(prev) = kept.last()
-            && s.t <= prev.t
-        {
-            report.imu.time_not_increasing += 1;
-            report.event(
-                Kind::TimeBack,
-                s.t,
-                format!(
-                    "IMU time goes back from {:.6} s: sample dropped",
-                    prev.t.as_secs_f64()
-                ),
-            );
-            continue;
-        }
-        kept.push(s);
+        kept.extend(check.push(s, report));
     }
-    if let Some(line) = rows.cut_last_line {
-        report.imu.cut_last_line = true;
-        let t = kept.last().map_or(Timestamp(0), |s| s.t);
-        report.event(
-            Kind::CutLine,
-            t,
-            format!("the IMU file's last line ({line}) has no line end (cut?): dropped"),
-        );
-    }
-    if kept.len() < 2 {
-        return Err(InputError::NoImu(format!(
-            "{} of {} rows kept",
-            kept.len(),
-            report.imu.rows
-        )));
-    }
-    let mut dts: Vec<i64> = kept.windows(2).map(|w| w[1].t.0 - w[0].t.0).collect();
-    let gap_ns = (GAP_PERIODS / limits.rate_hz * NANOS_PER_SEC as f64) as i64;
-    for (w, &dt) in kept.windows(2).zip(&dts) {
-        if dt > gap_ns {
-            report.imu.gaps += 1;
-            let dt_s = dt as f64 / NANOS_PER_SEC as f64;
-            report.imu.longest_gap_s = report.imu.longest_gap_s.max(dt_s);
-            report.event(Kind::Gap, w[0].t, format!("IMU gap of {dt_s:.3} s"));
-        }
-    }
-    dts.sort_unstable();
-    let median_dt = dts[dts.len() / 2].max(1);
-    let measured_hz = NANOS_PER_SEC as f64 / median_dt as f64;
-    report.imu.measured_rate_hz = measured_hz;
-    report.imu.samples = kept.len() as u64;
-    let factor = (measured_hz / limits.rate_hz).max(limits.rate_hz / measured_hz);
-    if factor > RATE_ERROR_FACTOR {
-        return Err(InputError::ImuRate {
-            measured_hz,
-            declared_hz: limits.rate_hz,
-        });
-    }
-    if factor > RATE_WARN_FACTOR {
-        report.warnings.push(format!(
-            "the IMU runs at {measured_hz:.1} Hz (median), imu.rate_hz says {} Hz",
-            limits.rate_hz
-        ));
-    }
+    check.finish(rows.cut_last_line, report)?;
     Ok(kept)
 }
 
@@ -322,78 +232,12 @@ pub fn check_ap(
     imu_minus_nic_ns: i64,
     report: &mut InputReport,
 ) -> Result<Vec<CsiPacket>, InputError> {
-    let mut ap = ApInputReport {
-        name: name.to_string(),
-        records: records.len() as u64,
-        ..ApInputReport::default()
-    };
-    // This AP's index in the report.
-    let index = report.aps.len();
+    let mut check = ApCheck::new(report.aps.len(), name, imu_minus_nic_ns, true);
     let mut kept: Vec<CsiPacket> = Vec::with_capacity(records.len());
-    let mut latest = i64::MIN;
-    let mut after_jump = false;
     for record in records {
-        let nic_ns = record.timestamp.as_nanos();
-        let t = nic_ns
-            .checked_add(imu_minus_nic_ns)
-            .filter(|&t| Timestamp(t).is_in_range())
-            .ok_or_else(|| InputError::OffsetOverflow {
-                ap: name.to_string(),
-                offset_ns: imu_minus_nic_ns,
-                nic_ns,
-            })?;
-        if t <= latest {
-            // Kept records are in time order up to small reorderings.
-            let i = kept.partition_point(|p| p.t.0 < t);
-            let repeat = kept[i..]
-                .iter()
-                .take_while(|p| p.t.0 == t)
-                .any(|p| p.record.header == record.header);
-            if repeat {
-                if ap.repeated == 0 {
-                    report.event(
-                        Kind::Repeated(index),
-                        Timestamp(t),
-                        format!(
-                            "AP {name}: records repeat earlier ones (the log written twice?): \
-                             dropped"
-                        ),
-                    );
-                }
-                ap.repeated += 1;
-                continue;
-            }
-        }
-        if t < latest.saturating_sub(JUMP_BACK_NS) {
-            if !after_jump {
-                after_jump = true;
-                ap.clock_jumps_back += 1;
-                report.event(
-                    Kind::ClockJump(index),
-                    Timestamp(latest),
-                    format!(
-                        "AP {name}: the NIC clock jumped back by {:.3} s (a NIC restart?): the \
-                         records until it passes this time again are dropped",
-                        (latest - t) as f64 / NANOS_PER_SEC as f64
-                    ),
-                );
-            }
-            ap.after_clock_jump += 1;
-            continue;
-        }
-        after_jump = false;
-        latest = latest.max(t);
-        kept.push(CsiPacket {
-            t: Timestamp(t),
-            record,
-        });
+        kept.extend(check.push(record, report)?);
     }
-    ap.kept = kept.len() as u64;
-    ap.span_s = kept
-        .first()
-        .zip(kept.last())
-        .map(|(a, b)| (a.t.as_secs_f64(), b.t.as_secs_f64()));
-    report.aps.push(ap);
+    check.finish(report);
     Ok(kept)
 }
 
@@ -408,7 +252,6 @@ pub fn check_spans(
         return Err(InputError::NoImu("no sample".into()));
     };
     let (from, to) = (first.t, last.t);
-    report.imu.span_s = Some((from.as_secs_f64(), to.as_secs_f64()));
     let mut inside = 0;
     let mut csi_span: Option<(Timestamp, Timestamp)> = None;
     for (packets, ap) in aps.iter().zip(report.aps.iter_mut()) {
@@ -419,6 +262,18 @@ pub fn check_spans(
             csi_span = Some(csi_span.map_or((p.t, p.t), |(a, b)| (a.min(p.t), b.max(p.t))));
         }
     }
+    judge_spans((from, to), inside, csi_span, report)
+}
+
+/// [`check_spans`] on what it counts: the IMU's span, the packets inside it (every AP's
+/// `before_imu` and `after_imu` set) and the packets' span.
+pub(crate) fn judge_spans(
+    (from, to): (Timestamp, Timestamp),
+    inside: u64,
+    csi_span: Option<(Timestamp, Timestamp)>,
+    report: &mut InputReport,
+) -> Result<(), InputError> {
+    report.imu.span_s = Some((from.as_secs_f64(), to.as_secs_f64()));
     let Some((csi_from, csi_to)) = csi_span else {
         report
             .warnings

@@ -20,8 +20,10 @@
 pub mod baro_csv;
 pub mod checks;
 pub mod imu_csv;
+pub mod incremental;
 pub(crate) mod load;
 pub(crate) mod manifest;
+pub mod stream;
 pub mod truth;
 
 pub use baro_csv::BaroSample;

@@ -161,25 +161,35 @@ pub fn packets_file(ap: &str) -> String {
 
 /// Writes poses in TUM format with a comment header.
 pub fn write_tum(out: &mut impl Write, poses: &[Pose]) -> io::Result<()> {
-    writeln!(out, "# timestamp tx ty tz qx qy qz qw")?;
+    write_tum_header(out)?;
     for p in poses {
-        let q = p.world_from_body.quaternion();
-        let t = p.t.as_nanos();
-        writeln!(
-            out,
-            "{}.{:09} {} {} {} {} {} {} {}",
-            t.div_euclid(NANOS_PER_SEC),
-            t.rem_euclid(NANOS_PER_SEC),
-            p.p_b_in_w.x,
-            p.p_b_in_w.y,
-            p.p_b_in_w.z,
-            q.i,
-            q.j,
-            q.k,
-            q.w
-        )?;
+        write_tum_pose(out, p)?;
     }
     Ok(())
+}
+
+/// The header line of [`write_tum`].
+pub fn write_tum_header(out: &mut impl Write) -> io::Result<()> {
+    writeln!(out, "# timestamp tx ty tz qx qy qz qw")
+}
+
+/// One line of [`write_tum`].
+pub fn write_tum_pose(out: &mut impl Write, p: &Pose) -> io::Result<()> {
+    let q = p.world_from_body.quaternion();
+    let t = p.t.as_nanos();
+    writeln!(
+        out,
+        "{}.{:09} {} {} {} {} {} {} {}",
+        t.div_euclid(NANOS_PER_SEC),
+        t.rem_euclid(NANOS_PER_SEC),
+        p.p_b_in_w.x,
+        p.p_b_in_w.y,
+        p.p_b_in_w.z,
+        q.i,
+        q.j,
+        q.k,
+        q.w
+    )
 }
 
 /// Reads a TUM trajectory (`#` comments and blank lines skipped; times in seconds, rounded to ns).
@@ -222,10 +232,22 @@ impl Truth {
     /// Loads `dataset_dir/truth/`: `poses.tum` is required, every other file is optional (a
     /// motion-capture truth has only poses); a file that is there must parse.
     pub fn load(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
-        let dir = dataset_dir.as_ref().join(TRUTH_DIR);
-        let read = |name: &str| {
+        Self::load_parts(dataset_dir.as_ref(), true)
+    }
+
+    /// [`Truth::load`] without the IMU biases (one row per IMU sample), which scoring a run does
+    /// not read.
+    pub fn load_for_scoring(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
+        Self::load_parts(dataset_dir.as_ref(), false)
+    }
+
+    fn load_parts(dataset_dir: &Path, with_biases: bool) -> Result<Self, TruthError> {
+        let dir = dataset_dir.join(TRUTH_DIR);
+        let open = |name: &str| {
             let path = dir.join(name);
-            std::fs::read(&path).map_err(|source| TruthError::Io { path, source })
+            crate::io_safety::open_regular(&path)
+                .map(io::BufReader::new)
+                .map_err(|source| TruthError::Io { path, source })
         };
         let parse_err = |name: &str, reason: String| TruthError::Parse {
             path: dir.join(name),
@@ -235,14 +257,17 @@ impl Truth {
             .map(|b| toml::from_str(&String::from_utf8_lossy(&b)))
             .transpose()
             .map_err(|e| parse_err("truth.toml", e.to_string()))?;
-        let poses =
-            read_tum(read("poses.tum")?.as_slice()).map_err(|e| parse_err("poses.tum", e))?;
+        let poses = read_tum(open("poses.tum")?).map_err(|e| parse_err("poses.tum", e))?;
         let aps: Vec<ApRow> = csv_or_empty(&dir, "aps.csv")?;
         let mut packets = Vec::with_capacity(aps.len());
         for ap in &aps {
             packets.push(csv_or_empty(&dir, &packets_file(&ap.name))?);
         }
-        let imu_biases = csv_or_empty(&dir, "imu_biases.csv")?;
+        let imu_biases = if with_biases {
+            csv_or_empty(&dir, "imu_biases.csv")?
+        } else {
+            Vec::new()
+        };
         Ok(Self {
             poses,
             aps,
@@ -263,17 +288,18 @@ fn read_optional(dir: &Path, name: &str) -> Result<Option<Vec<u8>>, TruthError> 
     }
 }
 
-/// The rows of the CSV file `dir/name`, none when there is no such file.
+/// The rows of the CSV file `dir/name`, none when there is no such file (read as it is parsed).
 fn csv_or_empty<T: serde::de::DeserializeOwned>(
     dir: &Path,
     name: &str,
 ) -> Result<Vec<T>, TruthError> {
-    read_optional(dir, name)?
-        .map_or(Ok(Vec::new()), |b| read_csv(&b))
-        .map_err(|reason| TruthError::Parse {
-            path: dir.join(name),
-            reason,
-        })
+    let path = dir.join(name);
+    let file = match crate::io_safety::open_regular(&path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(source) => return Err(TruthError::Io { path, source }),
+    };
+    read_csv(io::BufReader::new(file)).map_err(|reason| TruthError::Parse { path, reason })
 }
 
 /// Serializes rows as CSV with a header.
@@ -285,8 +311,8 @@ pub fn write_csv<T: Serialize>(out: impl Write, rows: &[T]) -> io::Result<()> {
     w.flush()
 }
 
-fn read_csv<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<Vec<T>, String> {
-    csv::Reader::from_reader(bytes)
+fn read_csv<T: serde::de::DeserializeOwned>(input: impl io::Read) -> Result<Vec<T>, String> {
+    csv::Reader::from_reader(input)
         .deserialize()
         .enumerate()
         .map(|(i, r)| r.map_err(|e| format!("row {}: {e}", i + 1)))

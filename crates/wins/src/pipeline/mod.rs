@@ -21,6 +21,7 @@
 pub mod aoa_log;
 pub mod chains;
 pub mod config;
+pub mod drive;
 mod figure_data;
 pub mod figures;
 pub mod output;
@@ -28,6 +29,7 @@ pub mod replay;
 pub mod run;
 pub mod run_dir;
 pub(crate) mod slot;
+pub mod spool;
 pub mod stats;
 pub(crate) mod track;
 

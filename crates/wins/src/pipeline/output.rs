@@ -15,6 +15,7 @@
 //! run's manifest, `run.json`, and the refusals of an output folder that overlaps the inputs are
 //! [`super::run_dir`]'s.
 
+use std::borrow::Cow;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
@@ -94,7 +95,15 @@ fn pose_of(p: &PoseEstimate) -> Pose {
 impl RunOutput {
     /// Poses after convergence, as [`Pose`]s.
     pub fn converged_poses(&self) -> Vec<Pose> {
-        self.converged_frames().map(pose_of).collect()
+        self.converged_pose_slice().into_owned()
+    }
+
+    /// [`RunOutput::converged_poses`], borrowed when the run kept them ([`super::spool::Spooled`]).
+    pub(crate) fn converged_pose_slice(&self) -> Cow<'_, [Pose]> {
+        match &self.spooled {
+            Some(s) => Cow::Borrowed(&s.converged),
+            None => Cow::Owned(self.converged_frames().map(pose_of).collect()),
+        }
     }
 
     /// The AP estimates in the evaluation's format.
@@ -117,8 +126,14 @@ impl RunOutput {
             wall_s: self.wall_s,
             realtime_factor: self.realtime_factor(),
             converged_at_s: self.converged_at.map(|t| t.as_secs_f64()),
-            frames: self.frames.len(),
-            frames_converged: self.converged_frames().count(),
+            frames: self
+                .spooled
+                .as_ref()
+                .map_or(self.frames.len(), |s| s.frames),
+            frames_converged: self
+                .spooled
+                .as_ref()
+                .map_or_else(|| self.converged_frames().count(), |s| s.frames_converged),
             timing: self.timing,
             packets: &self.stats,
             estimator: self.wins,
@@ -131,24 +146,30 @@ impl RunOutput {
 
     /// `(AP, time s, measured AoA °, true AoA °)` of every fed packet that has a truth row.
     pub fn aoa_vs_truth(&self, truth: &Truth) -> Vec<(usize, f64, f64, f64)> {
-        self.packets
-            .iter()
-            .filter(|r| r.status == PacketStatus::Fed)
-            .filter_map(|r| {
-                let rows = truth.packets.get(r.ap)?;
-                let i = rows.partition_point(|p| p.t_ns < r.t_ns - TRUTH_PAIR_NS);
-                let row = rows
-                    .get(i)
-                    .filter(|p| (p.t_ns - r.t_ns).abs() <= TRUTH_PAIR_NS)?;
-                Some((r.ap, r.t_ns as f64 * 1e-9, r.aoa_deg?, row.aoa_deg))
-            })
-            .collect()
+        let pair = |(ap, t_ns, aoa_deg): (usize, i64, Option<f64>)| {
+            let rows = truth.packets.get(ap)?;
+            let i = rows.partition_point(|p| p.t_ns < t_ns - TRUTH_PAIR_NS);
+            let row = rows
+                .get(i)
+                .filter(|p| (p.t_ns - t_ns).abs() <= TRUTH_PAIR_NS)?;
+            Some((ap, t_ns as f64 * 1e-9, aoa_deg?, row.aoa_deg))
+        };
+        match &self.spooled {
+            Some(s) => s.fed_aoa.iter().copied().filter_map(pair).collect(),
+            None => self
+                .packets
+                .iter()
+                .filter(|r| r.status == PacketStatus::Fed)
+                .map(|r| (r.ap, r.t_ns, r.aoa_deg))
+                .filter_map(pair)
+                .collect(),
+        }
     }
 
     /// The run scored against `truth`: [`evaluate`] on the converged trajectory, plus the
     /// run-only fields (AoA median error, packets, real-time factor).
     pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
-        let poses = self.converged_poses();
+        let poses = self.converged_pose_slice();
         let mut m = evaluate(
             &poses,
             &truth.poses,
@@ -163,13 +184,16 @@ impl RunOutput {
             .collect();
         errors.sort_by(f64::total_cmp);
         m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
-        let cov: Vec<_> = self
-            .converged_frames()
-            .map(|p| {
-                p.covariance
-                    .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned())
-            })
-            .collect();
+        let cov: Cow<'_, [_]> = match &self.spooled {
+            Some(s) => Cow::Borrowed(&s.position_covariance),
+            None => self
+                .converged_frames()
+                .map(|p| {
+                    p.covariance
+                        .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned())
+                })
+                .collect(),
+        };
         if let Some(n) = position_nees(&poses, &cov, &truth.poses, options)? {
             m.position_nees_mean = Some(n.mean);
             m.position_nees_within_95 = Some(n.within_95);
@@ -201,18 +225,27 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
             written.push(path);
             Ok::<(), io::Error>(())
         };
-    put(TRAJECTORY_FILE, &mut |w| {
-        write_tum(w, &run.converged_poses())
-    })?;
-    put(COVARIANCE_FILE, &mut |w| {
-        write_covariance(w, run.converged_frames())
-    })?;
-    let all: Vec<Pose> = run.frames.iter().map(pose_of).collect();
-    put(TRAJECTORY_ALL_FILE, &mut |w| write_tum(w, &all))?;
+    // Spooled: the trajectories, covariances and packet log are there already.
+    let spooled = match &run.spooled {
+        Some(s) => s.persist(dir)?,
+        None => Vec::new(),
+    };
+    if spooled.is_empty() {
+        put(TRAJECTORY_FILE, &mut |w| {
+            write_tum(w, &run.converged_poses())
+        })?;
+        put(COVARIANCE_FILE, &mut |w| {
+            write_covariance(w, run.converged_frames())
+        })?;
+        let all: Vec<Pose> = run.frames.iter().map(pose_of).collect();
+        put(TRAJECTORY_ALL_FILE, &mut |w| write_tum(w, &all))?;
+    }
     put(APS_FILE, &mut |w| {
         write_estimated_aps(w, &run.estimated_aps())
     })?;
-    put(AOA_FILE, &mut |w| write_csv(w, &run.packets))?;
+    if spooled.is_empty() {
+        put(AOA_FILE, &mut |w| write_csv(w, &run.packets))?;
+    }
     let stats = serde_json::to_string_pretty(&run.run_stats()).map_err(io::Error::other)?;
     put(STATS_FILE, &mut |w| writeln!(w, "{stats}"))?;
     if let Some(m) = metrics {
@@ -220,7 +253,14 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
         put(METRICS_FILE, &mut |w| writeln!(w, "{text}"))?;
         put(REPORT_FILE, &mut |w| w.write_all(m.report().as_bytes()))?;
     }
-    Ok(written)
+    // The files in the order of the module's table: the spooled packet log after the APs.
+    let mut all = spooled;
+    let aoa = (all.len() == 4).then(|| all.pop()).flatten();
+    let mut rest = written.into_iter();
+    all.extend(rest.next());
+    all.extend(aoa);
+    all.extend(rest);
+    Ok(all)
 }
 
 /// The names of the six error-state components of [`write_covariance`]'s columns.
@@ -234,29 +274,53 @@ pub fn write_covariance<'a>(
     out: &mut impl Write,
     poses: impl Iterator<Item = &'a PoseEstimate>,
 ) -> io::Result<()> {
-    // The upper triangle, row by row: (i, j) for i ≤ j.
-    let upper: Vec<(usize, usize)> = (0..6).flat_map(|i| (i..6).map(move |j| (i, j))).collect();
-    let mut header = vec!["t_s".to_string()];
-    header.extend(
-        upper
-            .iter()
-            .map(|&(i, j)| format!("c_{}_{}", COVARIANCE_AXES[i], COVARIANCE_AXES[j])),
-    );
-    writeln!(out, "{}", header.join(","))?;
-    // The estimate's order is [δθ, δp]: the position block first here.
-    let order = [3, 4, 5, 0, 1, 2];
+    write_covariance_header(out)?;
     for p in poses {
-        let t = p.t.as_nanos();
-        let mut row = vec![format!(
-            "{}.{:09}",
-            t.div_euclid(NANOS_PER_SEC),
-            t.rem_euclid(NANOS_PER_SEC)
-        )];
-        row.extend(upper.iter().map(|&(i, j)| {
-            p.covariance
-                .map_or(String::new(), |c| format!("{:e}", c[(order[i], order[j])]))
-        }));
-        writeln!(out, "{}", row.join(","))?;
+        write_covariance_row(out, p)?;
     }
     Ok(())
 }
+
+/// The header line of [`write_covariance`].
+pub fn write_covariance_header(out: &mut impl Write) -> io::Result<()> {
+    let mut header = vec!["t_s".to_string()];
+    header.extend(
+        UPPER
+            .iter()
+            .map(|&(i, j)| format!("c_{}_{}", COVARIANCE_AXES[i], COVARIANCE_AXES[j])),
+    );
+    writeln!(out, "{}", header.join(","))
+}
+
+/// One row of [`write_covariance`].
+pub fn write_covariance_row(out: &mut impl Write, p: &PoseEstimate) -> io::Result<()> {
+    // The estimate's order is [δθ, δp]: the position block first here.
+    let order = [3, 4, 5, 0, 1, 2];
+    let t = p.t.as_nanos();
+    let mut row = vec![format!(
+        "{}.{:09}",
+        t.div_euclid(NANOS_PER_SEC),
+        t.rem_euclid(NANOS_PER_SEC)
+    )];
+    row.extend(UPPER.iter().map(|&(i, j)| {
+        p.covariance
+            .map_or(String::new(), |c| format!("{:e}", c[(order[i], order[j])]))
+    }));
+    writeln!(out, "{}", row.join(","))
+}
+
+/// The upper triangle of a 6 × 6 matrix, row by row: (i, j) for i ≤ j.
+const UPPER: [(usize, usize); 21] = {
+    let mut out = [(0, 0); 21];
+    let (mut i, mut k) = (0, 0);
+    while i < 6 {
+        let mut j = i;
+        while j < 6 {
+            out[k] = (i, j);
+            k += 1;
+            j += 1;
+        }
+        i += 1;
+    }
+    out
+};

@@ -1,18 +1,16 @@
-//! A dataset directory through the pipeline (a [`ChainResolver`] over [`super::Pipeline`]s): IMU
+//! A dataset directory through the pipeline (a [`super::ChainResolver`] over [`super::Pipeline`]s): IMU
 //! samples and every AP's packets merged by time (a packet before the IMU samples after it), as a
 //! live driver would push them.
 
-use std::time::Instant;
-
 use nalgebra::Vector3;
 
+use super::drive::{Collected, Flight, RunSink, drive};
 use super::figure_data::RunFigures;
-use super::{
-    ChainReport, ChainResolver, Config, PacketLog, PipelineError, PipelineStats, StageTiming,
-};
-use crate::dataset::Dataset;
+use super::{ChainReport, Config, PacketLog, PipelineError, PipelineStats, StageTiming};
 use crate::dataset::checks::InputReport;
+use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::dataset::truth::Truth;
+use crate::dataset::{BaroSample, Dataset, DatasetError, Manifest};
 use crate::eval::{EvalOptions, Metrics};
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
 use crate::rig::ChainCalibration;
@@ -32,6 +30,12 @@ pub enum ReplayError {
     /// The pipeline cannot be built.
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
+    /// The dataset could not be read as it was replayed.
+    #[error(transparent)]
+    Dataset(#[from] Box<DatasetError>),
+    /// The frames or packet rows could not be written as they were produced.
+    #[error("writing the run's output: {0}")]
+    Output(#[from] std::io::Error),
 }
 
 /// An estimated AP position.
@@ -82,6 +86,9 @@ pub struct RunOutput {
     /// What limits the result, in words (input problems, no calibration, a run that cannot be
     /// scored).
     pub warnings: Vec<String>,
+    /// When the frames and packet rows were written as they came ([`super::spool::Spool`]):
+    /// what the run keeps of them (`frames` and `packets` are then empty).
+    pub spooled: Option<super::spool::Spooled>,
 }
 
 /// What became of a run's scoring against its dataset's truth.
@@ -124,13 +131,21 @@ impl RunOutput {
     /// figures' data; when it cannot be scored (it never converged, say), says why in
     /// `warnings` and `evaluation`.
     pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
-        let scored = self
-            .score(truth, options)
-            .and_then(|m| Ok((self.figures(truth, &m, options)?, m)));
+        self.score_against_with(truth, options, true);
+    }
+
+    /// [`RunOutput::score_against`], the figures' data made only when `figures` is true.
+    pub fn score_against_with(&mut self, truth: &Truth, options: &EvalOptions, figures: bool) {
+        let scored = self.score(truth, options).and_then(|m| {
+            let f = figures
+                .then(|| self.figures(truth, &m, options))
+                .transpose()?;
+            Ok((f, m))
+        });
         match scored {
             Ok((figures, metrics)) => {
                 self.metrics = Some(metrics);
-                self.figures = Some(figures);
+                self.figures = figures;
                 self.evaluation = Evaluation::Scored;
             }
             Err(e) => {
@@ -147,12 +162,26 @@ pub fn rig_of(
     imu_noise: Option<ImuNoise>,
     calibration: Option<ChainCalibration>,
 ) -> Result<Rig, ReplayError> {
-    let m = &dataset.manifest;
+    rig_of_manifest(
+        &dataset.manifest,
+        dataset.calibration.as_ref(),
+        imu_noise,
+        calibration,
+    )
+}
+
+/// The rig of a manifest and its calibration, with the IMU noise and calibration overridable.
+pub fn rig_of_manifest(
+    m: &Manifest,
+    own_calibration: Option<&ChainCalibration>,
+    imu_noise: Option<ImuNoise>,
+    calibration: Option<ChainCalibration>,
+) -> Result<Rig, ReplayError> {
     Ok(Rig {
         geometry: m.array.geometry,
         body_from_array: m.array.body_from_array(),
         center_freq_hz: m.channel.center_freq_hz,
-        calibration: calibration.or_else(|| dataset.calibration.clone()),
+        calibration: calibration.or_else(|| own_calibration.cloned()),
         imu_noise: imu_noise
             .or_else(|| m.imu.noise.clone())
             .ok_or(ReplayError::NoImuNoise)?,
@@ -160,24 +189,13 @@ pub fn rig_of(
     })
 }
 
-/// Replays `dataset` through a pipeline for `rig`.
+/// Replays `dataset` (in memory) through a pipeline for `rig`; the frames and packet rows are
+/// kept in the output.
 pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput, ReplayError> {
     let (Some(first), Some(last)) = (dataset.imu.first(), dataset.imu.last()) else {
         return Err(ReplayError::NoImu);
     };
-    let flight_s = last.t.secs_since(first.t);
-    let started = Instant::now();
-    let mut warnings = dataset.inputs.warnings.clone();
-    let baro = if config.pipeline.use_barometer || dataset.baro.is_empty() {
-        &dataset.baro[..]
-    } else {
-        warnings.push(format!(
-            "the barometer's {} samples were not used (pipeline.use_barometer = false)",
-            dataset.baro.len()
-        ));
-        &[][..]
-    };
-    let mut pipeline = ChainResolver::new(config, rig, !baro.is_empty())?;
+    let (baro, mut warnings) = baro_in_use(&dataset.baro, &dataset.inputs, config);
     // (time, 0 = packet / 1 = barometer / 2 = IMU, AP, index): packets and barometer samples
     // before IMU samples at the same time.
     let mut events: Vec<(Timestamp, u8, usize, usize)> = dataset
@@ -191,65 +209,94 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         events.extend(ap.packets.iter().enumerate().map(|(i, p)| (p.t, 0, l, i)));
     }
     events.sort_unstable();
-    let mut frames = Vec::new();
-    let mut packets = Vec::new();
-    let mut imu_refused = 0;
-    let mut keep = |r: super::Released| {
-        frames.extend(r.frames);
-        packets.extend(r.packets);
-        imu_refused += r.imu_refused;
-    };
-    for (_, kind, l, i) in events {
-        if kind == 0 {
-            let p = &dataset.aps[l].packets[i];
-            keep(pipeline.push_csi(l, p.t, &p.record)?);
-        } else if kind == 1 {
-            keep(pipeline.push_baro(baro[i].t, baro[i].altitude_m)?);
-        } else {
-            keep(pipeline.push_imu(&dataset.imu[i])?);
-        }
-    }
-    let done = pipeline.finish()?;
-    keep(done.released);
-    let wins = done.pipeline.wins();
-    let aps = done
-        .pipeline
-        .rig()
-        .ap_names
+    let mut events = events.into_iter();
+    let mut sink = Collected::default();
+    let skips: Vec<(u64, u64)> = dataset
+        .aps
         .iter()
-        .enumerate()
-        .filter_map(|(l, name)| {
-            let (p_in_w, sigma_m) = wins.ap_in_w(l)?;
-            Some(ApEstimate {
-                name: name.clone(),
-                p_in_w,
-                sigma_m,
-            })
-        })
+        .map(|ap| (ap.skips.len() as u64, ap.skips.iter().map(|k| k.len).sum()))
         .collect();
-    Ok(RunOutput {
-        frames,
-        packets,
-        aps,
-        converged_at: wins.converged_at(),
-        stats: {
-            let mut stats = done.pipeline.stats().clone();
-            for (s, ap) in stats.per_ap.iter_mut().zip(&dataset.aps) {
-                s.log_skips = ap.skips.len() as u64;
-                s.log_skipped_bytes = ap.skips.iter().map(|k| k.len).sum();
+    let flight = Flight {
+        flight_s: last.t.secs_since(first.t),
+        has_baro: !baro.is_empty(),
+        inputs: &dataset.inputs,
+    };
+    let mut run = drive(config, rig, &flight, &mut sink, |pipeline| {
+        let Some((_, kind, l, i)) = events.next() else {
+            return Ok(None);
+        };
+        Ok(Some(if kind == 0 {
+            let p = &dataset.aps[l].packets[i];
+            pipeline.push_csi(l, p.t, &p.record)?
+        } else if kind == 1 {
+            pipeline.push_baro(baro[i].t, baro[i].altitude_m)?
+        } else {
+            pipeline.push_imu(&dataset.imu[i])?
+        }))
+    })?;
+    set_skips(&mut run, &skips);
+    run.frames = sink.frames;
+    run.packets = sink.packets;
+    warnings.append(&mut run.warnings);
+    run.warnings = warnings;
+    Ok(run)
+}
+
+/// Replays a checked dataset read as it is consumed ([`DatasetStream`]) through a pipeline for
+/// `rig`: the frames and packet rows go to `sink` as they are produced (the output's `frames`
+/// and `packets` stay empty).
+pub fn replay_stream(
+    stream: &DatasetStream,
+    rig: Rig,
+    config: &Config,
+    sink: &mut dyn RunSink,
+) -> Result<RunOutput, ReplayError> {
+    let (first, last) = stream.imu_span;
+    let (baro, mut warnings) = baro_in_use(&stream.baro, &stream.inputs, config);
+    let mut events = stream.events(!baro.is_empty()).map_err(Box::new)?;
+    let flight = Flight {
+        flight_s: last.secs_since(first),
+        has_baro: !baro.is_empty(),
+        inputs: &stream.inputs,
+    };
+    let mut run = drive(config, rig, &flight, sink, |pipeline| {
+        Ok(match events.next_event().map_err(Box::new)? {
+            None => None,
+            Some(DatasetEvent::Csi { ap, packet }) => {
+                Some(pipeline.push_csi(ap, packet.t, &packet.record)?)
             }
-            stats
-        },
-        wins: wins.stats(),
-        timing: done.timing,
-        chains: done.report,
-        wall_s: started.elapsed().as_secs_f64(),
-        flight_s,
-        imu_refused,
-        metrics: None,
-        evaluation: Evaluation::NoTruth,
-        figures: None,
-        inputs: dataset.inputs.clone(),
-        warnings,
-    })
+            Some(DatasetEvent::Baro(b)) => Some(pipeline.push_baro(b.t, b.altitude_m)?),
+            Some(DatasetEvent::Imu(s)) => Some(pipeline.push_imu(&s)?),
+        })
+    })?;
+    set_skips(&mut run, &events.skips());
+    warnings.append(&mut run.warnings);
+    run.warnings = warnings;
+    Ok(run)
+}
+
+/// The barometer's samples the run uses, and the input checks' warnings (with one more when the
+/// settings leave the barometer out).
+fn baro_in_use<'a>(
+    baro: &'a [BaroSample],
+    inputs: &InputReport,
+    config: &Config,
+) -> (&'a [BaroSample], Vec<String>) {
+    let mut warnings = inputs.warnings.clone();
+    if config.pipeline.use_barometer || baro.is_empty() {
+        return (baro, warnings);
+    }
+    warnings.push(format!(
+        "the barometer's {} samples were not used (pipeline.use_barometer = false)",
+        baro.len()
+    ));
+    (&[], warnings)
+}
+
+/// Every AP's log skips `(stretches, bytes)` into the run's statistics.
+fn set_skips(run: &mut RunOutput, skips: &[(u64, u64)]) {
+    for (s, &(count, bytes)) in run.stats.per_ap.iter_mut().zip(skips) {
+        s.log_skips = count;
+        s.log_skipped_bytes = bytes;
+    }
 }

@@ -5,9 +5,12 @@ use std::path::Path;
 
 use super::Config;
 use super::chains::resolves;
-use super::replay::{Evaluation, ReplayError, RunOutput, replay, rig_of};
+use super::drive::{Collected, RunSink};
+use super::replay::{Evaluation, ReplayError, RunOutput, replay_stream, rig_of_manifest};
+use super::spool::Spool;
+use crate::dataset::DatasetError;
+use crate::dataset::stream::DatasetStream;
 use crate::dataset::truth::{TRUTH_DIR, Truth};
-use crate::dataset::{Dataset, DatasetError};
 use crate::rig::{ChainCalibration, ImuNoise};
 
 /// What a run may take from outside the dataset.
@@ -20,6 +23,8 @@ pub struct RunOptions {
     /// Use no chain calibration, not even the dataset's: the offsets are resolved from the
     /// flight alone ([`super::chains`]).
     pub no_calibration: bool,
+    /// Make no figures' data (`figures` stays `None`; `wins run --no-plots`).
+    pub no_figures: bool,
 }
 
 /// Why a dataset could not be run.
@@ -53,9 +58,11 @@ pub fn run_dataset(path: &Path, config: &Config) -> Result<RunOutput, RunError> 
     run_dataset_with(path, config, &RunOptions::default())
 }
 
-/// Loads the dataset at `path`, replays it through the [`super::Pipeline`], and when it has a
-/// `truth/` folder scores the converged trajectory against it (`metrics`, `figures`). What
-/// limits the result (no chain calibration, a run that cannot be scored) is in `warnings`.
+/// Reads the dataset at `path` as it is consumed ([`DatasetStream`]), replays it through the
+/// [`super::Pipeline`], and when it has a `truth/` folder scores the converged trajectory
+/// against it (`metrics`, `figures`). What limits the result (no chain calibration, a run that
+/// cannot be scored) is in `warnings`. The frames and packet rows are kept in the output; for a
+/// run whose memory does not grow with the flight's length, [`run_dataset_into`].
 ///
 /// A truth that cannot be read does not stop the run: the estimate is returned, with
 /// [`Evaluation::Failed`] naming the file in `evaluation` and a warning.
@@ -64,13 +71,48 @@ pub fn run_dataset_with(
     config: &Config,
     options: &RunOptions,
 ) -> Result<RunOutput, RunError> {
+    let mut sink = Collected::default();
+    let mut run = run_into_sink(path, config, options, &mut sink)?;
+    run.frames = sink.frames;
+    run.packets = sink.packets;
+    score(&mut run, path, config, !options.no_figures);
+    Ok(run)
+}
+
+/// [`run_dataset_with`], with the per-frame and per-packet files (`trajectory.tum`,
+/// `trajectory_all.tum`, `covariance.csv`, `aoa.csv`) written into `out` as they are produced
+/// ([`Spool`]; [`RunOutput::write`] into `out` renames them into place): the run holds neither
+/// the dataset nor those rows, only, when the dataset has a truth, the converged poses and the
+/// fed packets' AoA for the scoring (without a truth [`RunOutput::converged_poses`] is empty).
+pub fn run_dataset_into(
+    path: &Path,
+    config: &Config,
+    options: &RunOptions,
+    out: &Path,
+) -> Result<RunOutput, RunError> {
+    let for_scoring = path.join(TRUTH_DIR).is_dir();
+    let mut spool = Spool::create(out, for_scoring).map_err(ReplayError::Output)?;
+    let mut run = run_into_sink(path, config, options, &mut spool)?;
+    run.spooled = Some(spool.finish().map_err(ReplayError::Output)?);
+    score(&mut run, path, config, !options.no_figures);
+    Ok(run)
+}
+
+/// The replay of the dataset at `path` into `sink`, with the warnings of the rig.
+fn run_into_sink(
+    path: &Path,
+    config: &Config,
+    options: &RunOptions,
+    sink: &mut dyn RunSink,
+) -> Result<RunOutput, RunError> {
     config.validate()?;
-    let data = Dataset::load(path).map_err(|source| RunError::Dataset {
+    let data = DatasetStream::open(path).map_err(|source| RunError::Dataset {
         path: path.display().to_string(),
         source: Box::new(source),
     })?;
-    let mut rig = rig_of(
-        &data,
+    let mut rig = rig_of_manifest(
+        &data.manifest,
+        data.calibration.as_ref(),
         options.imu_noise.clone(),
         options.calibration.clone(),
     )?;
@@ -92,13 +134,7 @@ pub fn run_dataset_with(
                 .to_string(),
         );
     }
-    // Read before the replay, used after it: a truth that cannot be read fails the evaluation,
-    // not the estimate.
-    let truth = path
-        .join(TRUTH_DIR)
-        .is_dir()
-        .then(|| Truth::load(path).map_err(|e| with_causes(&e)));
-    let mut run = replay(&data, rig, config)?;
+    let mut run = replay_stream(&data, rig, config, sink)?;
     run.warnings.extend(warnings);
     if run.wins.imu_gaps > 0 {
         run.warnings.push(format!(
@@ -107,16 +143,27 @@ pub fn run_dataset_with(
             run.wins.imu_gaps, config.imu_gap.max_s, run.wins.frames_in_imu_gap
         ));
     }
-    match &truth {
-        Some(Ok(truth)) => run.score_against(truth, &config.eval),
-        Some(Err(why)) => {
-            let why = format!("reading the truth of {}: {why}", path.display());
+    Ok(run)
+}
+
+/// Scores `run` against the truth of the dataset at `path`, when it has one: a truth that
+/// cannot be read fails the evaluation, not the estimate.
+fn score(run: &mut RunOutput, path: &Path, config: &Config, figures: bool) {
+    if !path.join(TRUTH_DIR).is_dir() {
+        return;
+    }
+    match Truth::load_for_scoring(path) {
+        Ok(truth) => run.score_against_with(&truth, &config.eval, figures),
+        Err(e) => {
+            let why = format!(
+                "reading the truth of {}: {}",
+                path.display(),
+                with_causes(&e)
+            );
             run.warnings.push(format!("evaluation failed: {why}"));
             run.evaluation = Evaluation::Failed(why);
         }
-        None => {}
     }
-    Ok(run)
 }
 
 /// An error's text followed by its causes', `: `-separated (a cause already in the text once).

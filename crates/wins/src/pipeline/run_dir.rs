@@ -24,6 +24,7 @@ use super::output::{
     TRAJECTORY_ALL_FILE, TRAJECTORY_FILE,
 };
 use super::replay::RunOutput;
+use super::spool::SPOOL_PREFIX;
 use crate::dataset::load::{MANIFEST_FILE as DATASET_MANIFEST, read_manifest};
 use crate::dataset::truth::TRUTH_DIR;
 use crate::io_safety::{
@@ -190,15 +191,15 @@ impl RunDir {
         &self.path
     }
 
-    /// Removes the previous run's files (those its manifest lists, and temporary files of an
-    /// interrupted write), then writes `manifest` with `"complete": false` and every file the
+    /// Removes the previous run's files (those its manifest lists, temporary files of an
+    /// interrupted write, and spool files of another process's interrupted run), then writes `manifest` with `"complete": false` and every file the
     /// run may write.
     pub fn start(&self, manifest: &RunManifest) -> Result<(), OutputError> {
         let temporaries = fs::read_dir(&self.path)
             .map_err(OutputError::io(&self.path))?
             .flatten()
             .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| n.starts_with(TEMP_PREFIX));
+            .filter(|n| n.starts_with(TEMP_PREFIX) || is_stale_spool(n));
         let stale: Vec<String> = self.previous.iter().cloned().chain(temporaries).collect();
         for name in &stale {
             let mut parts = Path::new(name).components();
@@ -253,7 +254,12 @@ impl RunDir {
 /// The files the manifest of the run in `out` lists: none when `out` is empty; refused when it
 /// holds files but no manifest, or a manifest that cannot be read.
 fn previous_files(out: &Path) -> Result<Vec<String>, OutputError> {
-    let mut entries = fs::read_dir(out).map_err(OutputError::io(out))?;
+    let entries = fs::read_dir(out).map_err(OutputError::io(out))?;
+    // A folder that holds only what an interrupted run left behind counts as empty.
+    let leftover = |n: &str| n.starts_with(TEMP_PREFIX) || is_stale_spool(n);
+    let mut entries = entries
+        .flatten()
+        .filter(|e| !leftover(&e.file_name().to_string_lossy()));
     if entries.next().is_none() {
         return Ok(Vec::new());
     }
@@ -275,6 +281,12 @@ fn previous_files(out: &Path) -> Result<Vec<String>, OutputError> {
         reason: e.to_string(),
     })?;
     Ok(listed.files)
+}
+
+/// Whether `name` is a spool file ([`super::spool`]) of another process than this one.
+fn is_stale_spool(name: &str) -> bool {
+    name.starts_with(SPOOL_PREFIX)
+        && !name.starts_with(&format!("{SPOOL_PREFIX}{}-", std::process::id()))
 }
 
 #[cfg(test)]

@@ -116,3 +116,28 @@ fn a_non_empty_folder_without_a_readable_manifest_is_refused() {
     assert_eq!(fs::read_to_string(out.join("cat.jpg")).unwrap(), "meow");
     fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn an_interrupted_runs_spool_files_do_not_block_the_folder_and_are_removed() {
+    let dir = scratch("spool");
+    let (data, _) = inputs(&dir);
+    let out = dir.join("out");
+    fs::create_dir_all(&out).unwrap();
+    // Left by a run of another process that was killed.
+    let stale = out.join(format!("{SPOOL_PREFIX}0-trajectory.tum"));
+    fs::write(&stale, "# timestamp tx ty tz qx qy qz qw\n").unwrap();
+    let inputs = RunInputs {
+        dataset: &data,
+        config_file: None,
+        calibration_file: None,
+    };
+    let run_dir = RunDir::prepare(&out, &inputs).unwrap();
+    // This process's own spool survives the start: the run writes it before.
+    let own = out.join(format!("{SPOOL_PREFIX}{}-aoa.csv", std::process::id()));
+    fs::write(&own, "").unwrap();
+    run_dir
+        .start(&RunManifest::new(&inputs, &Config::default(), false))
+        .unwrap();
+    assert!(!stale.exists() && own.exists());
+    let _ = fs::remove_dir_all(&dir);
+}

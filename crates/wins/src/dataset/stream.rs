@@ -1,0 +1,382 @@
+//! A dataset read as it is consumed ([`DatasetStream`]): what [`super::Dataset::load`] gives,
+//! without holding the IMU samples or the CSI records.
+//!
+//! Two passes over the files. [`DatasetStream::open`] reads the manifest, the calibration and
+//! the barometer, and checks the IMU file and every log one row or record at a time
+//! ([`super::incremental`]), keeping only counts: the [`InputReport`] and every error are
+//! those of `Dataset::load`, before anything is run. [`DatasetStream::events`] then reads the
+//! files again and yields the kept samples and records merged by time, as
+//! `crate::pipeline::replay` orders them (a packet before a barometer sample before an IMU
+//! sample at the same time, APs in manifest order, each AP's records by time then log order).
+//! Each AP's records wait in a buffer until no later record can come before them (the checks
+//! never keep a record more than [`JUMP_BACK_NS`] before the latest kept), at most
+//! [`MAX_REORDER`] of them.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use super::baro_csv::{self, BaroSample};
+use super::checks::{self, CsiPacket, ImuLimits, InputReport};
+use super::imu_csv::RowReader;
+use super::incremental::{ApCheck, ImuCheck, JUMP_BACK_NS};
+use super::load::{DatasetError, read_manifest};
+use super::manifest::Manifest;
+use crate::csi::intel5300::{Event, LogReader, ReadError, SkipReason};
+use crate::imu::ImuSample;
+use crate::io_safety::open_regular;
+use crate::rig::ChainCalibration;
+use crate::time::Timestamp;
+
+/// Records of one AP held at once to put them in time order; past it the earliest goes (only
+/// a log with more than this many records within 0.1 s of NIC time gets there).
+pub const MAX_REORDER: usize = 4096;
+
+/// A checked dataset whose samples and records stay on disk until [`DatasetStream::events`].
+#[derive(Clone, Debug)]
+pub struct DatasetStream {
+    /// The directory.
+    pub dir: PathBuf,
+    /// `dataset.toml`.
+    pub manifest: Manifest,
+    /// The NIC's chain calibration, when the manifest names one.
+    pub calibration: Option<ChainCalibration>,
+    /// Barometer readings (small: tens per second), strictly increasing in time.
+    pub baro: Vec<BaroSample>,
+    /// What the input checks dropped, counted and found.
+    pub inputs: InputReport,
+    /// The first and last IMU sample kept.
+    pub imu_span: (Timestamp, Timestamp),
+}
+
+/// One input, in time order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DatasetEvent {
+    /// A CSI record of AP `ap` (manifest order).
+    Csi {
+        /// The AP's index.
+        ap: usize,
+        /// The record on the IMU clock (boxed: it is the large one).
+        packet: Box<CsiPacket>,
+    },
+    /// A barometer reading.
+    Baro(BaroSample),
+    /// An IMU sample.
+    Imu(ImuSample),
+}
+
+impl DatasetStream {
+    /// Reads `dir/dataset.toml` and checks everything it names (module docs); the same errors,
+    /// in the same order, as [`super::Dataset::load`].
+    pub fn open(dir: impl AsRef<Path>) -> Result<Self, DatasetError> {
+        let dir = dir.as_ref();
+        let manifest = read_manifest(dir)?;
+        let inputs_error = |source| DatasetError::Inputs {
+            dir: dir.to_path_buf(),
+            source,
+        };
+        let mut inputs = InputReport::default();
+        let mut imu = ImuSource::open(dir, &manifest)?;
+        let (mut first, mut last) = (None, None);
+        while let Some(s) = imu.next_checked(&mut inputs)? {
+            first = first.or(Some(s.t));
+            last = Some(s.t);
+        }
+        imu.check
+            .finish(imu.rows.cut_last_line(), &mut inputs)
+            .map_err(inputs_error)?;
+        let (Some(from), Some(to)) = (first, last) else {
+            return Err(inputs_error(checks::InputError::NoImu("no sample".into())));
+        };
+        let mut inside = 0;
+        let mut csi_span: Option<(Timestamp, Timestamp)> = None;
+        for (l, entry) in manifest.aps.iter().enumerate() {
+            let path = dir.join(&entry.log);
+            let file = open_regular(&path).map_err(ReadError::io(&path))?;
+            let mut check = ApCheck::new(l, &entry.name, entry.imu_minus_nic_ns, true);
+            let (mut before, mut after, mut kept) = (0, 0, 0);
+            for event in LogReader::new(file) {
+                let Event::Csi(record) = event.map_err(ReadError::io(&path))? else {
+                    continue;
+                };
+                let Some(p) = check.push(*record, &mut inputs).map_err(inputs_error)? else {
+                    continue;
+                };
+                kept += 1;
+                before += u64::from(p.t < from);
+                after += u64::from(p.t > to);
+                csi_span = Some(csi_span.map_or((p.t, p.t), |(a, b)| (a.min(p.t), b.max(p.t))));
+            }
+            check.finish(&mut inputs);
+            if let Some(ap) = inputs.aps.last_mut() {
+                ap.before_imu = before;
+                ap.after_imu = after;
+            }
+            inside += kept - before - after;
+        }
+        checks::judge_spans((from, to), inside, csi_span, &mut inputs).map_err(inputs_error)?;
+        checks::summarize(&mut inputs);
+        let calibration = match &manifest.array.calibration {
+            Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
+            None => None,
+        };
+        let baro = match &manifest.baro {
+            Some(entry) => {
+                let path = dir.join(&entry.file);
+                let file = open_regular(&path).map_err(|source| DatasetError::Io {
+                    path: path.clone(),
+                    source,
+                })?;
+                baro_csv::read(BufReader::new(file))
+                    .map_err(|source| DatasetError::Baro { path, source })?
+            }
+            None => Vec::new(),
+        };
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            manifest,
+            calibration,
+            baro,
+            inputs,
+            imu_span: (from, to),
+        })
+    }
+
+    /// The kept IMU samples, barometer readings (when `with_baro`) and CSI records, merged by
+    /// time (module docs).
+    pub fn events(&self, with_baro: bool) -> Result<Events, DatasetError> {
+        let aps = self
+            .manifest
+            .aps
+            .iter()
+            .enumerate()
+            .map(|(l, entry)| {
+                let path = self.dir.join(&entry.log);
+                let file = open_regular(&path).map_err(ReadError::io(&path))?;
+                Ok(ApSource {
+                    reader: LogReader::new(file),
+                    check: ApCheck::new(l, &entry.name, entry.imu_minus_nic_ns, false),
+                    buffer: BTreeMap::new(),
+                    next_seq: 0,
+                    done: false,
+                    path,
+                    skips: SkipCount::default(),
+                })
+            })
+            .collect::<Result<Vec<_>, DatasetError>>()?;
+        let heads = vec![None; aps.len()];
+        Ok(Events {
+            imu: ImuSource::open(&self.dir, &self.manifest)?,
+            imu_head: None,
+            baro: if with_baro {
+                self.baro.clone()
+            } else {
+                Vec::new()
+            },
+            baro_next: 0,
+            aps,
+            heads,
+            started: false,
+        })
+    }
+}
+
+/// The IMU file's rows through its checks.
+#[derive(Debug)]
+struct ImuSource {
+    rows: RowReader<BufReader<File>>,
+    check: ImuCheck,
+    path: PathBuf,
+}
+
+impl ImuSource {
+    fn open(dir: &Path, manifest: &Manifest) -> Result<Self, DatasetError> {
+        let path = dir.join(&manifest.imu.file);
+        let file = open_regular(&path).map_err(|source| DatasetError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let limits = ImuLimits {
+            rate_hz: manifest.imu.rate_hz,
+            accel_range_m_s2: manifest.imu.accel_range_m_s2,
+            gyro_range_rad_s: manifest.imu.gyro_range_rad_s,
+        };
+        Ok(Self {
+            rows: RowReader::new(BufReader::new(file)),
+            check: ImuCheck::new(limits),
+            path,
+        })
+    }
+
+    /// The next kept sample, its drops counted in `report`.
+    fn next_checked(
+        &mut self,
+        report: &mut InputReport,
+    ) -> Result<Option<ImuSample>, DatasetError> {
+        loop {
+            let row = self.rows.next_row().map_err(|source| DatasetError::Imu {
+                path: self.path.clone(),
+                source,
+            })?;
+            let Some(row) = row else {
+                return Ok(None);
+            };
+            if let Some(s) = self.check.push(row, report) {
+                return Ok(Some(s));
+            }
+        }
+    }
+}
+
+/// Stretches of a log its reader skipped: counted as `read_log` lists them (consecutive
+/// stretches of one reason as one).
+#[derive(Clone, Copy, Debug, Default)]
+struct SkipCount {
+    count: u64,
+    bytes: u64,
+    last: Option<(u64, SkipReason)>,
+}
+
+/// One AP's log through its checks and its reorder buffer.
+#[derive(Debug)]
+struct ApSource {
+    reader: LogReader<File>,
+    check: ApCheck,
+    /// Kept records by (time ns, order kept).
+    buffer: BTreeMap<(i64, u64), CsiPacket>,
+    next_seq: u64,
+    done: bool,
+    path: PathBuf,
+    skips: SkipCount,
+}
+
+impl ApSource {
+    /// The next record in time order, or `None` at the end of the log.
+    fn next_packet(&mut self, report: &mut InputReport) -> Result<Option<CsiPacket>, DatasetError> {
+        loop {
+            if let Some((&(t, _), _)) = self.buffer.first_key_value()
+                && (self.done
+                    || t < self.check.latest_ns().saturating_sub(JUMP_BACK_NS)
+                    || self.buffer.len() > MAX_REORDER)
+            {
+                return Ok(self.buffer.pop_first().map(|(_, p)| p));
+            }
+            if self.done {
+                return Ok(None);
+            }
+            match self.reader.next() {
+                None => self.done = true,
+                Some(event) => match event.map_err(ReadError::io(&self.path))? {
+                    Event::Csi(record) => {
+                        let kept = self.check.push(*record, report).map_err(|source| {
+                            DatasetError::Inputs {
+                                dir: self.path.clone(),
+                                source,
+                            }
+                        })?;
+                        if let Some(p) = kept {
+                            self.buffer.insert((p.t.0, self.next_seq), p);
+                            self.next_seq += 1;
+                        }
+                    }
+                    Event::Skipped(s) => {
+                        let k = &mut self.skips;
+                        if k.last != Some((s.offset, s.reason)) {
+                            k.count += 1;
+                        }
+                        k.bytes += s.len;
+                        k.last = Some((s.offset + s.len, s.reason));
+                    }
+                },
+            }
+        }
+    }
+}
+
+/// [`DatasetStream::events`]: the inputs merged by time.
+#[derive(Debug)]
+pub struct Events {
+    imu: ImuSource,
+    imu_head: Option<ImuSample>,
+    baro: Vec<BaroSample>,
+    baro_next: usize,
+    aps: Vec<ApSource>,
+    heads: Vec<Option<CsiPacket>>,
+    started: bool,
+}
+
+impl Events {
+    /// Records held now, every AP's together (those waiting in the reorder buffers and the next
+    /// of each AP): bounded by the records within 0.1 s of NIC time, not by the log's length.
+    pub fn held(&self) -> usize {
+        self.aps.iter().map(|a| a.buffer.len()).sum::<usize>()
+            + self.heads.iter().filter(|h| h.is_some()).count()
+    }
+
+    /// Per AP, the stretches its log reader skipped and their bytes, so far.
+    pub fn skips(&self) -> Vec<(u64, u64)> {
+        self.aps
+            .iter()
+            .map(|a| (a.skips.count, a.skips.bytes))
+            .collect()
+    }
+
+    /// The next input, or `None` after the last.
+    pub fn next_event(&mut self) -> Result<Option<DatasetEvent>, DatasetError> {
+        // The checks' counts were made by the first pass; these are thrown away.
+        let mut scratch = InputReport::default();
+        if !self.started {
+            self.started = true;
+            self.imu_head = self.imu.next_checked(&mut scratch)?;
+            for (head, ap) in self.heads.iter_mut().zip(&mut self.aps) {
+                *head = ap.next_packet(&mut scratch)?;
+            }
+        }
+        // (time, 0 = packet / 1 = barometer / 2 = IMU, AP)
+        let mut best: Option<(Timestamp, u8, usize)> = None;
+        let mut consider = |key: (Timestamp, u8, usize)| {
+            if best.is_none_or(|b| key < b) {
+                best = Some(key);
+            }
+        };
+        for (l, head) in self.heads.iter().enumerate() {
+            if let Some(p) = head {
+                consider((p.t, 0, l));
+            }
+        }
+        if let Some(b) = self.baro.get(self.baro_next) {
+            consider((b.t, 1, 0));
+        }
+        if let Some(s) = &self.imu_head {
+            consider((s.t, 2, 0));
+        }
+        let Some((_, kind, l)) = best else {
+            return Ok(None);
+        };
+        Ok(Some(match kind {
+            0 => {
+                let next = self.aps[l].next_packet(&mut scratch)?;
+                let packet = std::mem::replace(&mut self.heads[l], next);
+                match packet {
+                    Some(packet) => DatasetEvent::Csi {
+                        ap: l,
+                        packet: Box::new(packet),
+                    },
+                    None => return Ok(None),
+                }
+            }
+            1 => {
+                self.baro_next += 1;
+                DatasetEvent::Baro(self.baro[self.baro_next - 1])
+            }
+            _ => {
+                let next = self.imu.next_checked(&mut scratch)?;
+                match std::mem::replace(&mut self.imu_head, next) {
+                    Some(s) => DatasetEvent::Imu(s),
+                    None => return Ok(None),
+                }
+            }
+        }))
+    }
+}

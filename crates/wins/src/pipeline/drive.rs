@@ -1,0 +1,115 @@
+//! The replay's loop, shared by a dataset in memory and one read as it is consumed: inputs pushed
+//! into a [`ChainResolver`] one at a time, what it releases handed to a [`RunSink`] as it comes.
+
+use std::io;
+use std::time::Instant;
+
+use super::replay::{ApEstimate, Evaluation, ReplayError, RunOutput};
+use super::{ChainResolver, Config, PacketLog, Released};
+use crate::dataset::checks::InputReport;
+use crate::fusion::estimator::PoseEstimate;
+use crate::rig::Rig;
+
+/// Where a replay's frames and packet rows go, as they are produced, in order.
+pub trait RunSink {
+    /// One solved frame.
+    fn frame(&mut self, frame: PoseEstimate) -> io::Result<()>;
+    /// One packet's row.
+    fn packet(&mut self, row: PacketLog) -> io::Result<()>;
+}
+
+/// A sink that keeps everything in memory.
+#[derive(Clone, Debug, Default)]
+pub struct Collected {
+    /// Every frame, in order.
+    pub frames: Vec<PoseEstimate>,
+    /// Every packet row, in order.
+    pub packets: Vec<PacketLog>,
+}
+
+impl RunSink for Collected {
+    fn frame(&mut self, frame: PoseEstimate) -> io::Result<()> {
+        self.frames.push(frame);
+        Ok(())
+    }
+
+    fn packet(&mut self, row: PacketLog) -> io::Result<()> {
+        self.packets.push(row);
+        Ok(())
+    }
+}
+
+/// What a replay knows of its flight before it starts.
+pub(crate) struct Flight<'a> {
+    /// First to last IMU sample, s.
+    pub flight_s: f64,
+    /// Whether barometer samples will be pushed.
+    pub has_baro: bool,
+    /// The input checks' report.
+    pub inputs: &'a InputReport,
+}
+
+/// Runs a pipeline for `rig` over the inputs `push` pushes (one per call, `None` after the
+/// last), handing what is released to `sink`. The output's `frames` and `packets` are empty, its
+/// `warnings` too.
+pub(crate) fn drive(
+    config: &Config,
+    rig: Rig,
+    flight: &Flight<'_>,
+    sink: &mut dyn RunSink,
+    mut push: impl FnMut(&mut ChainResolver) -> Result<Option<Released>, ReplayError>,
+) -> Result<RunOutput, ReplayError> {
+    let started = Instant::now();
+    let mut pipeline = ChainResolver::new(config, rig, flight.has_baro)?;
+    let mut imu_refused = 0;
+    let mut keep = |r: Released| -> io::Result<()> {
+        for f in r.frames {
+            sink.frame(f)?;
+        }
+        for p in r.packets {
+            sink.packet(p)?;
+        }
+        imu_refused += r.imu_refused;
+        Ok(())
+    };
+    while let Some(released) = push(&mut pipeline)? {
+        keep(released)?;
+    }
+    let done = pipeline.finish()?;
+    keep(done.released)?;
+    let wins = done.pipeline.wins();
+    let aps = done
+        .pipeline
+        .rig()
+        .ap_names
+        .iter()
+        .enumerate()
+        .filter_map(|(l, name)| {
+            let (p_in_w, sigma_m) = wins.ap_in_w(l)?;
+            Some(ApEstimate {
+                name: name.clone(),
+                p_in_w,
+                sigma_m,
+            })
+        })
+        .collect();
+    Ok(RunOutput {
+        frames: Vec::new(),
+        packets: Vec::new(),
+        aps,
+        converged_at: wins.converged_at(),
+        stats: done.pipeline.stats().clone(),
+        wins: wins.stats(),
+        timing: done.timing,
+        chains: done.report,
+        wall_s: started.elapsed().as_secs_f64(),
+        flight_s: flight.flight_s,
+        imu_refused,
+        metrics: None,
+        evaluation: Evaluation::NoTruth,
+        figures: None,
+        inputs: flight.inputs.clone(),
+        warnings: Vec::new(),
+        spooled: None,
+    })
+}
