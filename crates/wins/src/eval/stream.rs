@@ -510,3 +510,6 @@ fn nearest<A, B>(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;

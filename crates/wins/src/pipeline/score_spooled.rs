@@ -15,6 +15,10 @@ use crate::eval::stream::{StreamedError, StreamedEval};
 use crate::eval::{EvalOptions, Metrics};
 use crate::time::Timestamp;
 
+/// The poses the merge-join of the estimate and the truth holds: one of the driving trajectory,
+/// and of the other the last before it and the next.
+const POSES_HELD_BY_THE_JOIN: usize = 3;
+
 /// `(AP, time s, measured AoA °, true AoA °)` of a fed packet with a truth row.
 type AoaPair = (usize, f64, f64, f64);
 
@@ -29,6 +33,11 @@ impl RunOutput {
         options: &EvalOptions,
         figures: bool,
     ) -> io::Result<()> {
+        if let Some(s) = &mut self.spooled {
+            s.scoring_poses_held = spool.est_scan.most_poses_held()
+                + truth.poses.most_poses_held()
+                + POSES_HELD_BY_THE_JOIN;
+        }
         let eval = StreamedEval {
             est_path: spool.est_path.clone(),
             est: &spool.est_scan,

@@ -47,6 +47,10 @@ pub struct Spooled {
     pub frames: usize,
     /// Frames after convergence.
     pub frames_converged: usize,
+    /// The most poses the scoring against a truth held at once, of the estimate and the truth
+    /// together (0 when not scored): it reads both trajectories from files in passes, so this
+    /// does not grow with the flight.
+    pub scoring_poses_held: usize,
     files: Option<Arc<SpoolFiles>>,
 }
 
