@@ -137,7 +137,7 @@ pub(crate) struct UmeyamaCross {
 impl UmeyamaCross {
     /// One pair, as given to [`UmeyamaMeans::push`].
     pub(crate) fn push(&mut self, est: &Vector3<f64>, truth: &Vector3<f64>) {
-        self.sum = self.sum + (truth - self.mean_truth) * (est - self.mean_est).transpose();
+        self.sum += (truth - self.mean_truth) * (est - self.mean_est).transpose();
     }
 
     /// The alignment of the pairs.

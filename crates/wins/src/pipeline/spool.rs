@@ -2,7 +2,7 @@
 //! a long flight's run does not hold them: the trajectories, the covariances and the packet log
 //! go to hidden files in the output folder, renamed into place by [`super::replay::RunOutput::write`]
 //! (removed when the run is dropped without being written). What the scoring reads goes to two
-//! more, binary, files ([`ScoringSpool`]): per converged frame its pose and position covariance,
+//! more, binary, files (`ScoringSpool`): per converged frame its pose and position covariance,
 //! per fed packet its AoA.
 
 use std::fs::File;
@@ -114,7 +114,7 @@ pub struct Spool {
 
 impl Spool {
     /// Spool files in `dir` (created if needed), named after this process; `for_scoring`: write
-    /// what scoring reads too ([`ScoringSpool`]). The run holds nothing per frame or packet.
+    /// what scoring reads too (two binary files). The run holds nothing per frame or packet.
     pub fn create(dir: &Path, for_scoring: bool) -> io::Result<Self> {
         std::fs::create_dir_all(dir)?;
         let names = [
