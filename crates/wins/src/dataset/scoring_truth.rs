@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::truth::{
     ApRow, PacketRow, TRUTH_DIR, TruthError, TruthInfo, packets_file, read_optional, tum_poses,
 };
-use crate::eval::stream::TrajectoryScan;
+use crate::eval::scan::TrajectoryScan;
 
 /// `truth/` as a run's scoring reads it: the poses' file and its scan, the APs, and per AP the
 /// time and true AoA of each packet slot.

@@ -19,7 +19,7 @@ pub const DRIFT_WINDOW_S: f64 = 60.0;
 pub const JUMP_THRESHOLD_M: f64 = 0.3;
 
 /// Seconds per minute (the heading drift is reported per minute).
-const SECONDS_PER_MINUTE: f64 = 60.0;
+pub(crate) const SECONDS_PER_MINUTE: f64 = 60.0;
 
 /// The drift numbers of one evaluation (the fields of the same names in [`super::Metrics`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,106 +5,20 @@
 //! takes them, so the numbers are the same bit for bit. Only the pairs' position errors are held
 //! (one `f64` each, for the median).
 
-use std::collections::VecDeque;
 use std::io;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Translation3};
 
 use super::align::{UmeyamaCross, UmeyamaMeans};
-use super::drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M, heading_error_rad, unwrap_step};
-use super::metrics::{self, SPEED_MIN_INTERVAL_S};
+use super::drift::{DRIFT_WINDOW_S, SECONDS_PER_MINUTE, heading_error_rad, unwrap_step};
+use super::metrics;
 use super::nees::{NEES_95_3DOF, NeesSummary, nees};
 use super::records::{EstRecord, read_records};
+use super::scan::TrajectoryScan;
 use super::{Alignment, EstimatedAp, EvalError, EvalOptions, Metrics, aps};
 use crate::dataset::truth::{ApRow, Pose, tum_poses};
 use crate::time::{NANOS_PER_SEC, Timestamp};
-
-/// What one pass over a trajectory learns of it before the evaluation: its length, its first
-/// time, its first non-finite and first out-of-order pose, its jumps and its largest speed
-/// ([`super::metrics`]'s definitions). Holds the poses of the last 20 ms at most.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct TrajectoryScan {
-    poses: usize,
-    first_t: Option<Timestamp>,
-    last: Option<Pose>,
-    non_finite: Option<usize>,
-    unsorted: Option<usize>,
-    jumps: usize,
-    max_speed_m_s: f64,
-    /// Poses waiting for one at least `SPEED_MIN_INTERVAL_S` after them.
-    waiting: VecDeque<Pose>,
-    most_waiting: usize,
-}
-
-impl TrajectoryScan {
-    /// The next pose of the trajectory.
-    pub(crate) fn push(&mut self, p: &Pose) {
-        let finite = p.p_b_in_w.iter().all(|x| x.is_finite())
-            && p.world_from_body.coords.iter().all(|x| x.is_finite());
-        if !finite && self.non_finite.is_none() {
-            self.non_finite = Some(self.poses);
-        }
-        if let Some(last) = &self.last {
-            if p.t < last.t && self.unsorted.is_none() {
-                self.unsorted = Some(self.poses);
-            }
-            if (p.p_b_in_w - last.p_b_in_w).norm() > JUMP_THRESHOLD_M {
-                self.jumps += 1;
-            }
-        }
-        let min_ns = (SPEED_MIN_INTERVAL_S * 1e9).round() as i64;
-        while let Some(a) = self.waiting.front()
-            && p.t.0 - a.t.0 >= min_ns
-        {
-            let v = (p.p_b_in_w - a.p_b_in_w).norm() / p.t.secs_since(a.t);
-            self.max_speed_m_s = self.max_speed_m_s.max(v);
-            self.waiting.pop_front();
-        }
-        self.waiting.push_back(*p);
-        self.most_waiting = self.most_waiting.max(self.waiting.len());
-        self.first_t.get_or_insert(p.t);
-        self.last = Some(*p);
-        self.poses += 1;
-    }
-
-    /// Poses seen.
-    pub(crate) fn poses(&self) -> usize {
-        self.poses
-    }
-
-    /// The time of the first pose.
-    pub(crate) fn first_t(&self) -> Option<Timestamp> {
-        self.first_t
-    }
-
-    /// Poses more than [`JUMP_THRESHOLD_M`] from the one before.
-    pub(crate) fn jumps(&self) -> usize {
-        self.jumps
-    }
-
-    /// The most poses held at once (those of the last `SPEED_MIN_INTERVAL_S`).
-    pub(crate) fn most_poses_held(&self) -> usize {
-        self.most_waiting
-    }
-
-    fn check_finite(&self, trajectory: &'static str) -> Result<(), EvalError> {
-        match self.non_finite {
-            Some(index) => Err(EvalError::NonFinite { trajectory, index }),
-            None => Ok(()),
-        }
-    }
-
-    fn check_sorted(&self, trajectory: &'static str) -> Result<(), EvalError> {
-        if self.poses == 0 {
-            return Err(EvalError::EmptyTrajectory { trajectory });
-        }
-        match self.unsorted {
-            Some(index) => Err(EvalError::Unsorted { trajectory, index }),
-            None => Ok(()),
-        }
-    }
-}
 
 /// Why a streamed evaluation stopped.
 #[derive(Debug, thiserror::Error)]
@@ -282,7 +196,7 @@ impl StreamedEval<'_> {
             attitude_error_rmse_deg: (sums.attitude.1 / nf).sqrt(),
             position_error_last_60s_rmse_m: rms(sums.last_minute),
             drift_last_60s_m: first_minute.map(|_| rms(sums.drift)),
-            heading_drift_deg_per_min: moments.slope_rad_s.to_degrees() * 60.0,
+            heading_drift_deg_per_min: moments.slope_rad_s.to_degrees() * SECONDS_PER_MINUTE,
             jumps: self.est.jumps(),
             rpe_trans_rmse_m: (rpe_trans_sq / rpe_n as f64).sqrt(),
             rpe_rot_rmse_deg: (rpe_rot_sq / rpe_n as f64).sqrt(),
@@ -290,7 +204,7 @@ impl StreamedEval<'_> {
             rpe_pairs: rpe_n,
             convergence_time_s: time_between(self.truth.first_t(), self.est.first_t()),
             duration_s: last.secs_since(first),
-            max_speed_m_s: self.truth.max_speed_m_s,
+            max_speed_m_s: self.truth.max_speed_m_s(),
             poses_evaluated: n,
             poses_unmatched: self.est.poses() - matched,
             max_time_diff_s: self.options.max_time_diff_s,

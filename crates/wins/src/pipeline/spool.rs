@@ -18,7 +18,7 @@ use super::output::{
 use super::{PacketLog, PacketStatus};
 use crate::dataset::truth::{Pose, write_tum_header, write_tum_pose};
 use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
-use crate::eval::stream::TrajectoryScan;
+use crate::eval::scan::TrajectoryScan;
 use crate::fusion::estimator::PoseEstimate;
 
 /// Prefix of a spool file in the output folder.

@@ -5,6 +5,7 @@ use nalgebra::{Isometry3, Matrix3, UnitQuaternion, Vector3};
 use super::*;
 use crate::dataset::truth::{read_tum, write_tum};
 use crate::eval::records::RecordWriter;
+use crate::eval::scan::TrajectoryScan;
 use crate::eval::{evaluate, position_error_series, position_nees};
 
 /// A fresh folder for one test's files.
