@@ -194,38 +194,56 @@ pub fn write_tum_pose(out: &mut impl Write, p: &Pose) -> io::Result<()> {
 
 /// Reads a TUM trajectory (`#` comments and blank lines skipped; times in seconds, rounded to ns).
 pub fn read_tum(input: impl BufRead) -> Result<Vec<Pose>, String> {
-    let mut out = Vec::new();
-    for (i, line) in input.lines().enumerate() {
-        let line = line.map_err(|e| e.to_string())?;
-        let text = line.trim();
-        if text.is_empty() || text.starts_with('#') {
-            continue;
-        }
-        let v: Vec<f64> = text
-            .split_whitespace()
-            .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
-            .collect::<Option<_>>()
-            .ok_or_else(|| format!("line {}: not all numbers", i + 1))?;
-        if v.len() != 8 {
-            return Err(format!("line {}: {} fields, expected 8", i + 1, v.len()));
-        }
-        let t = Timestamp((v[0] * NANOS_PER_SEC as f64).round() as i64);
-        if !t.is_in_range() {
-            return Err(format!(
-                "line {}: time {} s is 146 years or more from the clock's origin",
-                i + 1,
-                v[0]
-            ));
-        }
-        out.push(Pose {
-            t,
-            p_b_in_w: Vector3::new(v[1], v[2], v[3]),
-            world_from_body: UnitQuaternion::from_quaternion(Quaternion::new(
-                v[7], v[4], v[5], v[6],
-            )),
-        });
+    tum_poses(input).collect()
+}
+
+/// The poses of a TUM trajectory one at a time, as [`read_tum`] reads them (the first error
+/// ends the reading).
+pub fn tum_poses(input: impl BufRead) -> impl Iterator<Item = Result<Pose, String>> {
+    let mut failed = false;
+    input
+        .lines()
+        .enumerate()
+        .map_while(move |(i, line)| {
+            if failed {
+                return None;
+            }
+            let pose = line
+                .map_err(|e| e.to_string())
+                .and_then(|line| tum_line(i, &line));
+            failed = pose.is_err();
+            Some(pose)
+        })
+        .filter_map(Result::transpose)
+}
+
+/// The pose of line `i` (from 0) of a TUM file, `None` for a comment or a blank line.
+fn tum_line(i: usize, line: &str) -> Result<Option<Pose>, String> {
+    let text = line.trim();
+    if text.is_empty() || text.starts_with('#') {
+        return Ok(None);
     }
-    Ok(out)
+    let v: Vec<f64> = text
+        .split_whitespace()
+        .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("line {}: not all numbers", i + 1))?;
+    if v.len() != 8 {
+        return Err(format!("line {}: {} fields, expected 8", i + 1, v.len()));
+    }
+    let t = Timestamp((v[0] * NANOS_PER_SEC as f64).round() as i64);
+    if !t.is_in_range() {
+        return Err(format!(
+            "line {}: time {} s is 146 years or more from the clock's origin",
+            i + 1,
+            v[0]
+        ));
+    }
+    Ok(Some(Pose {
+        t,
+        p_b_in_w: Vector3::new(v[1], v[2], v[3]),
+        world_from_body: UnitQuaternion::from_quaternion(Quaternion::new(v[7], v[4], v[5], v[6])),
+    }))
 }
 
 impl Truth {
@@ -279,7 +297,7 @@ impl Truth {
 }
 
 /// The bytes of `dir/name`, or `None` when there is no such file.
-fn read_optional(dir: &Path, name: &str) -> Result<Option<Vec<u8>>, TruthError> {
+pub(crate) fn read_optional(dir: &Path, name: &str) -> Result<Option<Vec<u8>>, TruthError> {
     let path = dir.join(name);
     match std::fs::read(&path) {
         Ok(b) => Ok(Some(b)),

@@ -83,46 +83,95 @@ pub fn umeyama(est: &[Vector3<f64>], truth: &[Vector3<f64>]) -> Result<Alignment
             truth: truth.len(),
         });
     }
-    let n = est.len();
-    if n < MIN_ALIGNMENT_PAIRS {
-        return Err(EvalError::TooFewPairs {
-            pairs: n,
-            needed: MIN_ALIGNMENT_PAIRS,
-        });
+    let mut means = UmeyamaMeans::default();
+    est.iter().zip(truth).for_each(|(x, y)| means.push(x, y));
+    let mut cross = means.cross()?;
+    est.iter().zip(truth).for_each(|(x, y)| cross.push(x, y));
+    cross.alignment()
+}
+
+/// The first pass of [`umeyama`] over point pairs given one at a time: their sums.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct UmeyamaMeans {
+    n: usize,
+    sum_est: Vector3<f64>,
+    sum_truth: Vector3<f64>,
+}
+
+impl UmeyamaMeans {
+    /// One pair, `est` going onto `truth`.
+    pub(crate) fn push(&mut self, est: &Vector3<f64>, truth: &Vector3<f64>) {
+        self.n += 1;
+        self.sum_est += est;
+        self.sum_truth += truth;
     }
-    let inv_n = 1.0 / n as f64;
-    // Eqs. 34–35: centroids.
-    let mean_x = est.iter().sum::<Vector3<f64>>() * inv_n;
-    let mean_y = truth.iter().sum::<Vector3<f64>>() * inv_n;
-    // Eq. 38: cross-covariance Σ_xy = 1/n Σ (y − μ_y)(x − μ_x)ᵀ.
-    let cov = est.iter().zip(truth).fold(Matrix3::zeros(), |acc, (x, y)| {
-        acc + (y - mean_y) * (x - mean_x).transpose()
-    }) * inv_n;
-    let svd = cov.svd(true, true);
-    let d = svd.singular_values;
-    let degenerate = || EvalError::Degenerate {
-        singular_values: [d[0], d[1], d[2]],
-    };
-    // `svd` sorts the singular values in decreasing order.
-    if !d.iter().all(|s| s.is_finite()) || d[0] <= 0.0 || d[1] <= MIN_RELATIVE_SINGULAR_VALUE * d[0]
-    {
-        return Err(degenerate());
+
+    /// The second pass, over the same pairs in the same order (fewer than
+    /// `MIN_ALIGNMENT_PAIRS` pairs is an error).
+    pub(crate) fn cross(&self) -> Result<UmeyamaCross, EvalError> {
+        if self.n < MIN_ALIGNMENT_PAIRS {
+            return Err(EvalError::TooFewPairs {
+                pairs: self.n,
+                needed: MIN_ALIGNMENT_PAIRS,
+            });
+        }
+        let inv_n = 1.0 / self.n as f64;
+        Ok(UmeyamaCross {
+            inv_n,
+            mean_est: self.sum_est * inv_n,
+            mean_truth: self.sum_truth * inv_n,
+            sum: Matrix3::zeros(),
+        })
     }
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return Err(degenerate());
-    };
-    // Eq. 43: S = diag(1, 1, −1) when det(U)·det(V) < 0.
-    let mut s = Matrix3::identity();
-    if u.determinant() * v_t.determinant() < 0.0 {
-        s[(2, 2)] = -1.0;
+}
+
+/// The second pass of [`umeyama`]: the cross-covariance about the means of the first.
+#[derive(Clone, Debug)]
+pub(crate) struct UmeyamaCross {
+    inv_n: f64,
+    mean_est: Vector3<f64>,
+    mean_truth: Vector3<f64>,
+    sum: Matrix3<f64>,
+}
+
+impl UmeyamaCross {
+    /// One pair, as given to [`UmeyamaMeans::push`].
+    pub(crate) fn push(&mut self, est: &Vector3<f64>, truth: &Vector3<f64>) {
+        self.sum += (truth - self.mean_truth) * (est - self.mean_est).transpose();
     }
-    // Eqs. 40–41 (c = 1).
-    let r = nalgebra::Rotation3::from_matrix_unchecked(u * s * v_t);
-    let t = mean_y - r * mean_x;
-    Ok(Alignment::from_isometry(&Isometry3::from_parts(
-        t.into(),
-        UnitQuaternion::from_rotation_matrix(&r),
-    )))
+
+    /// The alignment of the pairs.
+    pub(crate) fn alignment(&self) -> Result<Alignment, EvalError> {
+        let (mean_x, mean_y) = (self.mean_est, self.mean_truth);
+        let cov = self.sum * self.inv_n;
+        let svd = cov.svd(true, true);
+        let d = svd.singular_values;
+        let degenerate = || EvalError::Degenerate {
+            singular_values: [d[0], d[1], d[2]],
+        };
+        // `svd` sorts the singular values in decreasing order.
+        if !d.iter().all(|s| s.is_finite())
+            || d[0] <= 0.0
+            || d[1] <= MIN_RELATIVE_SINGULAR_VALUE * d[0]
+        {
+            return Err(degenerate());
+        }
+        let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+            return Err(degenerate());
+        };
+        // Eq. 43: S = diag(1, 1, −1) when det(U)·det(V) < 0.
+        let mut s = Matrix3::identity();
+        if u.determinant() * v_t.determinant() < 0.0 {
+            s[(2, 2)] = -1.0;
+        }
+        // Eqs. 40–41 (c = 1).
+        let r = nalgebra::Rotation3::from_matrix_unchecked(u * s * v_t);
+        let t = mean_y - r * mean_x;
+        Ok(Alignment::from_isometry(&Isometry3::from_parts(
+            t.into(),
+            UnitQuaternion::from_rotation_matrix(&r),
+        )))
+    }
 }
 
 #[cfg(test)]

@@ -19,7 +19,7 @@ pub const DRIFT_WINDOW_S: f64 = 60.0;
 pub const JUMP_THRESHOLD_M: f64 = 0.3;
 
 /// Seconds per minute (the heading drift is reported per minute).
-const SECONDS_PER_MINUTE: f64 = 60.0;
+pub(crate) const SECONDS_PER_MINUTE: f64 = 60.0;
 
 /// The drift numbers of one evaluation (the fields of the same names in [`super::Metrics`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,18 +115,24 @@ pub(crate) fn heading_error_rad(
 /// Angles with every step between neighbours brought into [−π, π), rad (as numpy's `unwrap`):
 /// the first angle is kept, each next one is its predecessor plus the wrapped difference.
 pub(crate) fn unwrap_rad(angles_rad: &[f64]) -> Vec<f64> {
-    use std::f64::consts::{PI, TAU};
     let mut out = Vec::with_capacity(angles_rad.len());
     let mut previous: Option<(f64, f64)> = None; // (raw, unwrapped)
     for &a in angles_rad {
-        let unwrapped = match previous {
-            Some((raw, u)) => u + ((a - raw + PI).rem_euclid(TAU) - PI),
-            None => a,
-        };
-        out.push(unwrapped);
-        previous = Some((a, unwrapped));
+        out.push(unwrap_step(&mut previous, a));
     }
     out
+}
+
+/// One step of [`unwrap_rad`]: `a` unwrapped after `previous` (raw, unwrapped), which becomes
+/// `a`'s.
+pub(crate) fn unwrap_step(previous: &mut Option<(f64, f64)>, a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    let unwrapped = match *previous {
+        Some((raw, u)) => u + ((a - raw + PI).rem_euclid(TAU) - PI),
+        None => a,
+    };
+    *previous = Some((a, unwrapped));
+    unwrapped
 }
 
 /// Least-squares slope `Σ(t − t̄)(y − ȳ) / Σ(t − t̄)²` of `y` against `t` (0 for fewer than two

@@ -21,7 +21,10 @@ pub(crate) mod drift;
 mod evaluate;
 pub(crate) mod metrics;
 pub mod nees;
+pub(crate) mod records;
 pub(crate) mod rpe;
+pub(crate) mod scan;
+pub(crate) mod stream;
 
 use serde::{Deserialize, Serialize};
 

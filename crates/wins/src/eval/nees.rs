@@ -68,7 +68,7 @@ pub fn position_nees(
 }
 
 /// `eᵀ (R Σ Rᵀ)⁻¹ e` for the alignment's rotation `r`, `None` when `Σ` is not positive definite.
-fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>, r: &Matrix3<f64>) -> Option<f64> {
+pub(crate) fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>, r: &Matrix3<f64>) -> Option<f64> {
     let c = r * cov * r.transpose();
     let l = c.cholesky()?;
     let v = l.solve(e);
@@ -76,7 +76,7 @@ fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>, r: &Matrix3<f64>) -> Option<f64> {
     value.is_finite().then_some(value)
 }
 
-fn summarize(values: &[f64]) -> Option<NeesSummary> {
+pub(crate) fn summarize(values: &[f64]) -> Option<NeesSummary> {
     if values.is_empty() {
         return None;
     }

@@ -18,7 +18,7 @@ impl RunOutput {
     ) -> Result<RunFigures, EvalError> {
         let align = &metrics.alignment;
         let t0 = truth.poses.first().map_or(0.0, |p| p.t.as_secs_f64());
-        let poses = self.converged_pose_slice();
+        let poses = self.converged_poses();
         let xy = |p: &nalgebra::Vector3<f64>| (p.x, p.y);
         let position_error = position_error_series(&poses, &truth.poses, options)?
             .iter()

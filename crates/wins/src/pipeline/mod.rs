@@ -28,6 +28,7 @@ pub mod output;
 pub mod replay;
 pub mod run;
 pub mod run_dir;
+mod score_spooled;
 pub(crate) mod slot;
 pub mod spool;
 pub mod stats;

@@ -15,7 +15,6 @@
 //! run's manifest, `run.json`, and the refusals of an output folder that overlaps the inputs are
 //! [`super::run_dir`]'s.
 
-use std::borrow::Cow;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
@@ -51,7 +50,7 @@ pub const REPORT_FILE: &str = "report.txt";
 
 /// A packet's AoA is paired with the truth packet nearest in time within this, ns (the NIC
 /// clock has 1 µs resolution).
-const TRUTH_PAIR_NS: i64 = 1_000;
+pub(crate) const TRUTH_PAIR_NS: i64 = 1_000;
 
 /// `stats.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -93,17 +92,9 @@ fn pose_of(p: &PoseEstimate) -> Pose {
 }
 
 impl RunOutput {
-    /// Poses after convergence, as [`Pose`]s.
+    /// Poses after convergence, as [`Pose`]s (none for a spooled run: they are in its files).
     pub fn converged_poses(&self) -> Vec<Pose> {
-        self.converged_pose_slice().into_owned()
-    }
-
-    /// [`RunOutput::converged_poses`], borrowed when the run kept them ([`super::spool::Spooled`]).
-    pub(crate) fn converged_pose_slice(&self) -> Cow<'_, [Pose]> {
-        match &self.spooled {
-            Some(s) => Cow::Borrowed(&s.converged),
-            None => Cow::Owned(self.converged_frames().map(pose_of).collect()),
-        }
+        self.converged_frames().map(pose_of).collect()
     }
 
     /// The AP estimates in the evaluation's format.
@@ -154,22 +145,19 @@ impl RunOutput {
                 .filter(|p| (p.t_ns - t_ns).abs() <= TRUTH_PAIR_NS)?;
             Some((ap, t_ns as f64 * 1e-9, aoa_deg?, row.aoa_deg))
         };
-        match &self.spooled {
-            Some(s) => s.fed_aoa.iter().copied().filter_map(pair).collect(),
-            None => self
-                .packets
-                .iter()
-                .filter(|r| r.status == PacketStatus::Fed)
-                .map(|r| (r.ap, r.t_ns, r.aoa_deg))
-                .filter_map(pair)
-                .collect(),
-        }
+        self.packets
+            .iter()
+            .filter(|r| r.status == PacketStatus::Fed)
+            .map(|r| (r.ap, r.t_ns, r.aoa_deg))
+            .filter_map(pair)
+            .collect()
     }
 
     /// The run scored against `truth`: [`evaluate`] on the converged trajectory, plus the
-    /// run-only fields (AoA median error, packets, real-time factor).
+    /// run-only fields (AoA median error, packets, real-time factor). A spooled run holds no
+    /// frames: [`super::run::run_dataset_into`] scores it from its files.
     pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
-        let poses = self.converged_pose_slice();
+        let poses = self.converged_poses();
         let mut m = evaluate(
             &poses,
             &truth.poses,
@@ -184,16 +172,13 @@ impl RunOutput {
             .collect();
         errors.sort_by(f64::total_cmp);
         m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
-        let cov: Cow<'_, [_]> = match &self.spooled {
-            Some(s) => Cow::Borrowed(&s.position_covariance),
-            None => self
-                .converged_frames()
-                .map(|p| {
-                    p.covariance
-                        .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned())
-                })
-                .collect(),
-        };
+        let cov: Vec<_> = self
+            .converged_frames()
+            .map(|p| {
+                p.covariance
+                    .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned())
+            })
+            .collect();
         if let Some(n) = position_nees(&poses, &cov, &truth.poses, options)? {
             m.position_nees_mean = Some(n.mean);
             m.position_nees_within_95 = Some(n.within_95);

@@ -7,8 +7,9 @@ use super::Config;
 use super::chains::resolves;
 use super::drive::{Collected, RunSink};
 use super::replay::{Evaluation, ReplayError, RunOutput, replay_stream, rig_of_manifest};
-use super::spool::Spool;
+use super::spool::{ScoringSpool, Spool};
 use crate::dataset::DatasetError;
+use crate::dataset::scoring_truth::ScoringTruth;
 use crate::dataset::stream::DatasetStream;
 use crate::dataset::truth::{TRUTH_DIR, Truth};
 use crate::rig::{ChainCalibration, ImuNoise};
@@ -82,8 +83,11 @@ pub fn run_dataset_with(
 /// [`run_dataset_with`], with the per-frame and per-packet files (`trajectory.tum`,
 /// `trajectory_all.tum`, `covariance.csv`, `aoa.csv`) written into `out` as they are produced
 /// ([`Spool`]; [`RunOutput::write`] into `out` renames them into place): the run holds neither
-/// the dataset nor those rows, only, when the dataset has a truth, the converged poses and the
-/// fed packets' AoA for the scoring (without a truth [`RunOutput::converged_poses`] is empty).
+/// the dataset nor those rows ([`RunOutput::converged_poses`] is empty). With a truth, what
+/// scoring reads (the converged poses and covariances, the fed packets' AoA) goes to two more
+/// spool files, and the scoring reads them and the truth's poses in passes, holding neither
+/// trajectory: the metrics and figures' data are those of [`run_dataset_with`]. The scoring's
+/// files are removed before this returns.
 pub fn run_dataset_into(
     path: &Path,
     config: &Config,
@@ -93,8 +97,12 @@ pub fn run_dataset_into(
     let for_scoring = path.join(TRUTH_DIR).is_dir();
     let mut spool = Spool::create(out, for_scoring).map_err(ReplayError::Output)?;
     let mut run = run_into_sink(path, config, options, &mut spool)?;
-    run.spooled = Some(spool.finish().map_err(ReplayError::Output)?);
-    score(&mut run, path, config, !options.no_figures);
+    let (spooled, scoring) = spool.finish_with_scoring().map_err(ReplayError::Output)?;
+    run.spooled = Some(spooled);
+    match scoring {
+        Some(files) => score_spooled(&mut run, path, config, !options.no_figures, &files),
+        None => score(&mut run, path, config, !options.no_figures),
+    }
     Ok(run)
 }
 
@@ -154,16 +162,41 @@ fn score(run: &mut RunOutput, path: &Path, config: &Config, figures: bool) {
     }
     match Truth::load_for_scoring(path) {
         Ok(truth) => run.score_against_with(&truth, &config.eval, figures),
-        Err(e) => {
-            let why = format!(
-                "reading the truth of {}: {}",
-                path.display(),
-                with_causes(&e)
-            );
-            run.warnings.push(format!("evaluation failed: {why}"));
-            run.evaluation = Evaluation::Failed(why);
-        }
+        Err(e) => evaluation_failed(run, path, &e),
     }
+}
+
+/// [`score`] for a spooled run, from its scoring files.
+fn score_spooled(
+    run: &mut RunOutput,
+    path: &Path,
+    config: &Config,
+    figures: bool,
+    files: &ScoringSpool,
+) {
+    if !path.join(TRUTH_DIR).is_dir() {
+        return;
+    }
+    let scored = ScoringTruth::open(path)
+        .map_err(|e| Box::new(e) as Box<dyn std::error::Error>)
+        .and_then(|truth| {
+            run.score_spooled(&truth, files, &config.eval, figures)
+                .map_err(Into::into)
+        });
+    if let Err(e) = scored {
+        evaluation_failed(run, path, e.as_ref());
+    }
+}
+
+/// The truth of the dataset at `path` could not be read (`e`): the evaluation failed.
+fn evaluation_failed(run: &mut RunOutput, path: &Path, e: &dyn std::error::Error) {
+    let why = format!(
+        "reading the truth of {}: {}",
+        path.display(),
+        with_causes(e)
+    );
+    run.warnings.push(format!("evaluation failed: {why}"));
+    run.evaluation = Evaluation::Failed(why);
 }
 
 /// An error's text followed by its causes', `: `-separated (a cause already in the text once).

@@ -1,16 +1,14 @@
 //! A run's per-frame and per-packet files written as the replay produces them ([`Spool`]), so
 //! a long flight's run does not hold them: the trajectories, the covariances and the packet log
 //! go to hidden files in the output folder, renamed into place by [`super::replay::RunOutput::write`]
-//! (removed when the run is dropped without being written). What the scoring needs is kept in
-//! compact form ([`Spooled`]): per converged frame its pose and position covariance, per fed
-//! packet its AoA.
+//! (removed when the run is dropped without being written). What the scoring reads goes to two
+//! more, binary, files (`ScoringSpool`): per converged frame its pose and position covariance,
+//! per fed packet its AoA.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-
-use nalgebra::Matrix3;
 
 use super::drive::RunSink;
 use super::output::{
@@ -19,6 +17,8 @@ use super::output::{
 };
 use super::{PacketLog, PacketStatus};
 use crate::dataset::truth::{Pose, write_tum_header, write_tum_pose};
+use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
+use crate::eval::scan::TrajectoryScan;
 use crate::fusion::estimator::PoseEstimate;
 
 /// Prefix of a spool file in the output folder.
@@ -40,23 +40,48 @@ impl Drop for SpoolFiles {
     }
 }
 
-/// What a spooled run keeps: counts, the converged poses and what scoring reads of them and of
-/// the packets.
+/// What a spooled run keeps: counts, and the files to rename into place.
 #[derive(Clone, Debug, Default)]
 pub struct Spooled {
     /// Frames solved.
     pub frames: usize,
     /// Frames after convergence.
     pub frames_converged: usize,
-    /// Whether the poses, covariances and AoAs below are kept (for scoring against a truth).
-    pub kept_for_scoring: bool,
-    /// The poses after convergence.
-    pub converged: Vec<Pose>,
-    /// Their position covariance in `w`, m² (`None`: none given).
-    pub position_covariance: Vec<Option<Matrix3<f64>>>,
-    /// Per fed packet: AP, time ns, measured AoA °.
-    pub fed_aoa: Vec<(usize, i64, Option<f64>)>,
+    /// The most poses the scoring against a truth held at once, of the estimate and the truth
+    /// together (0 when not scored): it reads both trajectories from files in passes, so this
+    /// does not grow with the flight.
+    pub scoring_poses_held: usize,
     files: Option<Arc<SpoolFiles>>,
+}
+
+/// What scoring reads of a spooled run, in two more spool files (removed when this is
+/// dropped): per converged frame its pose and position covariance, per fed packet its AoA
+/// ([`crate::eval::records`]).
+#[derive(Debug)]
+pub(crate) struct ScoringSpool {
+    /// The converged frames' records.
+    pub(crate) est_path: PathBuf,
+    /// What one pass over them found.
+    pub(crate) est_scan: TrajectoryScan,
+    /// The fed packets' records.
+    pub(crate) aoa_path: PathBuf,
+    /// How many.
+    pub(crate) aoa_count: usize,
+}
+
+impl Drop for ScoringSpool {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.est_path);
+        let _ = std::fs::remove_file(&self.aoa_path);
+    }
+}
+
+/// The writers of a [`ScoringSpool`].
+#[derive(Debug)]
+struct ScoringWriters {
+    files: ScoringSpool,
+    est: RecordWriter<BufWriter<File>>,
+    aoa: RecordWriter<BufWriter<File>>,
 }
 
 impl Spooled {
@@ -84,11 +109,12 @@ pub struct Spool {
     trajectory_all: BufWriter<File>,
     aoa: csv::Writer<BufWriter<File>>,
     kept: Spooled,
+    scoring: Option<ScoringWriters>,
 }
 
 impl Spool {
-    /// Spool files in `dir` (created if needed), named after this process; `for_scoring`: keep
-    /// what scoring reads ([`Spooled`]; without it the run holds nothing per frame or packet).
+    /// Spool files in `dir` (created if needed), named after this process; `for_scoring`: write
+    /// what scoring reads too (two binary files). The run holds nothing per frame or packet.
     pub fn create(dir: &Path, for_scoring: bool) -> io::Result<Self> {
         std::fs::create_dir_all(dir)?;
         let names = [
@@ -110,26 +136,58 @@ impl Spool {
         write_tum_header(&mut trajectory)?;
         write_covariance_header(&mut covariance)?;
         write_tum_header(&mut trajectory_all)?;
+        let scoring = for_scoring
+            .then(|| {
+                let path = |name: &str| dir.join(format!("{SPOOL_PREFIX}{id}-{name}"));
+                let files = ScoringSpool {
+                    est_path: path("eval-poses.bin"),
+                    est_scan: TrajectoryScan::default(),
+                    aoa_path: path("eval-aoa.bin"),
+                    aoa_count: 0,
+                };
+                let create =
+                    |p: &Path| File::create(p).map(|f| RecordWriter::new(BufWriter::new(f)));
+                Ok::<_, io::Error>(ScoringWriters {
+                    est: create(&files.est_path)?,
+                    aoa: create(&files.aoa_path)?,
+                    files,
+                })
+            })
+            .transpose()?;
         Ok(Self {
             trajectory,
             covariance,
             trajectory_all,
             aoa,
             kept: Spooled {
-                kept_for_scoring: for_scoring,
                 files: Some(Arc::new(files)),
                 ..Spooled::default()
             },
+            scoring,
         })
     }
 
     /// Flushes the files; what the run keeps of them.
-    pub fn finish(mut self) -> io::Result<Spooled> {
+    pub fn finish(self) -> io::Result<Spooled> {
+        self.finish_with_scoring().map(|(kept, _)| kept)
+    }
+
+    /// [`Spool::finish`], with what scoring reads when it was asked for.
+    pub(crate) fn finish_with_scoring(mut self) -> io::Result<(Spooled, Option<ScoringSpool>)> {
         self.trajectory.flush()?;
         self.covariance.flush()?;
         self.trajectory_all.flush()?;
         self.aoa.flush()?;
-        Ok(self.kept)
+        let scoring = match self.scoring {
+            Some(mut w) => {
+                w.est.flush()?;
+                w.aoa.flush()?;
+                w.files.aoa_count = w.aoa.written();
+                Some(w.files)
+            }
+            None => None,
+        };
+        Ok((self.kept, scoring))
     }
 }
 
@@ -146,23 +204,29 @@ impl RunSink for Spool {
             write_tum_pose(&mut self.trajectory, &pose)?;
             write_covariance_row(&mut self.covariance, &frame)?;
             self.kept.frames_converged += 1;
-            if !self.kept.kept_for_scoring {
-                return Ok(());
+            if let Some(w) = &mut self.scoring {
+                w.files.est_scan.push(&pose);
+                w.est.push(&EstRecord {
+                    pose,
+                    position_covariance: frame
+                        .covariance
+                        .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned()),
+                })?;
             }
-            self.kept.converged.push(pose);
-            self.kept.position_covariance.push(
-                frame
-                    .covariance
-                    .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned()),
-            );
         }
         Ok(())
     }
 
     fn packet(&mut self, row: PacketLog) -> io::Result<()> {
         self.aoa.serialize(&row).map_err(io::Error::other)?;
-        if self.kept.kept_for_scoring && row.status == PacketStatus::Fed {
-            self.kept.fed_aoa.push((row.ap, row.t_ns, row.aoa_deg));
+        if let Some(w) = &mut self.scoring
+            && row.status == PacketStatus::Fed
+        {
+            w.aoa.push(&AoaRecord {
+                ap: row.ap,
+                t_ns: row.t_ns,
+                aoa_deg: row.aoa_deg,
+            })?;
         }
         Ok(())
     }

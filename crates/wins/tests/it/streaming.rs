@@ -75,6 +75,28 @@ fn the_records_held_do_not_grow_with_the_flight() {
 }
 
 #[test]
+fn the_scoring_holds_no_trajectory_however_long_the_flight() {
+    let held = |seconds: f64| {
+        let dir = flight(&format!("held-{seconds}"), "paper-circle", seconds);
+        let (config, options) = (Config::default(), RunOptions::default());
+        let run = run_dataset_into(&dir, &config, &options, &dir.join("out")).unwrap();
+        assert!(run.metrics.is_some(), "{:?}", run.evaluation);
+        let s = run.spooled.clone().unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        (s.frames_converged, s.scoring_poses_held)
+    };
+    let (short_frames, short_held) = held(30.0);
+    let (long_frames, long_held) = held(90.0);
+    assert!(
+        long_frames > 2 * short_frames,
+        "{short_frames} {long_frames}"
+    );
+    // The truth's poses of the last 20 ms (200 Hz) and the estimate's, and the join's three.
+    assert!(long_held <= 12, "{long_held}");
+    assert!(long_held <= short_held + 1, "{short_held} then {long_held}");
+}
+
+#[test]
 fn a_spooled_run_writes_the_same_files_and_statistics_as_one_in_memory() {
     let dir = flight("spool", "paper-circle", 30.0);
     let config = Config::default();
@@ -85,6 +107,10 @@ fn a_spooled_run_writes_the_same_files_and_statistics_as_one_in_memory() {
     a.write(&memory).unwrap();
     let b = run_dataset_into(&dir, &config, &options, &spooled).unwrap();
     assert!(b.frames.is_empty() && b.packets.is_empty());
+    // The figures' data too (the scoring read the trajectories in passes).
+    assert!(a.figures.is_some());
+    assert_eq!(a.figures, b.figures);
+    assert_eq!(a.evaluation, b.evaluation);
     let written = b.write(&spooled).unwrap();
     assert_eq!(a.metrics.is_some(), b.metrics.is_some());
     let names = |files: &[PathBuf]| -> Vec<String> {
