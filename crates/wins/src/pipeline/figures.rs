@@ -25,29 +25,13 @@ impl RunOutput {
             .map(|(t, e)| (t.as_secs_f64() - t0, *e))
             .collect();
         let pairs = self.aoa_vs_truth(truth);
-        let aoa = self
-            .stats
-            .per_ap
-            .iter()
-            .enumerate()
-            .map(|(l, s)| AoaSeries {
-                name: s.name.clone(),
-                measured: pairs
-                    .iter()
-                    .filter(|p| p.0 == l)
-                    .map(|p| (p.1 - t0, p.2))
-                    .collect(),
-                truth: truth
-                    .packets
-                    .get(l)
-                    .map(|rows| {
-                        rows.iter()
-                            .map(|r| (r.t_ns as f64 * 1e-9 - t0, r.aoa_deg))
-                            .collect()
-                    })
-                    .unwrap_or_default(),
+        let aoa = self.aoa_series(&pairs, t0, |l| {
+            truth.packets.get(l).map(|rows| {
+                rows.iter()
+                    .map(|r| (r.t_ns as f64 * 1e-9 - t0, r.aoa_deg))
+                    .collect()
             })
-            .collect();
+        });
         Ok(RunFigures {
             truth_xy: truth.poses.iter().map(|p| xy(&p.p_b_in_w)).collect(),
             estimate_xy: poses
@@ -64,5 +48,29 @@ impl RunOutput {
             converged_s: self.converged_at.map(|t| t.as_secs_f64() - t0),
             aoa,
         })
+    }
+
+    /// Per AP its AoA series: the fed packets' `(AP, t, measured°, …)` in `pairs` less `t0`,
+    /// and its truth from `truth_of(AP)` (times already less `t0`; none: empty).
+    pub(super) fn aoa_series(
+        &self,
+        pairs: &[(usize, f64, f64, f64)],
+        t0: f64,
+        truth_of: impl Fn(usize) -> Option<Vec<(f64, f64)>>,
+    ) -> Vec<AoaSeries> {
+        self.stats
+            .per_ap
+            .iter()
+            .enumerate()
+            .map(|(l, s)| AoaSeries {
+                name: s.name.clone(),
+                measured: pairs
+                    .iter()
+                    .filter(|p| p.0 == l)
+                    .map(|p| (p.1 - t0, p.2))
+                    .collect(),
+                truth: truth_of(l).unwrap_or_default(),
+            })
+            .collect()
     }
 }

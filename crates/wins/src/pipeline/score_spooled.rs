@@ -5,7 +5,7 @@
 
 use std::io;
 
-use super::figure_data::{AoaSeries, RunFigures};
+use super::figure_data::RunFigures;
 use super::output::TRUTH_PAIR_NS;
 use super::replay::{Evaluation, RunOutput};
 use super::spool::ScoringSpool;
@@ -90,29 +90,13 @@ impl RunOutput {
         let align = &metrics.alignment;
         let t0 = truth.poses.first_t().map_or(0.0, |t| t.as_secs_f64());
         let xy = |p: &nalgebra::Vector3<f64>| (p.x, p.y);
-        let aoa = self
-            .stats
-            .per_ap
-            .iter()
-            .enumerate()
-            .map(|(l, s)| AoaSeries {
-                name: s.name.clone(),
-                measured: pairs
-                    .iter()
-                    .filter(|p| p.0 == l)
-                    .map(|p| (p.1 - t0, p.2))
-                    .collect(),
-                truth: truth
-                    .packet_aoa_deg
-                    .get(l)
-                    .map(|rows| {
-                        rows.iter()
-                            .map(|&(t_ns, aoa_deg)| (t_ns as f64 * 1e-9 - t0, aoa_deg))
-                            .collect()
-                    })
-                    .unwrap_or_default(),
+        let aoa = self.aoa_series(pairs, t0, |l| {
+            truth.packet_aoa_deg.get(l).map(|rows| {
+                rows.iter()
+                    .map(|&(t_ns, aoa_deg)| (t_ns as f64 * 1e-9 - t0, aoa_deg))
+                    .collect()
             })
-            .collect();
+        });
         Ok(RunFigures {
             truth_xy: eval
                 .truth_poses()?
