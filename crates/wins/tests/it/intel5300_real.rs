@@ -223,3 +223,40 @@ fn csiread_monitor_sample_matches_csiread_and_skips_frame_records() {
         );
     }
 }
+
+/// The monitor-mode sample's 0xC1 frame records name the transmitter of each CSI record (the
+/// 802.11 header's `addr2`, 00:16:ea:12:34:56 in that capture), read by the stream decoder in
+/// chunks of any size.
+#[test]
+fn frame_records_name_the_transmitter_of_each_csi_record() {
+    let Some(dir) = shared_data() else {
+        return;
+    };
+    let bytes = std::fs::read(dir.join("intel5300/csiread_sample_0x5_64_3000.dat"))
+        .expect("the sample is readable");
+    let mut decoder = StreamDecoder::new();
+    let (mut named, mut csi) = (0, 0);
+    for chunk in bytes.chunks(777) {
+        decoder.push(chunk);
+        while let Some(event) = decoder.next_event() {
+            if let Event::Csi(_) = event {
+                csi += 1;
+                if decoder.transmitter() == Some([0x00, 0x16, 0xea, 0x12, 0x34, 0x56]) {
+                    named += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(csi, 2998);
+    assert_eq!(named, 2998);
+    // A log without frame records names none.
+    let plain = std::fs::read(dir.join("intel5300/csiread_sample_0x1_ap.dat"))
+        .expect("the sample is readable");
+    let mut decoder = StreamDecoder::new();
+    decoder.push(&plain);
+    while let Some(event) = decoder.next_event() {
+        if let Event::Csi(_) = event {
+            assert_eq!(decoder.transmitter(), None);
+        }
+    }
+}

@@ -2,7 +2,10 @@
 
 use num_complex::Complex;
 use proptest::prelude::*;
-use wins::csi::intel5300::{BfeeHeader, CsiLog, CsiRecord, LogWriter, RateFlags, encode_record};
+use wins::csi::intel5300::{
+    BfeeHeader, CsiLog, CsiRecord, Event, LogWriter, RateFlags, StreamDecoder, encode_frame_record,
+    encode_record,
+};
 use wins::time::Timestamp;
 
 use super::data::repo_data;
@@ -64,6 +67,38 @@ proptest! {
             offset += ours.encoded_len() as u64;
         }
         prop_assert_eq!(offset, bytes.len() as u64);
+    }
+
+    /// Frame records written ahead of CSI records name each one's transmitter; a CSI record
+    /// without its own frame record (or after garbage) is named by none.
+    #[test]
+    fn frame_records_pair_with_the_next_csi_record(
+        records in proptest::collection::vec((arb_record(), any::<Option<[u8; 6]>>(), any::<bool>()), 1..10),
+    ) {
+        let mut bytes = Vec::new();
+        for (r, tx, garbage) in &records {
+            if let Some(tx) = tx {
+                encode_frame_record(tx, &mut bytes);
+            }
+            if *garbage {
+                bytes.extend_from_slice(&[0u8, 0, 0]);
+            }
+            encode_record(r, &mut bytes);
+        }
+        let mut decoder = StreamDecoder::new();
+        decoder.push(&bytes);
+        decoder.finish();
+        let mut named = Vec::new();
+        while let Some(event) = decoder.next_event() {
+            if let Event::Csi(_) = event {
+                named.push(decoder.transmitter());
+            }
+        }
+        let expected: Vec<Option<[u8; 6]>> = records
+            .iter()
+            .map(|(_, tx, garbage)| if *garbage { None } else { *tx })
+            .collect();
+        prop_assert_eq!(named, expected);
     }
 }
 

@@ -43,10 +43,12 @@ pub use export::{ExportFormat, ExportStats, export};
 pub use framing::{FramingError, MAX_UNFRAMED, Skip, SkipReason};
 pub use layout::{CODE_CSI, CODE_FRAME, CSI_PREFIX, HEADER_LEN, LEN_FIELD, packed_csi_len};
 pub use rate::{Modulation, RateFlags};
-pub use reader::{CsiLog, Event, LogReader, ReadError, SliceDecoder, StreamDecoder, read_log};
+pub use reader::{
+    CsiLog, Event, LogReader, MacAddress, ReadError, SliceDecoder, StreamDecoder, read_log,
+};
 pub use record::{
     BfeeHeader, CsiRecord, DEFAULT_NOISE_DBM, MAX_CHAINS, MAX_ENTRIES, NOISE_UNKNOWN_DBM, Perm,
     RSSI_TO_DBM_OFFSET, ScaleError, ShapeError,
 };
 pub use summary::{LogSummary, Stats};
-pub use writer::{LogWriter, encode_record};
+pub use writer::{LogWriter, encode_frame_record, encode_record};

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use super::bfee::unpack_csi;
-use super::framing::{MAX_UNFRAMED, Skip, Step, step};
-use super::layout::{CSI_PREFIX, LEN_FIELD};
+use super::framing::{MAX_UNFRAMED, Skip, SkipReason, Step, step};
+use super::layout::{CODE_FRAME, CSI_PREFIX, LEN_FIELD};
 use super::record::CsiRecord;
 use crate::time::MicrosUnwrapper;
 
@@ -22,11 +22,23 @@ pub enum Event {
     Skipped(Skip),
 }
 
+/// A transmitter's 48-bit MAC address, as sent on the air.
+pub type MacAddress = [u8; 6];
+
+/// Offset of the transmitter address (`addr2`) in a 0xC1 frame record: its framing (length and
+/// code, 3 bytes), then the 802.11 header's frame control (2), duration (2) and receiver address
+/// (6).
+const FRAME_TRANSMITTER_AT: usize = LEN_FIELD + 1 + 2 + 2 + 6;
+
 /// State shared by every decoder: the timestamp unwrapper and the resynchronization scan.
 #[derive(Clone, Debug, Default)]
 struct Core {
     unwrapper: MicrosUnwrapper,
     scan_from: usize,
+    /// The transmitter of a 0xC1 frame record just decoded, waiting for its CSI record.
+    pending_transmitter: Option<MacAddress>,
+    /// The transmitter of the last CSI record, when a frame record came right before it.
+    last_transmitter: Option<MacAddress>,
 }
 
 impl Core {
@@ -40,16 +52,27 @@ impl Core {
                 let csi = unpack_csi(&header, packed)?;
                 let t = self.unwrapper.unwrap(header.timestamp_low);
                 let rec = CsiRecord::from_parts(offset, t, header, csi);
+                self.last_transmitter = self.pending_transmitter.take();
                 (len, Event::Csi(Box::new(rec)))
             }
-            Step::Skip { len, reason } => (
-                len,
-                Event::Skipped(Skip {
-                    offset,
-                    len: len as u64,
-                    reason,
-                }),
-            ),
+            Step::Skip { len, reason } => {
+                // A frame record names the transmitter of the CSI record that follows it (the
+                // CSI Tool logs the frame first); anything else in between breaks the pair.
+                self.pending_transmitter = match reason {
+                    SkipReason::NonCsi { code: CODE_FRAME } => buf
+                        .get(FRAME_TRANSMITTER_AT..FRAME_TRANSMITTER_AT + 6)
+                        .and_then(|a| a.try_into().ok()),
+                    _ => None,
+                };
+                (
+                    len,
+                    Event::Skipped(Skip {
+                        offset,
+                        len: len as u64,
+                        reason,
+                    }),
+                )
+            }
         };
         self.scan_from = 0;
         Some((len, event))
@@ -135,6 +158,13 @@ impl StreamDecoder {
         self.start += len;
         self.offset += len as u64;
         Some(event)
+    }
+
+    /// The transmitter address of the CSI record [`next_event`](Self::next_event) returned
+    /// last, when a 0xC1 frame record came right before it (the CSI Tool's logger writes the
+    /// received frame's header ahead of its CSI when asked to); `None` otherwise.
+    pub fn transmitter(&self) -> Option<MacAddress> {
+        self.core.last_transmitter
     }
 
     /// Bytes received but not yet decided on.

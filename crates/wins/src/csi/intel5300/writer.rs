@@ -1,10 +1,28 @@
-//! Writes CSI records as byte-valid CSI Tool log records (code 0xBB).
+//! Writes CSI records as byte-valid CSI Tool log records (code 0xBB), and the 0xC1 frame
+//! records that name their transmitter.
 
 use std::io::{self, Write};
 
 use super::bfee::{pack_csi, write_header};
-use super::layout::{CODE_CSI, HEADER_LEN, LEN_FIELD, packed_csi_len};
+use super::layout::{CODE_CSI, CODE_FRAME, HEADER_LEN, LEN_FIELD, packed_csi_len};
+use super::reader::MacAddress;
 use super::record::CsiRecord;
+
+/// Appends a 0xC1 frame record holding the 24-byte header of an 802.11 data frame from
+/// `transmitter` (its `addr2`; `addr1` is the broadcast address, `addr3` the transmitter again).
+/// The CSI Tool's logger writes such a record ahead of the CSI record of the same frame; the
+/// decoders read its transmitter ([`super::StreamDecoder::transmitter`]).
+pub fn encode_frame_record(transmitter: &MacAddress, out: &mut Vec<u8>) {
+    const HEADER: usize = 24;
+    let field_len = (1 + HEADER) as u16;
+    out.extend_from_slice(&field_len.to_be_bytes());
+    out.push(CODE_FRAME);
+    out.extend_from_slice(&[0x08, 0x00, 0x00, 0x00]); // data frame, duration 0
+    out.extend_from_slice(&[0xFF; 6]);
+    out.extend_from_slice(transmitter);
+    out.extend_from_slice(transmitter);
+    out.extend_from_slice(&[0x00, 0x00]); // sequence control
+}
 
 /// Appends the bytes of one CSI record: the framing, the 20-byte header (reserved bytes 0) and the
 /// CSI packed back into chain order (the inverse of the antenna permutation, when it was applied).
