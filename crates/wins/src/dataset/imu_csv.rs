@@ -31,20 +31,25 @@ pub enum ImuCsvError {
 pub fn write(out: &mut impl Write, samples: &[ImuSample]) -> io::Result<()> {
     writeln!(out, "{HEADER}")?;
     for s in samples {
-        let (g, a) = (&s.gyro_rad_s, &s.accel_m_s2);
-        writeln!(
-            out,
-            "{},{},{},{},{},{},{}",
-            s.t.as_nanos(),
-            g.x,
-            g.y,
-            g.z,
-            a.x,
-            a.y,
-            a.z
-        )?;
+        write_row(out, s)?;
     }
     Ok(())
+}
+
+/// Writes one sample's row (after the header [`HEADER`]), exact on reading back.
+pub fn write_row(out: &mut impl Write, s: &ImuSample) -> io::Result<()> {
+    let (g, a) = (&s.gyro_rad_s, &s.accel_m_s2);
+    writeln!(
+        out,
+        "{},{},{},{},{},{},{}",
+        s.t.as_nanos(),
+        g.x,
+        g.y,
+        g.z,
+        a.x,
+        a.y,
+        a.z
+    )
 }
 
 /// The rows of an IMU CSV in file order, before any check of their values or times

@@ -127,6 +127,48 @@ pub struct ApEntry {
     /// IMU time = unwrapped NIC time + this offset, ns. The NIC time is the log's
     /// `timestamp_low` in µs, unwrapped from the first record of the log (lap 0).
     pub imu_minus_nic_ns: i64,
+    /// The AP's transmitter address (`"aa:bb:cc:dd:ee:ff"`), by which `wins live` tells its
+    /// packets from the frame records the logger interleaves; not read by `wins run`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mac: Option<String>,
+}
+
+impl ApEntry {
+    /// The AP's transmitter address, when `mac` is set: `Err` with the reason when it is not
+    /// six hexadecimal bytes separated by colons.
+    pub fn mac_address(&self) -> Result<Option<[u8; 6]>, String> {
+        let Some(text) = &self.mac else {
+            return Ok(None);
+        };
+        parse_mac(text).map(Some).ok_or_else(|| {
+            format!(
+                "AP {:?}: mac = {text:?} is not six hexadecimal bytes separated by colons",
+                self.name
+            )
+        })
+    }
+}
+
+/// `"aa:bb:cc:dd:ee:ff"` (either case) as bytes; `None` when it is not that form.
+pub fn parse_mac(text: &str) -> Option<[u8; 6]> {
+    let mut out = [0u8; 6];
+    let mut parts = text.split(':');
+    for byte in &mut out {
+        let part = parts.next()?;
+        if part.len() != 2 {
+            return None;
+        }
+        *byte = u8::from_str_radix(part, 16).ok()?;
+    }
+    parts.next().is_none().then_some(out)
+}
+
+/// `aa:bb:cc:dd:ee:ff`, lower case.
+pub fn format_mac(mac: &[u8; 6]) -> String {
+    mac.iter()
+        .map(|b| format!("{b:02x}"))
+        .collect::<Vec<_>>()
+        .join(":")
 }
 
 /// 16 g, the usual full scale of a flight controller's accelerometer, m/s².

@@ -29,4 +29,6 @@ pub mod truth;
 
 pub use baro_csv::BaroSample;
 pub use load::{ApLog, CsiPacket, Dataset, DatasetError};
-pub use manifest::{ApEntry, ArrayEntry, BaroEntry, ChannelEntry, ImuEntry, Manifest};
+pub use manifest::{
+    ApEntry, ArrayEntry, BaroEntry, ChannelEntry, ImuEntry, Manifest, format_mac, parse_mac,
+};

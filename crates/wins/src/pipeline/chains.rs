@@ -163,6 +163,15 @@ impl ChainResolver {
         &self.report
     }
 
+    /// The kept pipeline's estimator statistics, once the offsets are decided (`None` before:
+    /// nothing is released then).
+    pub fn decided_stats(&self) -> Option<crate::fusion::estimator::WinsStats> {
+        match &self.stage {
+            Stage::Decided(p) => Some(p.wins().stats()),
+            _ => None,
+        }
+    }
+
     /// Integrates one IMU sample ([`Pipeline::push_imu`]).
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Released, PipelineError> {
         self.first_imu.get_or_insert(s.t);

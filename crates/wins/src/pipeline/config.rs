@@ -17,6 +17,7 @@ use crate::eval::EvalOptions;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::nonlinear::NonlinearConfig;
 use crate::fusion::window::WindowConfig;
+use super::live_config::LiveConfig;
 use crate::imu::ImuGap;
 
 /// Every setting of a run.
@@ -36,6 +37,8 @@ pub struct Config {
     pub nonlinear: NonlinearConfig,
     /// How both estimators integrate across a gap in the IMU stream.
     pub imu_gap: ImuGap,
+    /// `wins live`: the links to the NIC and the flight controller.
+    pub live: LiveConfig,
     /// Scoring against a truth (association, RPE).
     pub eval: EvalOptions,
 }
@@ -185,6 +188,7 @@ impl Config {
         p.extend(self.window.problems("window"));
         p.extend(self.nonlinear.problems("nonlinear"));
         p.extend(self.imu_gap.problems("imu_gap"));
+        p.extend(self.live.problems("live"));
         p.extend(self.eval.problems("eval"));
         p
     }

@@ -24,6 +24,7 @@ pub mod config;
 pub mod drive;
 mod figure_data;
 pub mod figures;
+pub mod live_config;
 pub mod output;
 pub mod replay;
 pub mod run;

@@ -12,7 +12,7 @@ use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
     ApEntry, ArrayEntry, BaroEntry, ChannelEntry, FORMAT, ImuEntry, Manifest, VERSION,
 };
-use crate::dataset::manifest::{DEFAULT_ACCEL_RANGE_M_S2, DEFAULT_GYRO_RANGE_RAD_S};
+use crate::dataset::manifest::{DEFAULT_ACCEL_RANGE_M_S2, DEFAULT_GYRO_RANGE_RAD_S, format_mac};
 use crate::dataset::truth::{
     self, ApRow, BaroRow, BiasRow, PacketRow, Pose, TRUTH_DIR, TruthInfo, packets_file,
 };
@@ -264,10 +264,14 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
         aps: scenario
             .aps
             .iter()
-            .map(|a| ApEntry {
+            .enumerate()
+            .map(|(l, a)| ApEntry {
                 name: a.name.clone(),
                 log: format!("{}.dat", a.name),
                 imu_minus_nic_ns: imu_minus_nic_ns(scenario.radio.nic_clock_at_imu_zero_us),
+                // A locally administered address per AP, for `wins replay --realtime`'s frame
+                // records.
+                mac: Some(format_mac(&[0x02, 0x00, 0x00, 0x00, 0x00, (l + 1) as u8])),
             })
             .collect(),
         baro: scenario.baro.as_ref().map(|b| BaroEntry {

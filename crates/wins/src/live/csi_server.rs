@@ -1,0 +1,202 @@
+//! The CSI side of `wins live`: a TCP server where the CSI Tool's `log_to_server` connects (one
+//! connection per NIC; the stream has the `.dat` framing, decoded by [`StreamDecoder`]).
+//!
+//! Each connection gets a thread that reads what arrives, decodes it and hands every record,
+//! with its transmitter (from the 0xC1 frame record before it, when the logger writes them) and
+//! the host time it arrived, to the session's channel. Garbage on the socket is skipped and
+//! counted by the decoder (its memory stays bounded, [`StreamDecoder::MAX_PENDING`]); a
+//! connection that drops is reported and the server keeps listening, so a logger that
+//! reconnects is taken back.
+
+use std::io::{self, Read};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::SyncSender;
+use std::thread::{self, JoinHandle};
+use std::time::Duration;
+
+use super::{HostClock, LiveInput};
+use crate::csi::intel5300::{CsiRecord, Event, MacAddress, Skip, StreamDecoder};
+
+/// How often blocked reads and the accept loop look at the stop flag.
+const POLL: Duration = Duration::from_millis(50);
+/// Read size per call.
+const CHUNK: usize = 1 << 16;
+
+/// What a CSI connection reports.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CsiEvent {
+    /// A logger connected.
+    Connected {
+        /// The connection's number (from 0, in the order they came).
+        conn: u64,
+        /// Its address.
+        peer: SocketAddr,
+    },
+    /// A CSI record.
+    Record {
+        /// The connection it came on.
+        conn: u64,
+        /// The record, its timestamp the NIC's clock unwrapped by this connection's decoder.
+        record: Box<CsiRecord>,
+        /// The transmitter named by the frame record before it, if any.
+        transmitter: Option<MacAddress>,
+        /// Host time it arrived, ns ([`HostClock`]).
+        arrival_ns: i64,
+    },
+    /// Bytes the decoder skipped (garbage, non-CSI records, a cut record).
+    Skipped {
+        /// The connection.
+        conn: u64,
+        /// What and why.
+        skip: Skip,
+    },
+    /// The connection ended.
+    Disconnected {
+        /// The connection.
+        conn: u64,
+        /// Why (`"closed by the peer"`, or the I/O error).
+        reason: String,
+    },
+}
+
+/// A listening CSI server; dropping it does not stop it: set the stop flag.
+#[derive(Debug)]
+pub struct CsiServer {
+    /// The address it listens on (the port chosen by the system when 0 was asked).
+    pub local_addr: SocketAddr,
+    /// The accept loop's thread.
+    pub thread: JoinHandle<()>,
+}
+
+impl CsiServer {
+    /// Binds `addr` (a failure is returned at once: a busy port is an error before any work) and
+    /// serves connections until `stop` is set, sending their events to `tx`.
+    pub fn spawn(
+        addr: SocketAddr,
+        tx: SyncSender<LiveInput>,
+        clock: HostClock,
+        stop: Arc<AtomicBool>,
+    ) -> io::Result<Self> {
+        let listener = TcpListener::bind(addr)?;
+        listener.set_nonblocking(true)?;
+        let local_addr = listener.local_addr()?;
+        let thread = thread::Builder::new()
+            .name("csi-accept".into())
+            .spawn(move || accept_loop(&listener, &tx, clock, &stop))?;
+        Ok(Self { local_addr, thread })
+    }
+}
+
+fn accept_loop(
+    listener: &TcpListener,
+    tx: &SyncSender<LiveInput>,
+    clock: HostClock,
+    stop: &Arc<AtomicBool>,
+) {
+    let mut next_conn = 0u64;
+    let mut workers: Vec<JoinHandle<()>> = Vec::new();
+    while !stop.load(Ordering::Relaxed) {
+        match listener.accept() {
+            Ok((stream, peer)) => {
+                let conn = next_conn;
+                next_conn += 1;
+                if tx
+                    .send(LiveInput::Csi(CsiEvent::Connected { conn, peer }))
+                    .is_err()
+                {
+                    return;
+                }
+                let (worker_tx, worker_stop) = (tx.clone(), Arc::clone(stop));
+                let spawned = thread::Builder::new()
+                    .name(format!("csi-{conn}"))
+                    .spawn(move || serve(conn, stream, &worker_tx, clock, &worker_stop));
+                match spawned {
+                    Ok(h) => workers.push(h),
+                    Err(e) => {
+                        let _ = tx.send(LiveInput::Csi(CsiEvent::Disconnected {
+                            conn,
+                            reason: format!("no thread for the connection: {e}"),
+                        }));
+                    }
+                }
+                workers.retain(|h| !h.is_finished());
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => thread::sleep(POLL),
+            Err(_) => thread::sleep(POLL),
+        }
+    }
+    for h in workers {
+        let _ = h.join();
+    }
+}
+
+/// Reads one connection to its end, or until `stop`.
+fn serve(
+    conn: u64,
+    mut stream: TcpStream,
+    tx: &SyncSender<LiveInput>,
+    clock: HostClock,
+    stop: &AtomicBool,
+) {
+    let mut decoder = StreamDecoder::new();
+    let mut buf = vec![0u8; CHUNK];
+    let reason = match stream
+        .set_nonblocking(false)
+        .and_then(|()| stream.set_read_timeout(Some(POLL)))
+    {
+        Err(e) => e.to_string(),
+        Ok(()) => loop {
+            if stop.load(Ordering::Relaxed) {
+                break "stopped".to_string();
+            }
+            match stream.read(&mut buf) {
+                Ok(0) => break "closed by the peer".to_string(),
+                Ok(n) => {
+                    let arrival_ns = clock.now_ns();
+                    decoder.push(buf.get(..n).unwrap_or_default());
+                    if !drain(conn, &mut decoder, tx, arrival_ns) {
+                        return;
+                    }
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock
+                            | io::ErrorKind::TimedOut
+                            | io::ErrorKind::Interrupted
+                    ) => {}
+                Err(e) => break e.to_string(),
+            }
+        },
+    };
+    decoder.finish();
+    if drain(conn, &mut decoder, tx, clock.now_ns()) {
+        let _ = tx.send(LiveInput::Csi(CsiEvent::Disconnected { conn, reason }));
+    }
+}
+
+/// Sends every decoded event; `false` when the session has gone.
+fn drain(
+    conn: u64,
+    decoder: &mut StreamDecoder,
+    tx: &SyncSender<LiveInput>,
+    arrival_ns: i64,
+) -> bool {
+    while let Some(event) = decoder.next_event() {
+        let event = match event {
+            Event::Csi(record) => CsiEvent::Record {
+                conn,
+                record,
+                transmitter: decoder.transmitter(),
+                arrival_ns,
+            },
+            Event::Skipped(skip) => CsiEvent::Skipped { conn, skip },
+        };
+        if tx.send(LiveInput::Csi(event)).is_err() {
+            return false;
+        }
+    }
+    true
+}

@@ -1,0 +1,487 @@
+//! A live session: inputs as they arrive in, frames to send out (module doc of [`super`]).
+//!
+//! Clocks. Every input carries the host time it arrived. The flight controller's IMU samples
+//! relate its clock to the host's, each NIC connection's records relate the NIC's
+//! ([`ClockSync`]: offset and drift through the lower envelope of the arrival delays), so a CSI
+//! record's time on the flight controller's clock is `fc(host(nic time))`, in whole
+//! microseconds. The pipeline, the trajectory and the messages sent all run on the flight
+//! controller's clock. A record that maps further than `max_clock_jump_s` from the flight
+//! controller's present means the NIC's clock jumped (a driver reload): its relation starts over
+//! and the event is counted.
+//!
+//! Order. An input is released to the pipeline once every stream has passed its time (the IMU
+//! and every connected NIC), or `max_latency_ms` after its time, whichever comes first
+//! ([`super::merge`]); one that arrives after that is counted late and dropped.
+//!
+//! AP. A record's AP is the rig's AP whose `mac` is the transmitter named by the frame record
+//! before it ([`ApBy::Transmitter`]), or the only AP ([`ApBy::Single`]); a record whose AP cannot
+//! be told is counted and left out.
+
+use std::collections::HashMap;
+
+use serde::Serialize;
+
+use super::clock::ClockSync;
+use super::merge::{Merged, Merger};
+use super::recorder::Recorder;
+use super::{ApBy, CsiEvent, FcEvent, LiveInput};
+use crate::csi::intel5300::MacAddress;
+use crate::fusion::estimator::PoseEstimate;
+use crate::pipeline::{ChainResolver, Config, PipelineError, Released};
+use crate::rig::Rig;
+use crate::time::Timestamp;
+
+/// Why a session cannot go on.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The pipeline refused to start or failed.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    /// The rig and the settings do not fit together.
+    #[error("{0}")]
+    Setup(String),
+    /// Writing the recording failed.
+    #[error("writing the recording: {0}")]
+    Record(#[from] std::io::Error),
+}
+
+/// Counts of everything a session saw, skipped and sent (`stats.json`'s `live`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LiveStats {
+    /// IMU samples received.
+    pub imu_received: u64,
+    /// IMU samples whose time went backwards or jumped (a flight controller reboot): dropped.
+    pub imu_time_jumps: u64,
+    /// Barometer readings received.
+    pub baro_received: u64,
+    /// Messages from the flight controller whose values could not be used.
+    pub fc_refused: u64,
+    /// Read or decode errors on the flight controller's link.
+    pub fc_link_errors: u64,
+    /// CSI connections accepted.
+    pub csi_connections: u64,
+    /// CSI connections that ended.
+    pub csi_disconnects: u64,
+    /// CSI records received.
+    pub csi_records: u64,
+    /// Stretches of bytes the CSI decoder skipped (garbage, non-CSI records other than the
+    /// frame records before CSI records, cut records).
+    pub csi_skips: u64,
+    /// Their bytes.
+    pub csi_skipped_bytes: u64,
+    /// 0xC1 frame records (they name the next record's transmitter).
+    pub csi_frame_records: u64,
+    /// Records without a frame record naming their transmitter (with `ap_by = "transmitter"`).
+    pub csi_no_transmitter: u64,
+    /// Records from a transmitter no AP of the rig has.
+    pub csi_unknown_transmitter: u64,
+    /// Records that came before the flight controller's clock was known.
+    pub csi_before_fc_clock: u64,
+    /// NIC clock jumps (the relation started over).
+    pub nic_clock_jumps: u64,
+    /// Inputs that came later than `max_latency_ms` after their time: dropped.
+    pub late: u64,
+    /// CSI records handed to the pipeline, per AP.
+    pub csi_used_per_ap: Vec<u64>,
+    /// Frames the pipeline solved.
+    pub frames: u64,
+    /// Converged frames.
+    pub frames_converged: u64,
+    /// Times the estimate restarted (each bumps the `reset_counter` sent).
+    pub restarts: u64,
+}
+
+/// How old a frame may be, behind the newest IMU sample, to be sent, ns.
+pub const FRESH_NS: i64 = 250_000_000;
+
+/// A frame to send, with what the message needs beside the pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LiveFrame {
+    /// The pose, on the flight controller's clock.
+    pub pose: PoseEstimate,
+    /// Bumped at every restart of the estimate (wraps at 256, as the message's field).
+    pub reset_counter: u8,
+    /// Whether it is new enough to be worth sending: at most [`FRESH_NS`] older than the newest
+    /// IMU sample (the frames the chain-offset resolution holds come out in a burst once it
+    /// decides; the flight controller has no use for the old ones).
+    pub fresh: bool,
+}
+
+/// The clocks as the session sees them (for the status line and `stats.json`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ClockReport {
+    /// Host time minus flight controller time, ns (`None` before the first IMU sample).
+    pub fc_offset_ns: Option<i64>,
+    /// The flight controller clock's drift against the host's, ppm.
+    pub fc_drift_ppm: Option<f64>,
+    /// Per CSI connection: host time minus NIC time, ns, and the drift, ppm.
+    pub nic: Vec<(u64, Option<i64>, Option<f64>)>,
+}
+
+/// One NIC connection's state.
+#[derive(Debug, Default)]
+struct Nic {
+    clock: ClockSync,
+    /// The last record's time on the flight controller's clock.
+    last_t: Option<Timestamp>,
+    connected: bool,
+}
+
+/// A live session (module doc).
+pub struct LiveSession {
+    max_latency_ns: i64,
+    max_jump_ns: i64,
+    ap_by: ApBy,
+    macs: Vec<Option<MacAddress>>,
+    resolver: ChainResolver,
+    fc: ClockSync,
+    nics: HashMap<u64, Nic>,
+    merger: Merger,
+    recorder: Option<Recorder>,
+    imu_last: Option<Timestamp>,
+    stats: LiveStats,
+    reset_counter: u8,
+}
+
+impl std::fmt::Debug for LiveSession {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveSession")
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl LiveSession {
+    /// A session for `rig`, whose APs have the transmitter addresses `macs` (one per AP), with
+    /// the barometer when `with_baro`; its inputs are written to `recorder` when given.
+    pub fn new(
+        config: &Config,
+        rig: Rig,
+        macs: Vec<Option<MacAddress>>,
+        with_baro: bool,
+        recorder: Option<Recorder>,
+    ) -> Result<Self, SessionError> {
+        let live = &config.live;
+        let n = rig.ap_names.len();
+        if macs.len() != n {
+            return Err(SessionError::Setup(format!(
+                "{} transmitter addresses for {n} APs",
+                macs.len()
+            )));
+        }
+        match live.ap_by {
+            ApBy::Single if n != 1 => {
+                return Err(SessionError::Setup(format!(
+                    "live.ap_by = \"single\" needs a rig with one AP; it has {n}"
+                )));
+            }
+            ApBy::Transmitter if macs.iter().any(Option::is_none) => {
+                let missing: Vec<&str> = rig
+                    .ap_names
+                    .iter()
+                    .zip(&macs)
+                    .filter(|(_, m)| m.is_none())
+                    .map(|(name, _)| name.as_str())
+                    .collect();
+                return Err(SessionError::Setup(format!(
+                    "live.ap_by = \"transmitter\" needs every AP's mac in the rig's dataset.toml; \
+                     missing for {}",
+                    missing.join(", ")
+                )));
+            }
+            _ => {}
+        }
+        let resolver = ChainResolver::new(config, rig, with_baro)?;
+        Ok(Self {
+            max_latency_ns: (live.max_latency_ms * 1e6).round() as i64,
+            max_jump_ns: (live.max_clock_jump_s * 1e9).round() as i64,
+            ap_by: live.ap_by,
+            macs,
+            resolver,
+            fc: ClockSync::default(),
+            nics: HashMap::new(),
+            merger: Merger::new(),
+            recorder,
+            imu_last: None,
+            stats: LiveStats {
+                csi_used_per_ap: vec![0; n],
+                ..LiveStats::default()
+            },
+            reset_counter: 0,
+        })
+    }
+
+    /// Takes one input (nothing reaches the pipeline before [`advance`](Self::advance)).
+    pub fn handle(&mut self, input: LiveInput) {
+        match input {
+            LiveInput::Fc(event) => self.handle_fc(event),
+            LiveInput::Csi(event) => self.handle_csi(event),
+        }
+    }
+
+    fn handle_fc(&mut self, event: FcEvent) {
+        match event {
+            FcEvent::Imu { sample, arrival_ns } => {
+                self.stats.imu_received += 1;
+                let t = sample.t;
+                if self.imu_last.is_some_and(|last| {
+                    t <= last || t.as_nanos().saturating_sub(last.as_nanos()) > self.max_jump_ns
+                }) {
+                    self.stats.imu_time_jumps += 1;
+                    return;
+                }
+                self.fc.push(t.as_nanos(), arrival_ns);
+                self.imu_last = Some(t);
+                self.push_merged(Merged::Imu(sample));
+            }
+            FcEvent::Baro {
+                t,
+                altitude_m,
+                arrival_ns: _,
+            } => {
+                self.stats.baro_received += 1;
+                self.push_merged(Merged::Baro { t, altitude_m });
+            }
+            FcEvent::Refused(_) => self.stats.fc_refused += 1,
+            FcEvent::LinkError(_) => self.stats.fc_link_errors += 1,
+        }
+    }
+
+    fn handle_csi(&mut self, event: CsiEvent) {
+        match event {
+            CsiEvent::Connected { conn, .. } => {
+                self.stats.csi_connections += 1;
+                self.nics.insert(
+                    conn,
+                    Nic {
+                        connected: true,
+                        ..Nic::default()
+                    },
+                );
+            }
+            CsiEvent::Disconnected { conn, .. } => {
+                self.stats.csi_disconnects += 1;
+                self.nics.remove(&conn);
+            }
+            CsiEvent::Skipped { skip, .. } => {
+                if matches!(
+                    skip.reason,
+                    crate::csi::intel5300::SkipReason::NonCsi {
+                        code: crate::csi::intel5300::CODE_FRAME
+                    }
+                ) {
+                    self.stats.csi_frame_records += 1;
+                } else {
+                    self.stats.csi_skips += 1;
+                    self.stats.csi_skipped_bytes += skip.len;
+                }
+            }
+            CsiEvent::Record {
+                conn,
+                record,
+                transmitter,
+                arrival_ns,
+            } => {
+                self.stats.csi_records += 1;
+                let Some(ap) = self.ap_of(transmitter) else {
+                    return;
+                };
+                let Some(t) = self.csi_time(conn, record.timestamp.as_nanos(), arrival_ns) else {
+                    self.stats.csi_before_fc_clock += 1;
+                    return;
+                };
+                if let Some(nic) = self.nics.get_mut(&conn) {
+                    nic.last_t = Some(nic.last_t.map_or(t, |l| l.max(t)));
+                }
+                self.push_merged(Merged::Csi { ap, t, record });
+            }
+        }
+    }
+
+    /// The AP of a record from `transmitter`, or `None` (counted).
+    fn ap_of(&mut self, transmitter: Option<MacAddress>) -> Option<usize> {
+        match self.ap_by {
+            ApBy::Single => Some(0),
+            ApBy::Transmitter => {
+                let Some(tx) = transmitter else {
+                    self.stats.csi_no_transmitter += 1;
+                    return None;
+                };
+                let ap = self.macs.iter().position(|m| *m == Some(tx));
+                if ap.is_none() {
+                    self.stats.csi_unknown_transmitter += 1;
+                }
+                ap
+            }
+        }
+    }
+
+    /// A record's time on the flight controller's clock, whole µs, from its NIC time and
+    /// arrival (module doc); `None` before the flight controller's clock is known.
+    fn csi_time(&mut self, conn: u64, nic_ns: i64, arrival_ns: i64) -> Option<Timestamp> {
+        let fc_now = self.fc.to_remote(arrival_ns)?;
+        let nic = self.nics.entry(conn).or_default();
+        nic.clock.push(nic_ns, arrival_ns);
+        let mut t = nic.clock.to_host(nic_ns).and_then(|h| self.fc.to_remote(h))?;
+        if (t - fc_now).abs() > self.max_jump_ns {
+            self.stats.nic_clock_jumps += 1;
+            nic.clock.reset();
+            nic.clock.push(nic_ns, arrival_ns);
+            t = nic.clock.to_host(nic_ns).and_then(|h| self.fc.to_remote(h))?;
+        }
+        Some(Timestamp(t.div_euclid(1000) * 1000))
+    }
+
+    fn push_merged(&mut self, input: Merged) {
+        if !self.merger.push(input) {
+            self.stats.late += 1;
+        }
+    }
+
+    /// Releases what every stream has passed, or what is `max_latency_ms` old at host time
+    /// `host_now_ns`, to the pipeline; returns the frames it solved.
+    pub fn advance(&mut self, host_now_ns: i64) -> Result<Vec<LiveFrame>, SessionError> {
+        let Some(fc_now) = self.fc.to_remote(host_now_ns) else {
+            return Ok(Vec::new());
+        };
+        let mut watermark = Timestamp(fc_now.saturating_sub(self.max_latency_ns));
+        // Every stream has passed: the IMU and each connected NIC that has sent anything.
+        let mut passed = self.imu_last;
+        for nic in self.nics.values().filter(|n| n.connected) {
+            if let Some(t) = nic.last_t {
+                passed = passed.map(|p| p.min(t));
+            }
+        }
+        if let Some(p) = passed {
+            watermark = watermark.max(p);
+        }
+        let inputs = self.merger.release(watermark);
+        self.feed(inputs)
+    }
+
+    /// Feeds released inputs to the pipeline (and the recording).
+    fn feed(&mut self, inputs: Vec<Merged>) -> Result<Vec<LiveFrame>, SessionError> {
+        let mut frames = Vec::new();
+        for input in inputs {
+            if let Some(r) = &mut self.recorder {
+                r.record(&input)?;
+            }
+            let released = match &input {
+                Merged::Imu(s) => self.resolver.push_imu(s)?,
+                Merged::Baro { t, altitude_m } => self.resolver.push_baro(*t, *altitude_m)?,
+                Merged::Csi { ap, t, record } => {
+                    if let Some(n) = self.stats.csi_used_per_ap.get_mut(*ap) {
+                        *n += 1;
+                    }
+                    self.resolver.push_csi(*ap, *t, record)?
+                }
+            };
+            self.take(released, &mut frames);
+        }
+        Ok(frames)
+    }
+
+    fn take(&mut self, released: Released, frames: &mut Vec<LiveFrame>) {
+        let restarts = self.resolver.decided_stats().map_or(0, |s| s.restarts);
+        emit(
+            &mut self.stats,
+            &mut self.reset_counter,
+            self.imu_last,
+            released,
+            restarts,
+            frames,
+        );
+    }
+
+    /// The end: everything held goes to the pipeline, which finishes; the recording is closed.
+    /// Returns the last frames and the statistics.
+    pub fn finish(mut self) -> Result<(Vec<LiveFrame>, LiveStats), SessionError> {
+        let rest = self.merger.drain();
+        let mut frames = self.feed(rest)?;
+        let done = self.resolver.finish()?;
+        let restarts = done.pipeline.wins().stats().restarts;
+        emit(
+            &mut self.stats,
+            &mut self.reset_counter,
+            self.imu_last,
+            done.released,
+            restarts,
+            &mut frames,
+        );
+        if let Some(r) = self.recorder.take() {
+            r.finish()?;
+        }
+        Ok((frames, self.stats))
+    }
+
+    /// The counts so far.
+    pub fn stats(&self) -> &LiveStats {
+        &self.stats
+    }
+
+    /// The clocks now.
+    pub fn clocks(&self) -> ClockReport {
+        let mut nic: Vec<(u64, Option<i64>, Option<f64>)> = self
+            .nics
+            .iter()
+            .map(|(c, n)| (*c, n.clock.offset_ns(), n.clock.drift_ppm()))
+            .collect();
+        nic.sort_by_key(|n| n.0);
+        ClockReport {
+            fc_offset_ns: self.fc.offset_ns(),
+            fc_drift_ppm: self.fc.drift_ppm(),
+            nic,
+        }
+    }
+
+    /// The newest IMU time.
+    pub fn imu_last(&self) -> Option<Timestamp> {
+        self.imu_last
+    }
+
+    /// The flight controller's clock at host time `host_ns`, once known.
+    pub fn fc_time(&self, host_ns: i64) -> Option<Timestamp> {
+        self.fc.to_remote(host_ns).map(Timestamp)
+    }
+
+    /// Host time of flight controller time `t`, once known.
+    pub fn host_time(&self, t: Timestamp) -> Option<i64> {
+        self.fc.to_host(t.as_nanos())
+    }
+
+    /// Inputs waiting in the merger.
+    pub fn held(&self) -> usize {
+        self.merger.held()
+    }
+
+    /// The recording's folder, when recording.
+    pub fn recording(&self) -> Option<&std::path::Path> {
+        self.recorder.as_ref().map(Recorder::dir)
+    }
+}
+
+/// Counts the released frames and appends them to `frames`, the reset counter bumped by the
+/// restarts since the last call (`restarts` is the estimator's running count).
+fn emit(
+    stats: &mut LiveStats,
+    reset_counter: &mut u8,
+    imu_last: Option<Timestamp>,
+    released: Released,
+    restarts: u64,
+    frames: &mut Vec<LiveFrame>,
+) {
+    if restarts > stats.restarts {
+        *reset_counter = reset_counter.wrapping_add((restarts - stats.restarts) as u8);
+        stats.restarts = restarts;
+    }
+    let newest = imu_last.unwrap_or(Timestamp(i64::MIN));
+    for pose in released.frames {
+        stats.frames += 1;
+        stats.frames_converged += u64::from(pose.converged);
+        frames.push(LiveFrame {
+            fresh: newest.as_nanos().saturating_sub(pose.t.as_nanos()) <= FRESH_NS,
+            pose,
+            reset_counter: *reset_counter,
+        });
+    }
+}

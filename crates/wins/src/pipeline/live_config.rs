@@ -1,0 +1,129 @@
+//! The `[live]` settings of the configuration tree (used by [`crate::live`]): where `wins live` listens, what it sends back, and how long it waits
+//! for late inputs (docs/CONFIG.md `[live]`; the shipped example is `configs/live.toml`).
+
+use serde::{Deserialize, Serialize};
+
+use crate::check::Problems;
+
+/// How a CSI record is told to come from one AP of the rig.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ApBy {
+    /// By the transmitter address of the 0xC1 frame record the logger writes ahead of it,
+    /// matched against the rig's `[[aps]] mac`; a record without one, or from an address no AP
+    /// has, is counted and left out.
+    #[default]
+    Transmitter,
+    /// Every record is the rig's only AP (a NIC that hears one AP, or a logger without frame
+    /// records); refused for a rig with more than one AP.
+    Single,
+}
+
+/// What `wins live` sends to the flight controller at every frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseMessage {
+    /// MAVLink `ODOMETRY` (#331): position, attitude, velocity, covariance, reset counter.
+    #[default]
+    Odometry,
+    /// MAVLink `VISION_POSITION_ESTIMATE` (#102), for firmware without `ODOMETRY` support.
+    VisionPositionEstimate,
+}
+
+/// Settings of `wins live` (module doc). Every one is also a command-line option.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LiveConfig {
+    /// The rig: a dataset manifest (`dataset.toml` format, docs/DATASET.md) describing the IMU,
+    /// the array and its mounting, the channel and the APs (with their `mac`); its logs and IMU
+    /// file are not read. Relative to the working directory; empty: given on the command line.
+    pub rig: String,
+    /// Where the CSI Tool's `log_to_server` connects (TCP; its conventional port is 8090).
+    pub csi_listen: String,
+    /// The flight controller's MAVLink link: `udpin:HOST:PORT` (listen and answer the peer),
+    /// `udpout:HOST:PORT`, `tcp:HOST:PORT`, `tcpin:HOST:PORT` or `serial:DEVICE:BAUD`.
+    pub mavlink: String,
+    /// How a CSI record's AP is told.
+    pub ap_by: ApBy,
+    /// The message sent at every frame.
+    pub message: PoseMessage,
+    /// MAVLink system id of what wins sends (the vehicle's, usually 1).
+    pub system_id: u8,
+    /// MAVLink component id (197: `MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY`).
+    pub component_id: u8,
+    /// How long an input may arrive after its own time and still be used, ms: inputs are merged
+    /// in time order, and a stream is waited for this long before the others pass it. The poses
+    /// leave this much behind the flight (set the flight controller's vision delay to it plus
+    /// the link's latency).
+    pub max_latency_ms: f64,
+    /// A CSI record whose time lies further than this from the IMU's is dropped and counted (a
+    /// NIC clock jump, or a stream from another flight), s.
+    pub max_clock_jump_s: f64,
+    /// Seconds between status lines on stderr (0: none).
+    pub status_interval_s: f64,
+    /// Stop by itself after this many seconds without any input, once inputs came (0: run until
+    /// interrupted).
+    pub idle_exit_s: f64,
+    /// Use the barometer (`HIGHRES_IMU`'s pressure, or `SCALED_PRESSURE`).
+    pub barometer: bool,
+    /// `RAW_IMU` accelerometer scale, m/s² per count (0: `RAW_IMU` is refused, it has no units).
+    pub raw_accel_m_s2_per_count: f64,
+    /// `RAW_IMU` gyroscope scale, rad/s per count (0: refused likewise).
+    pub raw_gyro_rad_s_per_count: f64,
+    /// Write every input as a dataset folder (`recording/` in the output) that `wins run` replays.
+    pub record: bool,
+}
+
+impl Default for LiveConfig {
+    fn default() -> Self {
+        Self {
+            rig: String::new(),
+            csi_listen: "0.0.0.0:8090".into(),
+            mavlink: "udpin:0.0.0.0:14540".into(),
+            ap_by: ApBy::Transmitter,
+            message: PoseMessage::Odometry,
+            system_id: 1,
+            component_id: 197,
+            max_latency_ms: 20.0,
+            max_clock_jump_s: 5.0,
+            status_interval_s: 1.0,
+            idle_exit_s: 0.0,
+            barometer: false,
+            raw_accel_m_s2_per_count: 0.0,
+            raw_gyro_rad_s_per_count: 0.0,
+            record: true,
+        }
+    }
+}
+
+impl LiveConfig {
+    /// Every setting out of its range, keys prefixed with `prefix`.
+    pub fn problems(&self, prefix: &str) -> Problems {
+        let mut p = Problems::new();
+        p.in_range(prefix, "max_latency_ms", self.max_latency_ms, 0.0, 2000.0);
+        p.in_range(prefix, "max_clock_jump_s", self.max_clock_jump_s, 0.01, 3600.0);
+        p.in_range(prefix, "status_interval_s", self.status_interval_s, 0.0, 3600.0);
+        p.in_range(prefix, "idle_exit_s", self.idle_exit_s, 0.0, 86_400.0);
+        p.in_range(
+            prefix,
+            "raw_accel_m_s2_per_count",
+            self.raw_accel_m_s2_per_count,
+            0.0,
+            1.0,
+        );
+        p.in_range(
+            prefix,
+            "raw_gyro_rad_s_per_count",
+            self.raw_gyro_rad_s_per_count,
+            0.0,
+            1.0,
+        );
+        p.require(
+            self.csi_listen.parse::<std::net::SocketAddr>().is_ok(),
+            prefix,
+            "csi_listen",
+            format!("{:?} is not HOST:PORT (an IP address and a port)", self.csi_listen),
+        );
+        p
+    }
+}
