@@ -19,7 +19,9 @@ pub mod clock;
 pub mod csi_server;
 pub mod mavlink;
 pub mod merge;
+pub mod player;
 pub mod recorder;
+pub mod run;
 pub mod session;
 
 use std::time::Instant;

@@ -83,7 +83,8 @@ pub struct RunStats<'a> {
     pub warnings: &'a [String],
 }
 
-fn pose_of(p: &PoseEstimate) -> Pose {
+/// A frame's pose.
+pub(crate) fn pose_of(p: &PoseEstimate) -> Pose {
     Pose {
         t: p.t,
         p_b_in_w: p.p_b_in_w,

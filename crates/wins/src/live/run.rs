@@ -1,0 +1,586 @@
+//! `wins live` wired together: the links' threads, the session, the outputs, the status line.
+//!
+//! Output folder (which must not exist, or be empty):
+//! - `trajectory.tum`: every converged frame, flight controller time, world frame `w` (z up);
+//! - `stats.json`: the session's counts ([`LiveStats`]), the flight controller link's
+//!   ([`InboundStats`]), the clocks and the latency of the poses sent;
+//! - `config.toml`: the settings in effect (give it to `wins run --config` with the recording);
+//! - `recording/`: every input as a dataset (when `live.record`).
+//!
+//! Every file is flushed when the run stops (the stop flag, set by Ctrl-C in the binary, or
+//! `live.idle_exit_s` without input).
+
+use std::fs::{self, File};
+use std::io::{self, BufWriter, Write};
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::Duration;
+
+use ::mavlink::common::MavMessage;
+use serde::Serialize;
+
+use super::csi_server::CsiServer;
+use super::mavlink::inbound::{InboundConfig, InboundDecoder, InboundStats, RawImuScale};
+use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
+use super::mavlink::outbound::{OdometryExtras, odometry, vision_position_estimate};
+use super::recorder::Recorder;
+use super::session::{ClockReport, LiveFrame, LiveSession, LiveStats, SessionError};
+use super::{FcEvent, HostClock, LiveInput, PoseMessage};
+use crate::dataset::load::read_manifest;
+use crate::dataset::truth::{write_tum_header, write_tum_pose};
+use crate::fusion::estimator::PoseEstimate;
+use crate::pipeline::Config;
+use crate::pipeline::output::pose_of;
+use crate::pipeline::replay::rig_of_manifest;
+use crate::rig::ChainCalibration;
+
+/// Capacity of the inputs' channel (about 10 s of a 200 Hz IMU and two 100 packet/s APs):
+/// beyond it the links wait, and the TCP stream backs up to the logger.
+const CHANNEL: usize = 4096;
+/// The loop's longest sleep waiting for inputs.
+const TICK: Duration = Duration::from_millis(2);
+/// 1σ of position at which `quality` is 37 (it falls as `exp(−σ / this)`), m.
+const QUALITY_SIGMA_M: f64 = 0.5;
+
+/// Why `wins live` cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    /// A setting or the rig cannot be used.
+    #[error("{0}")]
+    Setup(String),
+    /// A file or socket failed.
+    #[error("{what}: {source}")]
+    Io {
+        /// What was being done.
+        what: String,
+        /// The cause.
+        source: io::Error,
+    },
+    /// The session failed.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+}
+
+fn io_err(what: impl Into<String>) -> impl FnOnce(io::Error) -> LiveError {
+    let what = what.into();
+    move |source| LiveError::Io { what, source }
+}
+
+/// A status line's content (the binary prints it).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LiveStatus {
+    /// The flight controller's time now, s (`None` before its first IMU sample).
+    pub fc_time_s: Option<f64>,
+    /// IMU samples per second since the last status.
+    pub imu_hz: f64,
+    /// CSI records used per second since the last status, per AP (name, rate).
+    pub packets_hz: Vec<(String, f64)>,
+    /// Poses sent per second since the last status.
+    pub poses_hz: f64,
+    /// Whether the last frame was converged.
+    pub converged: bool,
+    /// The clocks.
+    pub clocks: ClockReport,
+    /// Median and 99th percentile of the poses' age when sent (host time of sending minus the
+    /// pose's time), ms, since the last status.
+    pub latency_ms: Option<(f64, f64)>,
+    /// Every count so far.
+    pub stats: LiveStats,
+}
+
+impl std::fmt::Display for LiveStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.fc_time_s {
+            Some(t) => write!(f, "t {t:.1} s")?,
+            None => write!(f, "waiting for the flight controller's IMU")?,
+        }
+        write!(f, " | IMU {:.0} Hz |", self.imu_hz)?;
+        for (name, hz) in &self.packets_hz {
+            write!(f, " {name} {hz:.0} pkt/s")?;
+        }
+        if let Some(o) = self.clocks.fc_offset_ns {
+            write!(f, " | fc clock {:+.3} s", o as f64 * 1e-9)?;
+        }
+        for (conn, offset, drift) in &self.clocks.nic {
+            if let (Some(o), Some(d)) = (offset, drift) {
+                write!(f, " nic{conn} {:+.3} s {d:+.0} ppm", *o as f64 * 1e-9)?;
+            }
+        }
+        let state = if self.converged {
+            "converged"
+        } else {
+            "not converged"
+        };
+        write!(f, " | {state}, {:.0} poses/s", self.poses_hz)?;
+        if let Some((p50, p99)) = self.latency_ms {
+            write!(f, " | latency {p50:.1}/{p99:.1} ms (p50/p99)")?;
+        }
+        let s = &self.stats;
+        let events = s.late
+            + s.csi_skips
+            + s.csi_no_transmitter
+            + s.csi_unknown_transmitter
+            + s.nic_clock_jumps
+            + s.imu_time_jumps
+            + s.fc_refused
+            + s.csi_disconnects;
+        if events > 0 {
+            write!(
+                f,
+                " | late {} garbage {} unknown AP {} clock jumps {} dropped links {}",
+                s.late,
+                s.csi_skips,
+                s.csi_no_transmitter + s.csi_unknown_transmitter,
+                s.nic_clock_jumps + s.imu_time_jumps,
+                s.csi_disconnects
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Where `wins live` reads and writes.
+#[derive(Clone, Debug)]
+pub struct LiveOptions {
+    /// The rig's dataset folder (its `dataset.toml` and calibration).
+    pub rig_dir: PathBuf,
+    /// The output folder.
+    pub out: PathBuf,
+}
+
+/// What a live run leaves (`stats.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct LiveSummary {
+    /// The session's counts.
+    pub live: LiveStats,
+    /// The flight controller link's counts.
+    pub mavlink_in: InboundStats,
+    /// Poses sent to the flight controller.
+    pub poses_sent: u64,
+    /// Poses that could not be sent (the link failed, or a pose not finite).
+    pub poses_not_sent: u64,
+    /// The clocks at the end.
+    pub clocks: ClockReport,
+    /// Median and 99th percentile of the poses' age when sent, ms, over the whole run.
+    pub latency_ms: Option<(f64, f64)>,
+    /// The CSI server's address.
+    pub csi_listen: String,
+    /// The recording, when made.
+    pub recording: Option<PathBuf>,
+}
+
+/// Runs `wins live` until `stop` is set (or the idle limit), calling `on_status` every
+/// `live.status_interval_s`.
+pub fn run_live(
+    config: &Config,
+    options: &LiveOptions,
+    stop: &Arc<AtomicBool>,
+    on_status: &mut dyn FnMut(&LiveStatus),
+) -> Result<LiveSummary, LiveError> {
+    let live = &config.live;
+    config
+        .validate()
+        .map_err(|e| LiveError::Setup(e.to_string()))?;
+    // Everything that can fail does so before any socket opens.
+    let manifest = read_manifest(&options.rig_dir).map_err(|e| LiveError::Setup(e.to_string()))?;
+    let calibration = match &manifest.array.calibration {
+        Some(file) => Some(
+            ChainCalibration::load(&options.rig_dir.join(file))
+                .map_err(|e| LiveError::Setup(e.to_string()))?,
+        ),
+        None => None,
+    };
+    let rig = rig_of_manifest(&manifest, calibration.as_ref(), None, None)
+        .map_err(|e| LiveError::Setup(e.to_string()))?;
+    let macs = manifest
+        .aps
+        .iter()
+        .map(|a| a.mac_address())
+        .collect::<Result<Vec<_>, String>>()
+        .map_err(LiveError::Setup)?;
+    let url: MavlinkUrl = live
+        .mavlink
+        .parse()
+        .map_err(|e| LiveError::Setup(format!("live.mavlink: {e}")))?;
+    let csi_addr: SocketAddr = live
+        .csi_listen
+        .parse()
+        .map_err(|_| LiveError::Setup(format!("live.csi_listen {:?}", live.csi_listen)))?;
+    prepare_out(&options.out, &options.rig_dir)?;
+    let with_baro = live.barometer && config.pipeline.use_barometer;
+    let recorder = match live.record {
+        true => Some(
+            Recorder::create(
+                &options.out.join("recording"),
+                &options.rig_dir,
+                &manifest,
+                &macs,
+                with_baro,
+            )
+            .map_err(io_err("creating the recording"))?,
+        ),
+        false => None,
+    };
+    let names = rig.ap_names.clone();
+    let mut session = LiveSession::new(config, rig, macs, with_baro, recorder)?;
+    let config_text = toml::to_string(config).map_err(|e| LiveError::Setup(e.to_string()))?;
+    fs::write(options.out.join("config.toml"), config_text)
+        .map_err(io_err("writing config.toml"))?;
+    let mut tum = BufWriter::new(
+        File::create(options.out.join("trajectory.tum"))
+            .map_err(io_err("creating trajectory.tum"))?,
+    );
+    write_tum_header(&mut tum).map_err(io_err("writing trajectory.tum"))?;
+
+    let clock = HostClock::new();
+    let (tx, rx) = mpsc::sync_channel(CHANNEL);
+    let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop))
+        .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
+    let link = Arc::new(open(&url, live.system_id, live.component_id).map_err(|e| {
+        LiveError::Io {
+            what: format!("opening the MAVLink link {}", live.mavlink),
+            source: io::Error::other(e.to_string()),
+        }
+    })?);
+    let inbound = Arc::new(Mutex::new(InboundDecoder::new(inbound_config(config))));
+    spawn_mavlink_reader(&link, &inbound, tx, clock, stop)?;
+
+    let mut out = Outputs {
+        link: &link,
+        message: live.message,
+        tum,
+        sent: 0,
+        not_sent: 0,
+        ages: Histogram::default(),
+        window_ages_ms: Vec::new(),
+        converged: false,
+    };
+    let run = Loop {
+        rx: &rx,
+        clock,
+        status_every_ns: (live.status_interval_s * 1e9) as i64,
+        idle_exit_ns: (live.idle_exit_s * 1e9) as i64,
+        names: &names,
+    };
+    run.go(&mut session, &mut out, stop, on_status)?;
+    stop.store(true, Ordering::Relaxed);
+    let clocks = session.clocks();
+    let recording = session.recording().map(Path::to_path_buf);
+    let (frames, stats) = session.finish()?;
+    for f in frames {
+        out.frame(&f, None)?;
+    }
+    out.tum.flush().map_err(io_err("writing trajectory.tum"))?;
+    let _ = server.thread.join();
+    let mavlink_in = inbound.lock().map(|d| *d.stats()).unwrap_or_default();
+    let summary = LiveSummary {
+        live: stats,
+        mavlink_in,
+        poses_sent: out.sent,
+        poses_not_sent: out.not_sent,
+        clocks,
+        latency_ms: out.ages.percentiles(),
+        csi_listen: server.local_addr.to_string(),
+        recording,
+    };
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| LiveError::Io {
+        what: "writing stats.json".into(),
+        source: io::Error::other(e),
+    })?;
+    fs::write(options.out.join("stats.json"), json).map_err(io_err("writing stats.json"))?;
+    Ok(summary)
+}
+
+/// The output folder: refused when it is, or lies inside, the rig's folder, or holds files.
+fn prepare_out(out: &Path, rig_dir: &Path) -> Result<(), LiveError> {
+    crate::io_safety::refuse_overlap(out, &[rig_dir])
+        .map_err(|e| LiveError::Setup(e.to_string()))?;
+    if out.exists() {
+        let mut entries = fs::read_dir(out).map_err(io_err(format!("reading {}", out.display())))?;
+        if entries.next().is_some() {
+            return Err(LiveError::Setup(format!(
+                "the output folder {} is not empty: a live run writes into a new folder",
+                out.display()
+            )));
+        }
+    }
+    fs::create_dir_all(out).map_err(io_err(format!("creating {}", out.display())))
+}
+
+fn inbound_config(config: &Config) -> InboundConfig {
+    let live = &config.live;
+    InboundConfig {
+        raw_imu_scale: (live.raw_accel_m_s2_per_count > 0.0 && live.raw_gyro_rad_s_per_count > 0.0)
+            .then_some(RawImuScale {
+                accel_m_s2_per_count: live.raw_accel_m_s2_per_count,
+                gyro_rad_s_per_count: live.raw_gyro_rad_s_per_count,
+            }),
+        ..InboundConfig::default()
+    }
+}
+
+/// The flight controller link's reader: decodes and forwards; it ends with the process (a
+/// blocked read cannot be interrupted).
+fn spawn_mavlink_reader(
+    link: &Arc<MavlinkLink>,
+    inbound: &Arc<Mutex<InboundDecoder>>,
+    tx: SyncSender<LiveInput>,
+    clock: HostClock,
+    stop: &Arc<AtomicBool>,
+) -> Result<(), LiveError> {
+    let (link, inbound, stop) = (Arc::clone(link), Arc::clone(inbound), Arc::clone(stop));
+    thread::Builder::new()
+        .name("mavlink-in".into())
+        .spawn(move || {
+            while !stop.load(Ordering::Relaxed) {
+                let events = match link.recv() {
+                    Ok((_, message)) => decode(&inbound, &message, clock.now_ns()),
+                    Err(e) => {
+                        thread::sleep(Duration::from_millis(20));
+                        vec![FcEvent::LinkError(e.to_string())]
+                    }
+                };
+                for e in events {
+                    if tx.send(LiveInput::Fc(e)).is_err() {
+                        return;
+                    }
+                }
+            }
+        })
+        .map(|_| ())
+        .map_err(io_err("starting the MAVLink reader"))
+}
+
+fn decode(inbound: &Mutex<InboundDecoder>, message: &MavMessage, arrival_ns: i64) -> Vec<FcEvent> {
+    let Ok(mut decoder) = inbound.lock() else {
+        return Vec::new();
+    };
+    let before = decoder.stats().refused.total();
+    let got = decoder.decode(message);
+    let mut events = Vec::new();
+    if decoder.stats().refused.total() > before {
+        events.push(FcEvent::Refused(format!("{:?}", decoder.stats().refused)));
+    }
+    if let Some(sample) = got.imu {
+        events.push(FcEvent::Imu { sample, arrival_ns });
+    }
+    if let Some(b) = got.baro {
+        events.push(FcEvent::Baro {
+            t: b.t,
+            altitude_m: b.altitude_m,
+            arrival_ns,
+        });
+    }
+    events
+}
+
+/// Where frames go: the flight controller and the trajectory file.
+struct Outputs<'a> {
+    link: &'a MavlinkLink,
+    message: PoseMessage,
+    tum: BufWriter<File>,
+    sent: u64,
+    not_sent: u64,
+    ages: Histogram,
+    window_ages_ms: Vec<f64>,
+    converged: bool,
+}
+
+impl Outputs<'_> {
+    /// Writes a frame; sends it when it is fresh and `age_ms` (how old it is now) is known.
+    fn frame(&mut self, f: &LiveFrame, age_ms: Option<f64>) -> Result<(), LiveError> {
+        self.converged = f.pose.converged;
+        if !f.pose.converged {
+            return Ok(());
+        }
+        write_tum_pose(&mut self.tum, &pose_of(&f.pose)).map_err(io_err("writing trajectory.tum"))?;
+        let Some(age) = age_ms.filter(|_| f.fresh) else {
+            return Ok(());
+        };
+        match self.send(f) {
+            true => {
+                self.sent += 1;
+                self.ages.push(age);
+                self.window_ages_ms.push(age);
+            }
+            false => self.not_sent += 1,
+        }
+        Ok(())
+    }
+
+    fn send(&self, f: &LiveFrame) -> bool {
+        let extras = OdometryExtras {
+            time_usec: u64::try_from(f.pose.t.as_nanos() / 1000).unwrap_or(0),
+            reset_counter: f.reset_counter,
+            quality: quality(&f.pose),
+            angular_velocity_rad_s: None,
+            velocity_covariance_in_w: None,
+        };
+        let message = match self.message {
+            PoseMessage::Odometry => odometry(&f.pose, &extras).map(MavMessage::ODOMETRY),
+            PoseMessage::VisionPositionEstimate => {
+                vision_position_estimate(&f.pose, &extras).map(MavMessage::VISION_POSITION_ESTIMATE)
+            }
+        };
+        message.is_ok_and(|m| self.link.send(&m).is_ok())
+    }
+}
+
+/// `quality` of a converged pose: 100·exp(−σ_p / [`QUALITY_SIGMA_M`]), σ_p the RMS of the
+/// position's 1σ over the axes, at least 1 (0 is "unknown" to the flight controller).
+pub fn quality(pose: &PoseEstimate) -> i8 {
+    let Some(c) = &pose.covariance else {
+        return 0;
+    };
+    let sigma = ((c[(3, 3)] + c[(4, 4)] + c[(5, 5)]) / 3.0).max(0.0).sqrt();
+    if !sigma.is_finite() {
+        return 0;
+    }
+    (100.0 * (-sigma / QUALITY_SIGMA_M).exp()).round().clamp(1.0, 100.0) as i8
+}
+
+/// Ages of the poses sent over a whole run, in 0.1 ms bins up to 10 s (the memory does not
+/// grow with the run).
+#[derive(Debug)]
+struct Histogram {
+    bins: Vec<u64>,
+    count: u64,
+}
+
+impl Default for Histogram {
+    fn default() -> Self {
+        Self {
+            bins: vec![0; 100_001],
+            count: 0,
+        }
+    }
+}
+
+impl Histogram {
+    const BIN_MS: f64 = 0.1;
+
+    fn push(&mut self, ms: f64) {
+        let last = self.bins.len() - 1;
+        let i = ((ms.max(0.0) / Self::BIN_MS).round() as usize).min(last);
+        if let Some(b) = self.bins.get_mut(i) {
+            *b += 1;
+            self.count += 1;
+        }
+    }
+
+    /// Median and 99th percentile, ms (to the bin).
+    fn percentiles(&self) -> Option<(f64, f64)> {
+        if self.count == 0 {
+            return None;
+        }
+        let at = |q: f64| {
+            let rank = ((self.count - 1) as f64 * q).round() as u64;
+            let mut seen = 0;
+            for (i, n) in self.bins.iter().enumerate() {
+                seen += n;
+                if seen > rank {
+                    return i as f64 * Self::BIN_MS;
+                }
+            }
+            (self.bins.len() - 1) as f64 * Self::BIN_MS
+        };
+        Some((at(0.5), at(0.99)))
+    }
+}
+
+/// Median and 99th percentile.
+fn percentiles(values: &mut [f64]) -> Option<(f64, f64)> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let at = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
+    Some((at(0.5), at(0.99)))
+}
+
+/// The main loop's settings.
+struct Loop<'a> {
+    rx: &'a Receiver<LiveInput>,
+    clock: HostClock,
+    status_every_ns: i64,
+    idle_exit_ns: i64,
+    names: &'a [String],
+}
+
+impl Loop<'_> {
+    fn go(
+        &self,
+        session: &mut LiveSession,
+        out: &mut Outputs<'_>,
+        stop: &AtomicBool,
+        on_status: &mut dyn FnMut(&LiveStatus),
+    ) -> Result<(), LiveError> {
+        let mut last_input: Option<i64> = None;
+        let mut last_status = (self.clock.now_ns(), LiveStats::default(), 0u64);
+        while !stop.load(Ordering::Relaxed) {
+            match self.rx.recv_timeout(TICK) {
+                Ok(input) => {
+                    session.handle(input);
+                    while let Ok(more) = self.rx.try_recv() {
+                        session.handle(more);
+                    }
+                    last_input = Some(self.clock.now_ns());
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            let now = self.clock.now_ns();
+            for f in session.advance(now)? {
+                let age = session
+                    .host_time(f.pose.t)
+                    .map(|h| (self.clock.now_ns() - h) as f64 * 1e-6);
+                out.frame(&f, age)?;
+            }
+            if self.status_every_ns > 0 && now - last_status.0 >= self.status_every_ns {
+                let status = self.status(session, out, &last_status, now);
+                on_status(&status);
+                out.window_ages_ms.clear();
+                last_status = (now, session.stats().clone(), out.sent);
+            }
+            if self.idle_exit_ns > 0 && last_input.is_some_and(|t| now - t > self.idle_exit_ns) {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    fn status(
+        &self,
+        session: &LiveSession,
+        out: &mut Outputs<'_>,
+        last: &(i64, LiveStats, u64),
+        now: i64,
+    ) -> LiveStatus {
+        let dt = ((now - last.0) as f64 * 1e-9).max(1e-9);
+        let stats = session.stats().clone();
+        let packets_hz = self
+            .names
+            .iter()
+            .enumerate()
+            .map(|(l, name)| {
+                let n = stats.csi_used_per_ap.get(l).copied().unwrap_or(0);
+                let before = last.1.csi_used_per_ap.get(l).copied().unwrap_or(0);
+                (name.clone(), n.saturating_sub(before) as f64 / dt)
+            })
+            .collect();
+        LiveStatus {
+            fc_time_s: session.fc_time(now).map(|t| t.as_secs_f64()),
+            imu_hz: stats.imu_received.saturating_sub(last.1.imu_received) as f64 / dt,
+            packets_hz,
+            poses_hz: out.sent.saturating_sub(last.2) as f64 / dt,
+            converged: out.converged,
+            clocks: session.clocks(),
+            latency_ms: percentiles(&mut out.window_ages_ms),
+            stats,
+        }
+    }
+}
