@@ -90,6 +90,7 @@ pub mod eval;
 pub mod fusion;
 pub mod imu;
 pub mod io_safety;
+pub mod live;
 pub mod pipeline;
 pub mod rig;
 pub mod sim;
