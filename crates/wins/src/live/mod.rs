@@ -5,3 +5,4 @@
 //! tested without hardware.
 
 pub mod clock;
+pub mod mavlink;

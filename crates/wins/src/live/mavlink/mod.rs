@@ -1,0 +1,4 @@
+//! MAVLink with the flight controller: the connection ([`link`]), the messages read from it
+//! ([`inbound`]) and the pose sent to it ([`outbound`]).
+
+pub mod link;
