@@ -257,8 +257,8 @@ impl ClockSync {
         let mid = median(&residuals)?;
         let deviations: Vec<f64> = residuals.iter().map(|r| (r - mid).abs()).collect();
         let mad = median(&deviations)?;
-        let limit = mid
-            + (OUTLIER_SIGMAS * MAD_TO_SIGMA * mad).max(self.config.outlier_floor_ns as f64);
+        let limit =
+            mid + (OUTLIER_SIGMAS * MAD_TO_SIGMA * mad).max(self.config.outlier_floor_ns as f64);
         let kept: Vec<(f64, f64, f64)> = points
             .iter()
             .zip(&residuals)
@@ -492,7 +492,11 @@ mod tests {
         let mut sync = ClockSync::default();
         for &(r, h) in &arrivals(3, 30 * S) {
             let t = r - REMOTE0;
-            let stall = if (10 * S..12 * S).contains(&t) { 80 * MS } else { 0 };
+            let stall = if (10 * S..12 * S).contains(&t) {
+                80 * MS
+            } else {
+                0
+            };
             sync.push(r, h + stall);
         }
         for t in [5 * S, 11 * S, 29 * S] {
@@ -527,7 +531,13 @@ mod tests {
         assert_eq!(unwrap.push(start, 0).t_ns, i64::from(start) * US);
         // 10 ms later, past the wrap.
         let out = unwrap.push(start.wrapping_add(10_000), 10 * MS);
-        assert_eq!(out, Unwrapped { t_ns: (i64::from(start) + 10_000) * US, reset: false });
+        assert_eq!(
+            out,
+            Unwrapped {
+                t_ns: (i64::from(start) + 10_000) * US,
+                reset: false
+            }
+        );
         // Off for two laps and a bit (the host saw 2 laps + 1 s).
         let out = unwrap.push(start.wrapping_add(1_010_000), 10 * MS + 2 * LAP_NS + S);
         assert_eq!(out.t_ns, (i64::from(start) + 1_010_000) * US + 2 * LAP_NS);
@@ -543,7 +553,13 @@ mod tests {
         unwrap.push(base + 20_000, 20 * MS);
         // A reading 5 ms older arrives late.
         let late = unwrap.push(base + 15_000, 21 * MS);
-        assert_eq!(late, Unwrapped { t_ns: (i64::from(base) + 15_000) * US, reset: false });
+        assert_eq!(
+            late,
+            Unwrapped {
+                t_ns: (i64::from(base) + 15_000) * US,
+                reset: false
+            }
+        );
         // The counter restarts from 0: as a wrap it would mean 21 min, the host saw 10 ms.
         let out = unwrap.push(0, 31 * MS);
         assert!(out.reset);
