@@ -1,0 +1,537 @@
+//! What the flight controller sends us, decoded into our types: IMU samples and barometer
+//! readings ([`InboundDecoder::decode`]).
+//!
+//! ## Sources
+//!
+//! | message | time | IMU | pressure |
+//! |---|---|---|---|
+//! | `HIGHRES_IMU` | `time_usec`, µs | `xacc..` m/s², `xgyro..` rad/s, taken only when the six accel and gyro bits of `fields_updated` are all set | `abs_pressure`, hPa, taken when its bit is set |
+//! | `SCALED_IMU` | `time_boot_ms`, ms | mG and mrad/s | — |
+//! | `RAW_IMU` | `time_usec`, µs | raw counts × the scales of [`RawImuScale`]; refused without them | — |
+//! | `SCALED_PRESSURE` | `time_boot_ms`, ms | — | `press_abs`, hPa |
+//!
+//! Other messages (including `SCALED_IMU2/3` and `SCALED_PRESSURE2/3`, the second and third
+//! sensors) are counted as `other`.
+//!
+//! ## Frames and clocks
+//!
+//! The flight controller's body frame is FRD (x forward, y right, z down). Its accelerometer
+//! measures the specific force: at rest and level it reads z ≈ −9.81 m/s², i.e. +g along the
+//! upward direction, which is exactly what [`ImuSample::accel_m_s2`] holds. So the accelerometer
+//! and gyro vectors are passed through **unchanged**, and the estimator's body frame `b` *is* the
+//! flight controller's FRD frame (the rig's antenna extrinsic must then be given in FRD too).
+//!
+//! Times stay on the flight controller's clock, in ns (µs × 1000, ms × 10⁶); relating it to the
+//! host's clock is the driver's job ([`crate::live::clock::ClockSync`]).
+//!
+//! Nothing here panics on bad input: a non-finite or absurd value refuses the reading, counted
+//! with its reason in [`InboundStats`].
+
+use ::mavlink::dialects::common::{
+    HIGHRES_IMU_DATA, HighresImuUpdatedFlags, MavMessage, RAW_IMU_DATA, SCALED_IMU_DATA,
+    SCALED_PRESSURE_DATA,
+};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::imu::ImuSample;
+use crate::time::Timestamp;
+
+/// Standard gravity, m/s² (the `G` of the flight controller's mG).
+pub const STANDARD_GRAVITY_M_S2: f64 = 9.80665;
+/// Sea-level pressure of the standard atmosphere, Pa.
+pub const STANDARD_SEA_LEVEL_PA: f64 = 101_325.0;
+/// Sea-level temperature of the standard atmosphere, K.
+const STANDARD_SEA_LEVEL_K: f64 = 288.15;
+/// Temperature lapse rate of the standard troposphere, K/m.
+const LAPSE_RATE_K_M: f64 = 0.0065;
+/// Exponent `R·L / (g₀·M)` of the standard troposphere (R = 8.314 462 J/(mol·K), M = 0.028 964 4
+/// kg/mol).
+const BAROMETRIC_EXPONENT: f64 = 0.190_263;
+/// Pascals per hectopascal (millibar).
+const PA_PER_HPA: f64 = 100.0;
+/// Nanoseconds per microsecond and per millisecond.
+const NS_PER_US: i64 = 1_000;
+const NS_PER_MS: i64 = 1_000_000;
+
+/// Pressure altitude of the standard atmosphere (troposphere, below 11 km), m:
+///
+/// ```text
+/// h = (T₀ / L) · (1 − (p / p₀)^(R·L / (g₀·M)))
+///   = 44 330.8 m · (1 − (p / p₀)^0.190263)
+/// ```
+///
+/// with T₀ = 288.15 K, L = 0.0065 K/m and `p₀` the sea-level (or reference) pressure. Only
+/// altitude *differences* matter to the estimator (it fits a barometer offset), so `p₀` may be the
+/// standard 101 325 Pa.
+pub fn pressure_altitude_m(pressure_pa: f64, sea_level_pa: f64) -> f64 {
+    STANDARD_SEA_LEVEL_K / LAPSE_RATE_K_M
+        * (1.0 - (pressure_pa / sea_level_pa).powf(BAROMETRIC_EXPONENT))
+}
+
+/// Scales of `RAW_IMU`'s counts (they depend on the sensor and its range setting).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawImuScale {
+    /// Specific force per accelerometer count, m/s².
+    pub accel_m_s2_per_count: f64,
+    /// Angular rate per gyro count, rad/s.
+    pub gyro_rad_s_per_count: f64,
+}
+
+/// Settings of [`InboundDecoder`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InboundConfig {
+    /// Scales for `RAW_IMU`; `None` (default) refuses `RAW_IMU`, whose counts mean nothing
+    /// without them.
+    pub raw_imu_scale: Option<RawImuScale>,
+    /// Reference pressure of the altitude, Pa (default: standard sea level, 101 325 Pa).
+    pub sea_level_pa: f64,
+    /// Largest believable specific force per axis, m/s² (default 400, about 40 g: beyond any
+    /// drone IMU's range).
+    pub max_accel_m_s2: f64,
+    /// Largest believable angular rate per axis, rad/s (default 50, about 2900 °/s).
+    pub max_gyro_rad_s: f64,
+    /// Believable pressures, Pa (default 10 kPa to 120 kPa: 16 km up to well below sea level).
+    pub pressure_range_pa: (f64, f64),
+}
+
+impl Default for InboundConfig {
+    fn default() -> Self {
+        Self {
+            raw_imu_scale: None,
+            sea_level_pa: STANDARD_SEA_LEVEL_PA,
+            max_accel_m_s2: 400.0,
+            max_gyro_rad_s: 50.0,
+            pressure_range_pa: (10_000.0, 120_000.0),
+        }
+    }
+}
+
+/// A barometer reading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaroSample {
+    /// Time on the flight controller's clock.
+    pub t: Timestamp,
+    /// Absolute pressure, Pa.
+    pub pressure_pa: f64,
+    /// Pressure altitude ([`pressure_altitude_m`]), m.
+    pub altitude_m: f64,
+}
+
+/// What one message gave: `HIGHRES_IMU` can carry both an IMU sample and a pressure; most messages
+/// give neither (see [`InboundStats`] for why).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Inbound {
+    /// An IMU sample (body = the flight controller's FRD frame).
+    pub imu: Option<ImuSample>,
+    /// A barometer reading.
+    pub baro: Option<BaroSample>,
+}
+
+/// Why readings were refused.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RefusedCounts {
+    /// A NaN or infinite value.
+    pub non_finite: u64,
+    /// A value beyond the configured limits, or a time that does not fit.
+    pub out_of_range: u64,
+    /// A `RAW_IMU` with no [`RawImuScale`] configured.
+    pub raw_imu_without_scale: u64,
+    /// A `HIGHRES_IMU` whose `fields_updated` has some but not all of the accel and gyro bits, or
+    /// neither those nor the pressure bit.
+    pub incomplete: u64,
+}
+
+impl RefusedCounts {
+    /// All refusals.
+    pub fn total(&self) -> u64 {
+        self.non_finite + self.out_of_range + self.raw_imu_without_scale + self.incomplete
+    }
+}
+
+/// Counters of what the decoder saw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct InboundStats {
+    /// IMU samples produced.
+    pub imu: u64,
+    /// Barometer readings produced.
+    pub baro: u64,
+    /// Readings refused, by reason.
+    pub refused: RefusedCounts,
+    /// Messages of other kinds.
+    pub other: u64,
+}
+
+/// Decodes the flight controller's messages and counts what it did with them.
+#[derive(Clone, Debug, Default)]
+pub struct InboundDecoder {
+    config: InboundConfig,
+    stats: InboundStats,
+}
+
+/// Why one reading was refused.
+enum Refusal {
+    NonFinite,
+    OutOfRange,
+}
+
+impl InboundDecoder {
+    /// A decoder with these settings.
+    pub fn new(config: InboundConfig) -> Self {
+        Self {
+            config,
+            stats: InboundStats::default(),
+        }
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> &InboundStats {
+        &self.stats
+    }
+
+    /// Decodes one message.
+    pub fn decode(&mut self, message: &MavMessage) -> Inbound {
+        match message {
+            MavMessage::HIGHRES_IMU(m) => self.highres_imu(m),
+            MavMessage::SCALED_IMU(m) => self.scaled_imu(m),
+            MavMessage::RAW_IMU(m) => self.raw_imu(m),
+            MavMessage::SCALED_PRESSURE(m) => self.scaled_pressure(m),
+            _ => {
+                self.stats.other += 1;
+                Inbound::default()
+            }
+        }
+    }
+
+    fn highres_imu(&mut self, m: &HIGHRES_IMU_DATA) -> Inbound {
+        let accel_gyro = HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_XACC
+            | HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_YACC
+            | HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_ZACC
+            | HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_XGYRO
+            | HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_YGYRO
+            | HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_ZGYRO;
+        let pressure_bit = HighresImuUpdatedFlags::HIGHRES_IMU_UPDATED_ABS_PRESSURE;
+        let flags = m.fields_updated;
+        let t = micros_to_timestamp(m.time_usec);
+        let mut out = Inbound::default();
+        if flags.contains(accel_gyro) {
+            let accel = Vector3::new(m.xacc, m.yacc, m.zacc).map(f64::from);
+            let gyro = Vector3::new(m.xgyro, m.ygyro, m.zgyro).map(f64::from);
+            out.imu = self.imu_sample(t, accel, gyro);
+        } else if flags.intersects(accel_gyro) || !flags.contains(pressure_bit) {
+            self.stats.refused.incomplete += 1;
+        }
+        if flags.contains(pressure_bit) {
+            out.baro = self.baro_sample(t, f64::from(m.abs_pressure) * PA_PER_HPA);
+        }
+        out
+    }
+
+    fn scaled_imu(&mut self, m: &SCALED_IMU_DATA) -> Inbound {
+        let accel_per_mg = STANDARD_GRAVITY_M_S2 / 1000.0;
+        let accel = Vector3::new(m.xacc, m.yacc, m.zacc).map(|v| f64::from(v) * accel_per_mg);
+        let gyro = Vector3::new(m.xgyro, m.ygyro, m.zgyro).map(|v| f64::from(v) / 1000.0);
+        let t = Some(Timestamp(i64::from(m.time_boot_ms) * NS_PER_MS));
+        Inbound {
+            imu: self.imu_sample(t, accel, gyro),
+            baro: None,
+        }
+    }
+
+    fn raw_imu(&mut self, m: &RAW_IMU_DATA) -> Inbound {
+        let Some(scale) = self.config.raw_imu_scale else {
+            self.stats.refused.raw_imu_without_scale += 1;
+            return Inbound::default();
+        };
+        let accel =
+            Vector3::new(m.xacc, m.yacc, m.zacc).map(|v| f64::from(v) * scale.accel_m_s2_per_count);
+        let gyro = Vector3::new(m.xgyro, m.ygyro, m.zgyro)
+            .map(|v| f64::from(v) * scale.gyro_rad_s_per_count);
+        Inbound {
+            imu: self.imu_sample(micros_to_timestamp(m.time_usec), accel, gyro),
+            baro: None,
+        }
+    }
+
+    fn scaled_pressure(&mut self, m: &SCALED_PRESSURE_DATA) -> Inbound {
+        let t = Some(Timestamp(i64::from(m.time_boot_ms) * NS_PER_MS));
+        Inbound {
+            imu: None,
+            baro: self.baro_sample(t, f64::from(m.press_abs) * PA_PER_HPA),
+        }
+    }
+
+    /// The IMU sample, or `None` counted with its reason.
+    fn imu_sample(
+        &mut self,
+        t: Option<Timestamp>,
+        accel_m_s2: Vector3<f64>,
+        gyro_rad_s: Vector3<f64>,
+    ) -> Option<ImuSample> {
+        let check = || {
+            let t = t.ok_or(Refusal::OutOfRange)?;
+            if !accel_m_s2
+                .iter()
+                .chain(gyro_rad_s.iter())
+                .all(|v| v.is_finite())
+            {
+                return Err(Refusal::NonFinite);
+            }
+            if accel_m_s2.amax() > self.config.max_accel_m_s2
+                || gyro_rad_s.amax() > self.config.max_gyro_rad_s
+            {
+                return Err(Refusal::OutOfRange);
+            }
+            Ok(ImuSample {
+                t,
+                gyro_rad_s,
+                accel_m_s2,
+            })
+        };
+        let result = check();
+        match result {
+            Ok(sample) => {
+                self.stats.imu += 1;
+                Some(sample)
+            }
+            Err(refusal) => {
+                self.count(refusal);
+                None
+            }
+        }
+    }
+
+    /// The barometer reading, or `None` counted with its reason.
+    fn baro_sample(&mut self, t: Option<Timestamp>, pressure_pa: f64) -> Option<BaroSample> {
+        let (low, high) = self.config.pressure_range_pa;
+        let check = || {
+            let t = t.ok_or(Refusal::OutOfRange)?;
+            if !pressure_pa.is_finite() {
+                return Err(Refusal::NonFinite);
+            }
+            if !(low..=high).contains(&pressure_pa) {
+                return Err(Refusal::OutOfRange);
+            }
+            let altitude_m = pressure_altitude_m(pressure_pa, self.config.sea_level_pa);
+            if !altitude_m.is_finite() {
+                return Err(Refusal::NonFinite);
+            }
+            Ok(BaroSample {
+                t,
+                pressure_pa,
+                altitude_m,
+            })
+        };
+        let result = check();
+        match result {
+            Ok(sample) => {
+                self.stats.baro += 1;
+                Some(sample)
+            }
+            Err(refusal) => {
+                self.count(refusal);
+                None
+            }
+        }
+    }
+
+    fn count(&mut self, refusal: Refusal) {
+        match refusal {
+            Refusal::NonFinite => self.stats.refused.non_finite += 1,
+            Refusal::OutOfRange => self.stats.refused.out_of_range += 1,
+        }
+    }
+}
+
+/// µs on the flight controller's clock to a [`Timestamp`]; `None` when it does not fit.
+fn micros_to_timestamp(us: u64) -> Option<Timestamp> {
+    let ns = i64::try_from(us).ok()?.checked_mul(NS_PER_US)?;
+    Some(Timestamp(ns)).filter(|t| t.is_in_range())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ::mavlink::dialects::common::HEARTBEAT_DATA;
+
+    const ALL_IMU_BITS: u16 = 0b11_1111;
+    const PRESSURE_BIT: u16 = 1 << 9;
+
+    fn highres(bits: u16) -> MavMessage {
+        MavMessage::HIGHRES_IMU(HIGHRES_IMU_DATA {
+            time_usec: 12_345_678,
+            xacc: 0.5,
+            yacc: -0.25,
+            zacc: -9.75,
+            xgyro: 0.01,
+            ygyro: -0.02,
+            zgyro: 0.03,
+            abs_pressure: 1013.25,
+            fields_updated: HighresImuUpdatedFlags::from_bits_truncate(bits),
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn highres_imu_passes_frd_specific_force_through() {
+        let mut decoder = InboundDecoder::default();
+        let out = decoder.decode(&highres(ALL_IMU_BITS | PRESSURE_BIT));
+        let imu = out.imu.unwrap();
+        assert_eq!(imu.t, Timestamp(12_345_678_000));
+        assert_eq!(imu.accel_m_s2, Vector3::new(0.5, -0.25, -9.75));
+        assert_eq!(
+            imu.gyro_rad_s,
+            Vector3::new(0.01, -0.02, 0.03).map(|v: f32| f64::from(v))
+        );
+        let baro = out.baro.unwrap();
+        assert_eq!(baro.t, imu.t);
+        assert!((baro.pressure_pa - 101_325.0).abs() < 1e-3);
+        assert!(baro.altitude_m.abs() < 1e-3);
+        assert_eq!(decoder.stats().imu, 1);
+        assert_eq!(decoder.stats().baro, 1);
+        assert_eq!(decoder.stats().refused.total(), 0);
+    }
+
+    #[test]
+    fn highres_imu_honours_fields_updated() {
+        let mut decoder = InboundDecoder::default();
+        // Pressure only: a baro reading, nothing refused.
+        let out = decoder.decode(&highres(PRESSURE_BIT));
+        assert!(out.imu.is_none() && out.baro.is_some());
+        assert_eq!(decoder.stats().refused.incomplete, 0);
+        // Accel without gyro: the IMU part is refused, the pressure taken.
+        let out = decoder.decode(&highres(0b111 | PRESSURE_BIT));
+        assert!(out.imu.is_none() && out.baro.is_some());
+        assert_eq!(decoder.stats().refused.incomplete, 1);
+        // IMU without the pressure bit: no baro.
+        let out = decoder.decode(&highres(ALL_IMU_BITS));
+        assert!(out.imu.is_some() && out.baro.is_none());
+        // Nothing updated.
+        let out = decoder.decode(&highres(0));
+        assert_eq!(out, Inbound::default());
+        assert_eq!(decoder.stats().refused.incomplete, 2);
+        assert_eq!(decoder.stats().imu, 1);
+        assert_eq!(decoder.stats().baro, 2);
+    }
+
+    #[test]
+    fn scaled_imu_and_pressure_are_converted_to_si() {
+        let mut decoder = InboundDecoder::default();
+        let imu = decoder
+            .decode(&MavMessage::SCALED_IMU(SCALED_IMU_DATA {
+                time_boot_ms: 4_000,
+                xacc: 10,
+                yacc: -20,
+                zacc: -1000,
+                xgyro: 100,
+                ygyro: -200,
+                zgyro: 5,
+                ..Default::default()
+            }))
+            .imu
+            .unwrap();
+        assert_eq!(imu.t, Timestamp(4_000_000_000));
+        let g = STANDARD_GRAVITY_M_S2;
+        let expected = Vector3::new(0.01 * g, -0.02 * g, -g);
+        assert!((imu.accel_m_s2 - expected).amax() < 1e-12);
+        assert!((imu.gyro_rad_s - Vector3::new(0.1, -0.2, 0.005)).amax() < 1e-12);
+        let baro = decoder
+            .decode(&MavMessage::SCALED_PRESSURE(SCALED_PRESSURE_DATA {
+                time_boot_ms: 4_010,
+                press_abs: 898.746,
+                ..Default::default()
+            }))
+            .baro
+            .unwrap();
+        assert_eq!(baro.t, Timestamp(4_010_000_000));
+        assert!((baro.pressure_pa - 89_874.6).abs() < 0.01);
+        assert!(
+            (baro.altitude_m - 1000.0).abs() < 0.5,
+            "{}",
+            baro.altitude_m
+        );
+    }
+
+    #[test]
+    fn standard_atmosphere_matches_its_table() {
+        // ISA: 1000 m ↔ 89 874.6 Pa, 5000 m ↔ 54 019.9 Pa, 10 000 m ↔ 26 436 Pa.
+        for (pressure_pa, altitude_m) in
+            [(89_874.6, 1000.0), (54_019.9, 5000.0), (26_436.0, 10_000.0)]
+        {
+            let h = pressure_altitude_m(pressure_pa, STANDARD_SEA_LEVEL_PA);
+            assert!((h - altitude_m).abs() < 2.0, "{pressure_pa} Pa: {h} m");
+        }
+        assert_eq!(
+            pressure_altitude_m(STANDARD_SEA_LEVEL_PA, STANDARD_SEA_LEVEL_PA),
+            0.0
+        );
+    }
+
+    #[test]
+    fn raw_imu_needs_scales() {
+        let raw = MavMessage::RAW_IMU(RAW_IMU_DATA {
+            time_usec: 1_000,
+            xacc: 100,
+            yacc: 0,
+            zacc: -2048,
+            xgyro: 10,
+            ygyro: 0,
+            zgyro: -10,
+            ..Default::default()
+        });
+        let mut decoder = InboundDecoder::default();
+        assert_eq!(decoder.decode(&raw), Inbound::default());
+        assert_eq!(decoder.stats().refused.raw_imu_without_scale, 1);
+        let mut decoder = InboundDecoder::new(InboundConfig {
+            raw_imu_scale: Some(RawImuScale {
+                accel_m_s2_per_count: STANDARD_GRAVITY_M_S2 / 2048.0,
+                gyro_rad_s_per_count: 0.001,
+            }),
+            ..InboundConfig::default()
+        });
+        let imu = decoder.decode(&raw).imu.unwrap();
+        assert_eq!(imu.t, Timestamp(1_000_000));
+        assert!((imu.accel_m_s2.z + STANDARD_GRAVITY_M_S2).abs() < 1e-12);
+        assert!((imu.gyro_rad_s - Vector3::new(0.01, 0.0, -0.01)).amax() < 1e-15);
+    }
+
+    #[test]
+    fn bad_values_are_refused_and_counted() {
+        let mut decoder = InboundDecoder::default();
+        let mut bad = |edit: fn(&mut HIGHRES_IMU_DATA)| {
+            let MavMessage::HIGHRES_IMU(mut m) = highres(ALL_IMU_BITS | PRESSURE_BIT) else {
+                unreachable!()
+            };
+            edit(&mut m);
+            decoder.decode(&MavMessage::HIGHRES_IMU(m))
+        };
+        let out = bad(|m| m.ygyro = f32::NAN);
+        assert!(out.imu.is_none() && out.baro.is_some());
+        let out = bad(|m| m.xacc = 1e6);
+        assert!(out.imu.is_none());
+        let out = bad(|m| m.abs_pressure = f32::INFINITY);
+        assert!(out.baro.is_none() && out.imu.is_some());
+        let out = bad(|m| m.abs_pressure = 0.0);
+        assert!(out.baro.is_none());
+        let out = bad(|m| m.time_usec = u64::MAX);
+        assert_eq!(out, Inbound::default());
+        let stats = *decoder.stats();
+        assert_eq!(stats.refused.non_finite, 2);
+        assert_eq!(stats.refused.out_of_range, 4);
+        assert_eq!(stats.imu, 2);
+        assert_eq!(stats.baro, 2);
+    }
+
+    #[test]
+    fn other_messages_are_counted_and_stats_serialize() {
+        let mut decoder = InboundDecoder::default();
+        let out = decoder.decode(&MavMessage::HEARTBEAT(HEARTBEAT_DATA::default()));
+        assert_eq!(out, Inbound::default());
+        assert_eq!(decoder.stats().other, 1);
+        let json = serde_json::to_string(decoder.stats()).unwrap();
+        assert!(json.contains("\"other\":1"), "{json}");
+        assert!(json.contains("\"raw_imu_without_scale\":0"), "{json}");
+    }
+}
