@@ -15,6 +15,7 @@ use wins::sim::{self, Scenario};
 
 mod aoa_cmd;
 mod eval_cmd;
+mod live_cmd;
 mod run_cmd;
 mod sweep_cmd;
 
@@ -49,6 +50,12 @@ enum Command {
     /// Measure WINS over many simulated flights (scenarios × seeds) on all cores: runs.csv,
     /// summary.json and a figure; `wins sweep merge` joins the shards of a sharded sweep.
     Sweep(sweep_cmd::SweepArgs),
+    /// Run on board: CSI from the CSI Tool's `log_to_server` (TCP), IMU from the flight
+    /// controller (MAVLink), the pose sent back as MAVLink ODOMETRY at every frame.
+    Live(live_cmd::LiveArgs),
+    /// Play a dataset as a drone would send it (IMU over MAVLink, CSI over TCP), in real time,
+    /// to a `wins live`.
+    Replay(live_cmd::ReplayArgs),
     /// Print the default settings as TOML (the `--config` file of `wins run`), or check a file.
     Config(ConfigArgs),
 }
@@ -165,6 +172,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Eval(args) => eval_cmd::eval(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Demo(args) => run_cmd::demo(args),
+        Command::Live(args) => live_cmd::live(args),
+        Command::Replay(args) => live_cmd::replay(args),
         Command::Sweep(args) => sweep_cmd::sweep(args),
         Command::Config(args) => config(args),
     }

@@ -25,7 +25,7 @@ use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use ::mavlink::MavHeader;
-use ::mavlink::common::{HIGHRES_IMU_DATA, HighresImuUpdatedFlags, MavMessage};
+use ::mavlink::dialects::common::{HIGHRES_IMU_DATA, HighresImuUpdatedFlags, MavMessage};
 
 use super::mavlink::inbound::{STANDARD_SEA_LEVEL_PA, pressure_altitude_m};
 use crate::csi::intel5300::{MacAddress, encode_frame_record, encode_record};

@@ -20,7 +20,7 @@ use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::Duration;
 
-use ::mavlink::common::MavMessage;
+use ::mavlink::dialects::common::MavMessage;
 use serde::Serialize;
 
 use super::csi_server::CsiServer;
