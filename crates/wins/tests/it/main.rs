@@ -26,6 +26,7 @@ mod intel5300_roundtrip;
 mod observability;
 mod pipeline_flights;
 mod pipeline_run;
+mod pymavlink;
 mod sanitize;
 mod sim_dataset;
 mod sim_scenarios;
