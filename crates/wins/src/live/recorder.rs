@@ -7,14 +7,15 @@
 //! counts from its first packet (`timestamp_low` = µs since it, modulo 2³²) and the manifest's
 //! `imu_minus_nic_ns` puts it back on the flight controller's clock; the session hands the
 //! pipeline whole microseconds, so nothing is rounded away. The NIC's own timestamps are not
-//! kept in the logs (the clock relation the session used is in its `stats.json`).
+//! kept in the logs (the clock relation the session used is in its `stats.json`), nor are the
+//! frame records (the manifest keeps each AP's `mac`).
 
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::merge::Merged;
-use crate::csi::intel5300::{MacAddress, encode_frame_record, encode_record};
+use crate::csi::intel5300::encode_record;
 use crate::dataset::load::MANIFEST_FILE;
 use crate::dataset::{BaroEntry, Manifest, baro_csv, imu_csv};
 
@@ -33,7 +34,6 @@ pub struct Recorder {
     imu: BufWriter<File>,
     baro: Option<BufWriter<File>>,
     logs: Vec<BufWriter<File>>,
-    macs: Vec<Option<MacAddress>>,
     /// Each AP's first packet, µs on the flight controller's clock.
     first_us: Vec<Option<i64>>,
     buf: Vec<u8>,
@@ -49,7 +49,6 @@ impl Recorder {
         dir: &Path,
         rig_dir: &Path,
         rig: &Manifest,
-        macs: &[Option<MacAddress>],
         with_baro: bool,
     ) -> io::Result<Self> {
         fs::create_dir(dir)?;
@@ -91,7 +90,6 @@ impl Recorder {
             imu,
             baro,
             logs,
-            macs: macs.to_vec(),
             first_us: vec![None; n],
             buf: Vec::with_capacity(512),
             counts: [0; 3],
@@ -130,9 +128,6 @@ impl Recorder {
                 // µs since the AP's first packet, modulo 2³² as the NIC's counter wraps.
                 record.header.timestamp_low = (t_us - base).rem_euclid(1 << 32) as u32;
                 self.buf.clear();
-                if let Some(Some(mac)) = self.macs.get(*ap) {
-                    encode_frame_record(mac, &mut self.buf);
-                }
                 encode_record(&record, &mut self.buf);
                 log.write_all(&self.buf)?;
                 self.counts[2] += 1;

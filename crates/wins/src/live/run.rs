@@ -218,7 +218,6 @@ pub fn run_live(
                 &options.out.join("recording"),
                 &options.rig_dir,
                 &manifest,
-                &macs,
                 with_baro,
             )
             .map_err(io_err("creating the recording"))?,
