@@ -45,12 +45,7 @@ impl Recorder {
     /// Creates `dir` (which must not exist yet) with the files of a recording of a rig
     /// described by `rig` (read from `rig_dir`, whose calibration file is copied), the
     /// barometer's file when `with_baro`.
-    pub fn create(
-        dir: &Path,
-        rig_dir: &Path,
-        rig: &Manifest,
-        with_baro: bool,
-    ) -> io::Result<Self> {
+    pub fn create(dir: &Path, rig_dir: &Path, rig: &Manifest, with_baro: bool) -> io::Result<Self> {
         fs::create_dir(dir)?;
         let mut manifest = rig.clone();
         manifest.description = format!(

@@ -30,13 +30,15 @@ use super::mavlink::outbound::{OdometryExtras, odometry, vision_position_estimat
 use super::recorder::Recorder;
 use super::session::{ClockReport, LiveFrame, LiveSession, LiveStats, SessionError};
 use super::{FcEvent, HostClock, LiveInput, PoseMessage};
+use crate::csi::intel5300::MacAddress;
+use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
 use crate::dataset::truth::{write_tum_header, write_tum_pose};
 use crate::fusion::estimator::PoseEstimate;
 use crate::pipeline::Config;
 use crate::pipeline::output::pose_of;
 use crate::pipeline::replay::rig_of_manifest;
-use crate::rig::ChainCalibration;
+use crate::rig::{ChainCalibration, Rig};
 
 /// Capacity of the inputs' channel (about 10 s of a 200 Hz IMU and two 100 packet/s APs):
 /// beyond it the links wait, and the TCP stream backs up to the logger.
@@ -186,22 +188,7 @@ pub fn run_live(
         .validate()
         .map_err(|e| LiveError::Setup(e.to_string()))?;
     // Everything that can fail does so before any socket opens.
-    let manifest = read_manifest(&options.rig_dir).map_err(|e| LiveError::Setup(e.to_string()))?;
-    let calibration = match &manifest.array.calibration {
-        Some(file) => Some(
-            ChainCalibration::load(&options.rig_dir.join(file))
-                .map_err(|e| LiveError::Setup(e.to_string()))?,
-        ),
-        None => None,
-    };
-    let rig = rig_of_manifest(&manifest, calibration.as_ref(), None, None)
-        .map_err(|e| LiveError::Setup(e.to_string()))?;
-    let macs = manifest
-        .aps
-        .iter()
-        .map(|a| a.mac_address())
-        .collect::<Result<Vec<_>, String>>()
-        .map_err(LiveError::Setup)?;
+    let (manifest, rig, macs) = load_rig(&options.rig_dir)?;
     let url: MavlinkUrl = live
         .mavlink
         .parse()
@@ -239,12 +226,13 @@ pub fn run_live(
     let (tx, rx) = mpsc::sync_channel(CHANNEL);
     let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop))
         .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
-    let link = Arc::new(open(&url, live.system_id, live.component_id).map_err(|e| {
-        LiveError::Io {
-            what: format!("opening the MAVLink link {}", live.mavlink),
-            source: io::Error::other(e.to_string()),
-        }
-    })?);
+    let link =
+        Arc::new(
+            open(&url, live.system_id, live.component_id).map_err(|e| LiveError::Io {
+                what: format!("opening the MAVLink link {}", live.mavlink),
+                source: io::Error::other(e.to_string()),
+            })?,
+        );
     let inbound = Arc::new(Mutex::new(InboundDecoder::new(inbound_config(config))));
     spawn_mavlink_reader(&link, &inbound, tx, clock, stop)?;
 
@@ -294,12 +282,33 @@ pub fn run_live(
     Ok(summary)
 }
 
+/// The rig described by the dataset manifest in `dir` (its calibration read), and each AP's
+/// transmitter address.
+pub fn load_rig(dir: &Path) -> Result<(Manifest, Rig, Vec<Option<MacAddress>>), LiveError> {
+    let setup = |e: &dyn std::fmt::Display| LiveError::Setup(e.to_string());
+    let manifest = read_manifest(dir).map_err(|e| setup(&e))?;
+    let calibration = match &manifest.array.calibration {
+        Some(file) => Some(ChainCalibration::load(&dir.join(file)).map_err(|e| setup(&e))?),
+        None => None,
+    };
+    let rig =
+        rig_of_manifest(&manifest, calibration.as_ref(), None, None).map_err(|e| setup(&e))?;
+    let macs = manifest
+        .aps
+        .iter()
+        .map(|a| a.mac_address())
+        .collect::<Result<Vec<_>, String>>()
+        .map_err(LiveError::Setup)?;
+    Ok((manifest, rig, macs))
+}
+
 /// The output folder: refused when it is, or lies inside, the rig's folder, or holds files.
 fn prepare_out(out: &Path, rig_dir: &Path) -> Result<(), LiveError> {
     crate::io_safety::refuse_overlap(out, &[rig_dir])
         .map_err(|e| LiveError::Setup(e.to_string()))?;
     if out.exists() {
-        let mut entries = fs::read_dir(out).map_err(io_err(format!("reading {}", out.display())))?;
+        let mut entries =
+            fs::read_dir(out).map_err(io_err(format!("reading {}", out.display())))?;
         if entries.next().is_some() {
             return Err(LiveError::Setup(format!(
                 "the output folder {} is not empty: a live run writes into a new folder",
@@ -396,7 +405,8 @@ impl Outputs<'_> {
         if !f.pose.converged {
             return Ok(());
         }
-        write_tum_pose(&mut self.tum, &pose_of(&f.pose)).map_err(io_err("writing trajectory.tum"))?;
+        write_tum_pose(&mut self.tum, &pose_of(&f.pose))
+            .map_err(io_err("writing trajectory.tum"))?;
         let Some(age) = age_ms.filter(|_| f.fresh) else {
             return Ok(());
         };
@@ -439,7 +449,9 @@ pub fn quality(pose: &PoseEstimate) -> i8 {
     if !sigma.is_finite() {
         return 0;
     }
-    (100.0 * (-sigma / QUALITY_SIGMA_M).exp()).round().clamp(1.0, 100.0) as i8
+    (100.0 * (-sigma / QUALITY_SIGMA_M).exp())
+        .round()
+        .clamp(1.0, 100.0) as i8
 }
 
 /// Ages of the poses sent over a whole run, in 0.1 ms bins up to 10 s (the memory does not

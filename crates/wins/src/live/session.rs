@@ -4,7 +4,9 @@
 //! relate its clock to the host's, each NIC connection's records relate the NIC's
 //! ([`ClockSync`]: offset and drift through the lower envelope of the arrival delays), so a CSI
 //! record's time on the flight controller's clock is `fc(host(nic time))`, in whole
-//! microseconds. The pipeline, the trajectory and the messages sent all run on the flight
+//! microseconds (less `live.csi_extra_latency_ms`: each relation places its clock late by its
+//! link's least delay, and only the difference of the two, which no arrival shows, is left).
+//! The pipeline, the trajectory and the messages sent all run on the flight
 //! controller's clock. A record that maps further than `max_clock_jump_s` from the flight
 //! controller's present means the NIC's clock jumped (a driver reload): its relation starts over
 //! and the event is counted.
@@ -50,7 +52,8 @@ pub enum SessionError {
 pub struct LiveStats {
     /// IMU samples received.
     pub imu_received: u64,
-    /// IMU samples whose time went backwards or jumped (a flight controller reboot): dropped.
+    /// IMU samples whose time jumped further than `max_clock_jump_s` from the newest (the
+    /// flight controller's clock restarting): dropped.
     pub imu_time_jumps: u64,
     /// Barometer readings received (used only with `live.barometer` and
     /// `pipeline.use_barometer`).
@@ -140,6 +143,7 @@ struct Nic {
 pub struct LiveSession {
     max_latency_ns: i64,
     max_jump_ns: i64,
+    csi_extra_ns: i64,
     ap_by: ApBy,
     with_baro: bool,
     macs: Vec<Option<MacAddress>>,
@@ -205,6 +209,7 @@ impl LiveSession {
         Ok(Self {
             max_latency_ns: (live.max_latency_ms * 1e6).round() as i64,
             max_jump_ns: (live.max_clock_jump_s * 1e9).round() as i64,
+            csi_extra_ns: (live.csi_extra_latency_ms * 1e6).round() as i64,
             ap_by: live.ap_by,
             with_baro,
             macs,
@@ -235,14 +240,18 @@ impl LiveSession {
             FcEvent::Imu { sample, arrival_ns } => {
                 self.stats.imu_received += 1;
                 let t = sample.t;
-                if self.imu_last.is_some_and(|last| {
-                    t <= last || t.as_nanos().saturating_sub(last.as_nanos()) > self.max_jump_ns
-                }) {
+                // A sample out of order (a reordered datagram) goes to the merger, which
+                // places it or counts it late; a jump beyond `max_clock_jump_s` either way is the
+                // flight controller's clock restarting, which the estimator cannot follow.
+                if self
+                    .imu_last
+                    .is_some_and(|last| (t.as_nanos() - last.as_nanos()).abs() > self.max_jump_ns)
+                {
                     self.stats.imu_time_jumps += 1;
                     return;
                 }
                 self.fc.push(t.as_nanos(), arrival_ns);
-                self.imu_last = Some(t);
+                self.imu_last = Some(self.imu_last.map_or(t, |last| last.max(t)));
                 self.push_merged(Merged::Imu(sample));
             }
             FcEvent::Baro {
@@ -342,14 +351,20 @@ impl LiveSession {
             self.stats.csi_clock_warmup += 1;
             return None;
         }
-        let mut t = nic.clock.to_host(nic_ns).and_then(|h| self.fc.to_remote(h))?;
+        let mut t = nic
+            .clock
+            .to_host(nic_ns)
+            .and_then(|h| self.fc.to_remote(h))?;
         if (t - fc_now).abs() > self.max_jump_ns {
             self.stats.nic_clock_jumps += 1;
             nic.clock.reset();
             nic.clock.push(nic_ns, arrival_ns);
-            t = nic.clock.to_host(nic_ns).and_then(|h| self.fc.to_remote(h))?;
+            t = nic
+                .clock
+                .to_host(nic_ns)
+                .and_then(|h| self.fc.to_remote(h))?;
         }
-        Some(Timestamp(t.div_euclid(1000) * 1000))
+        Some(Timestamp((t - self.csi_extra_ns).div_euclid(1000) * 1000))
     }
 
     fn push_merged(&mut self, input: Merged) {

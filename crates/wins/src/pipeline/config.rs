@@ -10,6 +10,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::chains::ChainOffsetsConfig;
+use super::live_config::LiveConfig;
 use crate::aoa::AoaConfig;
 use crate::aoa::spotfi::MIN_GROUP_SIZE;
 use crate::check::{Problems, overlay};
@@ -17,7 +18,6 @@ use crate::eval::EvalOptions;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::nonlinear::NonlinearConfig;
 use crate::fusion::window::WindowConfig;
-use super::live_config::LiveConfig;
 use crate::imu::ImuGap;
 
 /// Every setting of a run.

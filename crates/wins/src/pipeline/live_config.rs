@@ -56,6 +56,12 @@ pub struct LiveConfig {
     /// leave this much behind the flight (set the flight controller's vision delay to it plus
     /// the link's latency).
     pub max_latency_ms: f64,
+    /// How much longer the CSI link's least delay is than the flight controller link's, ms:
+    /// subtracted from every CSI record's time. The clocks are related through the arrivals,
+    /// which place each clock late by its link's least delay; only the difference matters, and
+    /// no arrival can show it (measure it once for a set-up, or leave 0 when both links are
+    /// local and fast: their least delays are then within a fraction of a millisecond).
+    pub csi_extra_latency_ms: f64,
     /// A CSI record whose time lies further than this from the IMU's is dropped and counted (a
     /// NIC clock jump, or a stream from another flight), s.
     pub max_clock_jump_s: f64,
@@ -85,6 +91,7 @@ impl Default for LiveConfig {
             system_id: 1,
             component_id: 197,
             max_latency_ms: 20.0,
+            csi_extra_latency_ms: 0.0,
             max_clock_jump_s: 5.0,
             status_interval_s: 1.0,
             idle_exit_s: 0.0,
@@ -101,8 +108,27 @@ impl LiveConfig {
     pub fn problems(&self, prefix: &str) -> Problems {
         let mut p = Problems::new();
         p.in_range(prefix, "max_latency_ms", self.max_latency_ms, 0.0, 2000.0);
-        p.in_range(prefix, "max_clock_jump_s", self.max_clock_jump_s, 0.01, 3600.0);
-        p.in_range(prefix, "status_interval_s", self.status_interval_s, 0.0, 3600.0);
+        p.in_range(
+            prefix,
+            "csi_extra_latency_ms",
+            self.csi_extra_latency_ms,
+            -1000.0,
+            1000.0,
+        );
+        p.in_range(
+            prefix,
+            "max_clock_jump_s",
+            self.max_clock_jump_s,
+            0.01,
+            3600.0,
+        );
+        p.in_range(
+            prefix,
+            "status_interval_s",
+            self.status_interval_s,
+            0.0,
+            3600.0,
+        );
         p.in_range(prefix, "idle_exit_s", self.idle_exit_s, 0.0, 86_400.0);
         p.in_range(
             prefix,
@@ -122,7 +148,10 @@ impl LiveConfig {
             self.csi_listen.parse::<std::net::SocketAddr>().is_ok(),
             prefix,
             "csi_listen",
-            format!("{:?} is not HOST:PORT (an IP address and a port)", self.csi_listen),
+            format!(
+                "{:?} is not HOST:PORT (an IP address and a port)",
+                self.csi_listen
+            ),
         );
         p
     }

@@ -23,6 +23,7 @@ mod input_checks;
 mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
+mod live_session;
 mod observability;
 mod pipeline_flights;
 mod pipeline_run;
