@@ -245,12 +245,37 @@ impl Config {
     }
 }
 
+/// The shipped example of `wins live`'s settings, `configs/live.toml`, as text.
+pub const LIVE_EXAMPLE_TOML: &str = include_str!("../../../../configs/live.toml");
+
 /// The shipped defaults, `configs/default.toml`, as text.
 pub const DEFAULT_TOML: &str = include_str!("../../../../configs/default.toml");
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_shipped_live_example_is_valid_and_lists_every_live_setting() {
+        let example = Config::from_toml_str(LIVE_EXAMPLE_TOML, "configs/live.toml")
+            .expect("the shipped example is valid");
+        let mut want = Config::default();
+        want.live.rig = "my_rig".into();
+        assert_eq!(example, want);
+        let file: toml::Table = toml::from_str(LIVE_EXAMPLE_TOML).unwrap();
+        let code = toml::Table::try_from(Config::default()).unwrap();
+        let keys = |t: &toml::Table| -> Vec<String> {
+            t.get("live")
+                .and_then(toml::Value::as_table)
+                .map(|l| l.keys().cloned().collect())
+                .unwrap_or_default()
+        };
+        assert_eq!(
+            keys(&file),
+            keys(&code),
+            "configs/live.toml lacks or adds keys"
+        );
+    }
 
     #[test]
     fn the_shipped_defaults_equal_the_code() {
