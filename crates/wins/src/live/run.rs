@@ -46,7 +46,7 @@ const CHANNEL: usize = 4096;
 /// The loop's longest sleep waiting for inputs.
 const TICK: Duration = Duration::from_millis(2);
 /// 1σ of position at which `quality` is 37 (it falls as `exp(−σ / this)`), m.
-const QUALITY_SIGMA_M: f64 = 0.5;
+pub const QUALITY_SIGMA_M: f64 = 0.5;
 
 /// Why `wins live` cannot run.
 #[derive(Debug, thiserror::Error)]
