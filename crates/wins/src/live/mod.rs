@@ -16,6 +16,7 @@
 //! tested without hardware, and the benchmark of its latency drives it directly.
 
 pub mod clock;
+pub mod counts;
 pub mod csi_server;
 pub mod mavlink;
 pub mod merge;
@@ -23,6 +24,7 @@ pub mod player;
 pub mod recorder;
 pub mod run;
 pub mod session;
+pub mod status;
 
 use std::time::Instant;
 

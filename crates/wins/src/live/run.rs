@@ -28,7 +28,9 @@ use super::mavlink::inbound::{InboundConfig, InboundDecoder, InboundStats, RawIm
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
 use super::mavlink::outbound::{OdometryExtras, odometry, vision_position_estimate};
 use super::recorder::Recorder;
-use super::session::{ClockReport, LiveFrame, LiveSession, LiveStats, SessionError};
+use super::session::ClockReport;
+use super::session::{LiveFrame, LiveSession, LiveStats, SessionError};
+use super::status::{Histogram, LiveStatus, percentiles};
 use super::{FcEvent, HostClock, LiveInput, PoseMessage};
 use crate::csi::intel5300::MacAddress;
 use crate::dataset::Manifest;
@@ -70,79 +72,6 @@ pub enum LiveError {
 fn io_err(what: impl Into<String>) -> impl FnOnce(io::Error) -> LiveError {
     let what = what.into();
     move |source| LiveError::Io { what, source }
-}
-
-/// A status line's content (the binary prints it).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct LiveStatus {
-    /// The flight controller's time now, s (`None` before its first IMU sample).
-    pub fc_time_s: Option<f64>,
-    /// IMU samples per second since the last status.
-    pub imu_hz: f64,
-    /// CSI records used per second since the last status, per AP (name, rate).
-    pub packets_hz: Vec<(String, f64)>,
-    /// Poses sent per second since the last status.
-    pub poses_hz: f64,
-    /// Whether the last frame was converged.
-    pub converged: bool,
-    /// The clocks.
-    pub clocks: ClockReport,
-    /// Median and 99th percentile of the poses' age when sent (host time of sending minus the
-    /// pose's time), ms, since the last status.
-    pub latency_ms: Option<(f64, f64)>,
-    /// Every count so far.
-    pub stats: LiveStats,
-}
-
-impl std::fmt::Display for LiveStatus {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.fc_time_s {
-            Some(t) => write!(f, "t {t:.1} s")?,
-            None => write!(f, "waiting for the flight controller's IMU")?,
-        }
-        write!(f, " | IMU {:.0} Hz |", self.imu_hz)?;
-        for (name, hz) in &self.packets_hz {
-            write!(f, " {name} {hz:.0} pkt/s")?;
-        }
-        if let Some(o) = self.clocks.fc_offset_ns {
-            write!(f, " | fc clock {:+.3} s", o as f64 * 1e-9)?;
-        }
-        for (conn, offset, drift) in &self.clocks.nic {
-            if let (Some(o), Some(d)) = (offset, drift) {
-                write!(f, " nic{conn} {:+.3} s {d:+.0} ppm", *o as f64 * 1e-9)?;
-            }
-        }
-        let state = if self.converged {
-            "converged"
-        } else {
-            "not converged"
-        };
-        write!(f, " | {state}, {:.0} poses/s", self.poses_hz)?;
-        if let Some((p50, p99)) = self.latency_ms {
-            write!(f, " | latency {p50:.1}/{p99:.1} ms (p50/p99)")?;
-        }
-        let s = &self.stats;
-        let events = s.late
-            + s.csi_skips
-            + s.csi_no_transmitter
-            + s.csi_unknown_transmitter
-            + s.nic_clock_jumps
-            + s.imu_time_jumps
-            + s.fc_refused
-            + s.csi_disconnects;
-        if events > 0 {
-            write!(
-                f,
-                " | late {} garbage {} unknown AP {} clock jumps {} dropped links {}",
-                s.late,
-                s.csi_skips,
-                s.csi_no_transmitter + s.csi_unknown_transmitter,
-                s.nic_clock_jumps + s.imu_time_jumps,
-                s.csi_disconnects
-            )?;
-        }
-        Ok(())
-    }
 }
 
 /// Where `wins live` reads and writes.
@@ -452,65 +381,6 @@ pub fn quality(pose: &PoseEstimate) -> i8 {
     (100.0 * (-sigma / QUALITY_SIGMA_M).exp())
         .round()
         .clamp(1.0, 100.0) as i8
-}
-
-/// Ages of the poses sent over a whole run, in 0.1 ms bins up to 10 s (the memory does not
-/// grow with the run).
-#[derive(Debug)]
-struct Histogram {
-    bins: Vec<u64>,
-    count: u64,
-}
-
-impl Default for Histogram {
-    fn default() -> Self {
-        Self {
-            bins: vec![0; 100_001],
-            count: 0,
-        }
-    }
-}
-
-impl Histogram {
-    const BIN_MS: f64 = 0.1;
-
-    fn push(&mut self, ms: f64) {
-        let last = self.bins.len() - 1;
-        let i = ((ms.max(0.0) / Self::BIN_MS).round() as usize).min(last);
-        if let Some(b) = self.bins.get_mut(i) {
-            *b += 1;
-            self.count += 1;
-        }
-    }
-
-    /// Median and 99th percentile, ms (to the bin).
-    fn percentiles(&self) -> Option<(f64, f64)> {
-        if self.count == 0 {
-            return None;
-        }
-        let at = |q: f64| {
-            let rank = ((self.count - 1) as f64 * q).round() as u64;
-            let mut seen = 0;
-            for (i, n) in self.bins.iter().enumerate() {
-                seen += n;
-                if seen > rank {
-                    return i as f64 * Self::BIN_MS;
-                }
-            }
-            (self.bins.len() - 1) as f64 * Self::BIN_MS
-        };
-        Some((at(0.5), at(0.99)))
-    }
-}
-
-/// Median and 99th percentile.
-fn percentiles(values: &mut [f64]) -> Option<(f64, f64)> {
-    if values.is_empty() {
-        return None;
-    }
-    values.sort_by(f64::total_cmp);
-    let at = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
-    Some((at(0.5), at(0.99)))
 }
 
 /// The main loop's settings.
