@@ -33,6 +33,8 @@ pub struct Recorder {
     manifest: Manifest,
     imu: BufWriter<File>,
     baro: Option<BufWriter<File>>,
+    /// The barometer's nominal rate for the manifest, Hz.
+    baro_rate_hz: f64,
     logs: Vec<BufWriter<File>>,
     /// Each AP's first packet, µs on the flight controller's clock.
     first_us: Vec<Option<i64>>,
@@ -43,9 +45,9 @@ pub struct Recorder {
 
 impl Recorder {
     /// Creates `dir` (which must not exist yet) with the files of a recording of a rig
-    /// described by `rig` (read from `rig_dir`, whose calibration file is copied), the
-    /// barometer's file when `with_baro`.
-    pub fn create(dir: &Path, rig_dir: &Path, rig: &Manifest, with_baro: bool) -> io::Result<Self> {
+    /// described by `rig` (read from `rig_dir`, whose calibration file is copied); the
+    /// barometer's file comes with [`Recorder::enable_baro`].
+    pub fn create(dir: &Path, rig_dir: &Path, rig: &Manifest) -> io::Result<Self> {
         fs::create_dir(dir)?;
         let mut manifest = rig.clone();
         manifest.description = format!(
@@ -54,10 +56,7 @@ impl Recorder {
             rig_dir.display()
         );
         manifest.imu.file = IMU_FILE.into();
-        manifest.baro = with_baro.then(|| BaroEntry {
-            file: BARO_FILE.into(),
-            rate_hz: rig.baro.as_ref().map_or(rig.imu.rate_hz, |b| b.rate_hz),
-        });
+        manifest.baro = None;
         if let Some(file) = &rig.array.calibration {
             fs::copy(rig_dir.join(file), dir.join(CALIBRATION_FILE))?;
             manifest.array.calibration = Some(CALIBRATION_FILE.into());
@@ -70,20 +69,14 @@ impl Recorder {
         }
         let mut imu = BufWriter::new(File::create(dir.join(IMU_FILE))?);
         writeln!(imu, "{}", imu_csv::HEADER)?;
-        let baro = match with_baro {
-            true => {
-                let mut w = BufWriter::new(File::create(dir.join(BARO_FILE))?);
-                writeln!(w, "{}", baro_csv::HEADER)?;
-                Some(w)
-            }
-            false => None,
-        };
+        let baro_rate_hz = rig.baro.as_ref().map_or(rig.imu.rate_hz, |b| b.rate_hz);
         let n = manifest.aps.len();
         let recorder = Self {
             dir: dir.to_path_buf(),
             manifest,
             imu,
-            baro,
+            baro: None,
+            baro_rate_hz,
             logs,
             first_us: vec![None; n],
             buf: Vec::with_capacity(512),
@@ -91,6 +84,21 @@ impl Recorder {
         };
         recorder.write_manifest()?;
         Ok(recorder)
+    }
+
+    /// Records the barometer too (its file and manifest entry).
+    pub fn enable_baro(&mut self) -> io::Result<()> {
+        if self.baro.is_some() {
+            return Ok(());
+        }
+        let mut w = BufWriter::new(File::create(self.dir.join(BARO_FILE))?);
+        writeln!(w, "{}", baro_csv::HEADER)?;
+        self.baro = Some(w);
+        self.manifest.baro = Some(BaroEntry {
+            file: BARO_FILE.into(),
+            rate_hz: self.baro_rate_hz,
+        });
+        self.write_manifest()
     }
 
     /// The folder.

@@ -127,21 +127,16 @@ pub fn run_live(
         .parse()
         .map_err(|_| LiveError::Setup(format!("live.csi_listen {:?}", live.csi_listen)))?;
     prepare_out(&options.out, &options.rig_dir)?;
-    let with_baro = live.barometer && config.pipeline.use_barometer;
+    let use_baro = live.barometer && config.pipeline.use_barometer;
     let recorder = match live.record {
         true => Some(
-            Recorder::create(
-                &options.out.join("recording"),
-                &options.rig_dir,
-                &manifest,
-                with_baro,
-            )
-            .map_err(io_err("creating the recording"))?,
+            Recorder::create(&options.out.join("recording"), &options.rig_dir, &manifest)
+                .map_err(io_err("creating the recording"))?,
         ),
         false => None,
     };
     let names = rig.ap_names.clone();
-    let mut session = LiveSession::new(config, rig, macs, with_baro, recorder)?;
+    let mut session = LiveSession::new(config, rig, macs, use_baro, recorder)?;
     let config_text = toml::to_string(config).map_err(|e| LiveError::Setup(e.to_string()))?;
     fs::write(options.out.join("config.toml"), config_text)
         .map_err(io_err("writing config.toml"))?;

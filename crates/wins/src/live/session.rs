@@ -67,6 +67,22 @@ pub struct LiveFrame {
     pub fresh: bool,
 }
 
+/// How long the inputs are held before the pipeline is built, s of IMU time: long enough to
+/// see whether the flight controller sends its barometer.
+pub const START_HOLD_S: f64 = 1.0;
+
+/// Before the pipeline is built, or with it.
+enum Stage {
+    /// The inputs of the first [`START_HOLD_S`], held.
+    Waiting {
+        config: Box<Config>,
+        rig: Box<Rig>,
+        held: Vec<Merged>,
+    },
+    /// The pipeline, fed.
+    Running(Box<ChainResolver>),
+}
+
 /// One NIC connection's state.
 #[derive(Debug, Default)]
 struct Nic {
@@ -82,9 +98,12 @@ pub struct LiveSession {
     max_jump_ns: i64,
     csi_extra_ns: i64,
     ap_by: ApBy,
-    with_baro: bool,
+    /// Whether a barometer the flight controller sends is used.
+    use_baro: bool,
+    /// Whether it is (decided at the start: it sent readings).
+    has_baro: bool,
     macs: Vec<Option<MacAddress>>,
-    resolver: ChainResolver,
+    stage: Stage,
     fc: ClockSync,
     nics: HashMap<u64, Nic>,
     merger: Merger,
@@ -104,12 +123,13 @@ impl std::fmt::Debug for LiveSession {
 
 impl LiveSession {
     /// A session for `rig`, whose APs have the transmitter addresses `macs` (one per AP), with
-    /// the barometer when `with_baro`; its inputs are written to `recorder` when given.
+    /// the barometer when `use_baro` and the flight controller sends it (its first
+    /// [`START_HOLD_S`] tell); its inputs are written to `recorder` when given.
     pub fn new(
         config: &Config,
         rig: Rig,
         macs: Vec<Option<MacAddress>>,
-        with_baro: bool,
+        use_baro: bool,
         recorder: Option<Recorder>,
     ) -> Result<Self, SessionError> {
         let live = &config.live;
@@ -142,15 +162,23 @@ impl LiveSession {
             }
             _ => {}
         }
-        let resolver = ChainResolver::new(config, rig, with_baro)?;
+        // The settings are checked now; the pipeline is built after the first second.
+        config
+            .validate()
+            .map_err(|e| SessionError::Setup(e.to_string()))?;
         Ok(Self {
             max_latency_ns: (live.max_latency_ms * 1e6).round() as i64,
             max_jump_ns: (live.max_clock_jump_s * 1e9).round() as i64,
             csi_extra_ns: (live.csi_extra_latency_ms * 1e6).round() as i64,
             ap_by: live.ap_by,
-            with_baro,
+            use_baro,
+            has_baro: false,
             macs,
-            resolver,
+            stage: Stage::Waiting {
+                config: Box::new(config.clone()),
+                rig: Box::new(rig),
+                held: Vec::new(),
+            },
             fc: ClockSync::default(),
             nics: HashMap::new(),
             merger: Merger::new(),
@@ -197,7 +225,7 @@ impl LiveSession {
                 arrival_ns: _,
             } => {
                 self.stats.baro_received += 1;
-                if self.with_baro {
+                if self.use_baro {
                     self.push_merged(Merged::Baro { t, altitude_m });
                 }
             }
@@ -331,30 +359,74 @@ impl LiveSession {
         self.feed(inputs)
     }
 
-    /// Feeds released inputs to the pipeline (and the recording).
+    /// Feeds released inputs to the pipeline (and the recording), held until it is built.
     fn feed(&mut self, inputs: Vec<Merged>) -> Result<Vec<LiveFrame>, SessionError> {
         let mut frames = Vec::new();
         for input in inputs {
-            if let Some(r) = &mut self.recorder {
-                r.record(&input)?;
-            }
-            let released = match &input {
-                Merged::Imu(s) => self.resolver.push_imu(s)?,
-                Merged::Baro { t, altitude_m } => self.resolver.push_baro(*t, *altitude_m)?,
-                Merged::Csi { ap, t, record } => {
-                    if let Some(n) = self.stats.csi_used_per_ap.get_mut(*ap) {
-                        *n += 1;
-                    }
-                    self.resolver.push_csi(*ap, *t, record)?
+            let start = match &mut self.stage {
+                Stage::Waiting { held, .. } => {
+                    let due = matches!(&input, Merged::Imu(s)
+                        if held.iter().find_map(|h| match h {
+                            Merged::Imu(first) => Some(s.t.secs_since(first.t) >= START_HOLD_S),
+                            _ => None,
+                        }) == Some(true));
+                    held.push(input);
+                    due
+                }
+                Stage::Running(_) => {
+                    self.push_one(input, &mut frames)?;
+                    false
                 }
             };
-            self.take(released, &mut frames);
+            if start {
+                self.start(&mut frames)?;
+            }
         }
         Ok(frames)
     }
 
-    fn take(&mut self, released: Released, frames: &mut Vec<LiveFrame>) {
-        let restarts = self.resolver.decided_stats().map_or(0, |s| s.restarts);
+    /// Builds the pipeline, the barometer in when the held inputs have it, and feeds them.
+    fn start(&mut self, frames: &mut Vec<LiveFrame>) -> Result<(), SessionError> {
+        let Stage::Waiting { config, rig, held } = &mut self.stage else {
+            return Ok(());
+        };
+        let held = std::mem::take(held);
+        self.has_baro = self.use_baro && held.iter().any(|h| matches!(h, Merged::Baro { .. }));
+        let resolver = ChainResolver::new(config, (**rig).clone(), self.has_baro)?;
+        self.stage = Stage::Running(Box::new(resolver));
+        if self.has_baro
+            && let Some(r) = &mut self.recorder
+        {
+            r.enable_baro()?;
+        }
+        for input in held {
+            self.push_one(input, frames)?;
+        }
+        Ok(())
+    }
+
+    /// Records and pushes one input into the running pipeline.
+    fn push_one(&mut self, input: Merged, frames: &mut Vec<LiveFrame>) -> Result<(), SessionError> {
+        let Stage::Running(resolver) = &mut self.stage else {
+            return Ok(());
+        };
+        if matches!(input, Merged::Baro { .. }) && !self.has_baro {
+            return Ok(());
+        }
+        if let Some(r) = &mut self.recorder {
+            r.record(&input)?;
+        }
+        let released = match &input {
+            Merged::Imu(s) => resolver.push_imu(s)?,
+            Merged::Baro { t, altitude_m } => resolver.push_baro(*t, *altitude_m)?,
+            Merged::Csi { ap, t, record } => {
+                if let Some(n) = self.stats.csi_used_per_ap.get_mut(*ap) {
+                    *n += 1;
+                }
+                resolver.push_csi(*ap, *t, record)?
+            }
+        };
+        let restarts = resolver.decided_stats().map_or(0, |s| s.restarts);
         emit(
             &mut self.stats,
             &mut self.reset_counter,
@@ -363,6 +435,7 @@ impl LiveSession {
             restarts,
             frames,
         );
+        Ok(())
     }
 
     /// The end: everything held goes to the pipeline, which finishes; the recording is closed.
@@ -370,16 +443,19 @@ impl LiveSession {
     pub fn finish(mut self) -> Result<(Vec<LiveFrame>, LiveStats), SessionError> {
         let rest = self.merger.drain();
         let mut frames = self.feed(rest)?;
-        let done = self.resolver.finish()?;
-        let restarts = done.pipeline.wins().stats().restarts;
-        emit(
-            &mut self.stats,
-            &mut self.reset_counter,
-            self.imu_last,
-            done.released,
-            restarts,
-            &mut frames,
-        );
+        self.start(&mut frames)?;
+        if let Stage::Running(resolver) = self.stage {
+            let done = resolver.finish()?;
+            let restarts = done.pipeline.wins().stats().restarts;
+            emit(
+                &mut self.stats,
+                &mut self.reset_counter,
+                self.imu_last,
+                done.released,
+                restarts,
+                &mut frames,
+            );
+        }
         if let Some(r) = self.recorder.take() {
             r.finish()?;
         }

@@ -70,7 +70,8 @@ pub struct LiveConfig {
     /// Stop by itself after this many seconds without any input, once inputs came (0: run until
     /// interrupted).
     pub idle_exit_s: f64,
-    /// Use the barometer (`HIGHRES_IMU`'s pressure, or `SCALED_PRESSURE`).
+    /// Use the barometer (`HIGHRES_IMU`'s pressure, or `SCALED_PRESSURE`) when the flight
+    /// controller sends it (its first second tells) and `pipeline.use_barometer` is on.
     pub barometer: bool,
     /// `RAW_IMU` accelerometer scale, m/s² per count (0: `RAW_IMU` is refused, it has no units).
     pub raw_accel_m_s2_per_count: f64,
@@ -95,7 +96,7 @@ impl Default for LiveConfig {
             max_clock_jump_s: 5.0,
             status_interval_s: 1.0,
             idle_exit_s: 0.0,
-            barometer: false,
+            barometer: true,
             raw_accel_m_s2_per_count: 0.0,
             raw_gyro_rad_s_per_count: 0.0,
             record: true,

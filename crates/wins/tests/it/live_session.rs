@@ -133,9 +133,9 @@ fn session(dir: &Path, config: &Config, record: Option<&Path>) -> LiveSession {
     let (manifest, rig, macs) = load_rig(dir).unwrap();
     let recorder = record.map(|out| {
         let _ = std::fs::remove_dir_all(out);
-        Recorder::create(out, dir, &manifest, false).unwrap()
+        Recorder::create(out, dir, &manifest).unwrap()
     });
-    LiveSession::new(config, rig, macs, false, recorder).unwrap()
+    LiveSession::new(config, rig, macs, true, recorder).unwrap()
 }
 
 /// Feeds the arrivals in order, moving the session on at each; the frames and the stats.
