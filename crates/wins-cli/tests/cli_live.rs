@@ -54,7 +54,7 @@ const MAX_DIFF_TO_LIVE_DEG: f64 = 0.01;
 /// time goes through the clock relations (not the dataset's offsets): a packet within a fraction
 /// of a millisecond of a frame's edge can fall in the next frame, and from there the one-AP
 /// estimate drifts apart from `wins run`'s along its weakly observed directions (0.1–2.5 cm at the
-/// end of the flight on most runs, 12 cm on one of ten, 0.03° throughout). A frame turned the
+/// end of the flight on most runs, 12–13 cm on two of ten, 0.03° at most). A frame turned the
 /// wrong way is metres off.
 const MAX_DIFF_TO_RUN_M: f64 = 0.3;
 const MAX_DIFF_TO_RUN_DEG: f64 = 2.0;
@@ -83,8 +83,9 @@ fn wins(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
-/// The Python to run, or `None` (with the skip line printed) when none has pymavlink.
-fn python() -> Option<String> {
+/// The Python to run, or `None` (with a line saying that `what` is skipped) when none has
+/// pymavlink.
+fn python(what: &str) -> Option<String> {
     if let Ok(python) = std::env::var("WINS_PYTHON") {
         return Some(python);
     }
@@ -95,7 +96,7 @@ fn python() -> Option<String> {
     if has_pymavlink {
         Some("python3".to_string())
     } else {
-        println!("skipped: pymavlink not installed (see scripts/fc_pymavlink.py)");
+        println!("skipped: {what}: pymavlink not installed (see scripts/fc_pymavlink.py)");
         None
     }
 }
@@ -587,7 +588,7 @@ fn check_recording_replays(dir: &Path) {
 /// trajectory.
 #[test]
 fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() {
-    let python = python();
+    let python = python("the ODOMETRY checks");
     let dir = scratch("replay");
     let (ds, run, mut offline) = flight(&dir);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds);
@@ -642,7 +643,9 @@ fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() 
 /// `wins replay --only csi` the CSI from the same instant.
 #[test]
 fn pymavlink_plays_the_flight_controller() {
-    let Some(python) = python() else { return };
+    let Some(python) = python("pymavlink as the flight controller") else {
+        return;
+    };
     let dir = scratch("fc");
     let (ds, run, mut offline) = flight(&dir);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds);
