@@ -99,9 +99,20 @@ pub struct NonlinearEstimator {
     pub(super) epoch: u64,
     /// An IMU gap came since the last frame ([`super::holes`]).
     imu_gap_seen: bool,
-    /// `(AP index, position in the output frame)` of every AP a window lost to a hole had
-    /// placed, to place the next one by ([`super::holes`]).
-    pub(super) ap_fix: Option<Vec<(usize, Vector3<f64>)>>,
+    /// What a window lost to a hole leaves to place the next one by ([`super::holes`]).
+    pub(super) ap_fix: Option<HoleFix>,
+}
+
+/// What a window lost to a hole (an IMU gap, a CSI outage) leaves for the next one.
+#[derive(Clone, Debug)]
+pub(super) struct HoleFix {
+    /// `(AP index, position in the output frame, its horizontal σ in m)` of every AP the lost
+    /// window had placed.
+    pub(super) aps_in_w: Vec<(usize, Vector3<f64>, f64)>,
+    /// The first frame after the hole (where the new start leaves from).
+    pub(super) t: Timestamp,
+    /// 1σ of the carried position there, horizontal, m.
+    pub(super) carried_sigma_m: f64,
 }
 
 impl NonlinearEstimator {

@@ -16,8 +16,10 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-use super::estimator::NonlinearEstimator;
+use super::estimator::{HoleFix, NonlinearEstimator};
+use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use super::state::{NavState, pose_at};
+use super::triangulate::Sight;
 use crate::fusion::estimator::Wins;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
@@ -59,14 +61,77 @@ impl NonlinearEstimator {
             ..newest
         };
         let aps_in_w = (0..w.aps().len())
-            .filter_map(|l| Some((l, a.transform_point(&w.ap(l)?.into()).coords)))
+            .filter_map(|l| {
+                let c = a.transform_point(&w.ap(l)?.into()).coords;
+                Some((l, c, w.ap_horizontal_sigma_m(l)?))
+            })
             .collect();
+        // How far the carried position may be off horizontally: the straight line across a
+        // gap errs by about 0.3 m per second it spans (0.2–0.6 m measured after 2 s of a
+        // circle flown at 1.3 m/s), the dead reckoning over an outage likewise.
+        let carried_sigma_m = MIN_CARRIED_SIGMA_M + CARRIED_SIGMA_M_PER_S * carried.dt_s();
         self.stats.restarts += 1;
         self.epoch += 1;
         self.begin_start(t, Some(from));
         // The carried velocity and attitude are guesses: the linear window starts from zeros.
         self.linear = Some(Wins::new(self.linear_config.clone()));
-        self.ap_fix = Some(aps_in_w);
+        self.ap_fix = Some(HoleFix {
+            aps_in_w,
+            t,
+            carried_sigma_m,
+        });
+    }
+
+    /// After a hole: the AP of the lost window with the most bearings since, found with the
+    /// velocity and tilt corrections of the dead reckoning at `states` ([`super::relocate`]).
+    pub(super) fn relocate_after_hole(
+        &self,
+        states: &[NavState],
+    ) -> Option<(usize, Relocated, ApFromDrone)> {
+        let fix = self.ap_fix.as_ref()?;
+        let reference = self.reference.as_ref()?;
+        let g = STANDARD_GRAVITY_M_S2;
+        let body_from_array = self.linear_config.window.body_from_array;
+        let mut sights: Vec<Vec<TimedSight>> = Vec::new();
+        for (k, x) in self.start.iter().zip(states) {
+            for f in &k.frames {
+                let pose = pose_at(x, &f.partial, g);
+                let t_s = f.partial.end.secs_since(reference.t);
+                for b in &f.bearings {
+                    if sights.len() <= b.ap {
+                        sights.resize(b.ap + 1, Vec::new());
+                    }
+                    sights[b.ap].push(TimedSight {
+                        sight: Sight::of(&pose, &body_from_array, b),
+                        t_s,
+                    });
+                }
+            }
+        }
+        let (l, c_old) = fix
+            .aps_in_w
+            .iter()
+            .map(|(l, c, _)| (*l, *c))
+            .max_by_key(|(l, _)| sights.get(*l).map_or(0, Vec::len))?;
+        // The lost window's AP in the new window's frame, were the carried heading right.
+        let c_guess = self.anchor.inverse_transform_point(&c_old.into()).coords;
+        let sigma_old = fix
+            .aps_in_w
+            .iter()
+            .find(|(m, _, _)| *m == l)
+            .map_or(0.0, |(_, _, s)| *s);
+        let ap = ApFromDrone {
+            drone: reference.p_b_in_w,
+            offset: c_guess - reference.p_b_in_w,
+            sigma_m: fix.carried_sigma_m.hypot(sigma_old),
+        };
+        let found = relocate(
+            sights.get(l)?,
+            &ap,
+            &reference.v_b_in_w,
+            self.config.cauchy_scale,
+        )?;
+        Some((l, found, ap))
     }
 
     /// After a hole the start cannot leave from a known state: the dead reckoning is dropped
@@ -79,7 +144,12 @@ impl NonlinearEstimator {
     }
 
     /// At the acceptance of a window started after a hole: moves the output frame so that the
-    /// window's APs fall where the lost window had them ([`relocated`]).
+    /// window's APs fall where the lost window had them and its first keyframe, when it is the
+    /// first frame after the hole, stays where the IMU carried it ([`relocated`], each pair
+    /// weighted by its inverse variance). With one AP the second pair fixes the heading: the
+    /// new window's own heading is the carried one, which the hole may have turned by tens of
+    /// degrees, and a turn about the AP moves the whole trajectory by range × angle.
+    /// Called before the window is trimmed (its first keyframe is the start's).
     pub(super) fn place_by_aps(&mut self) {
         let Some(fix) = self.ap_fix.take() else {
             return;
@@ -87,37 +157,80 @@ impl NonlinearEstimator {
         let Some(w) = self.window.as_ref() else {
             return;
         };
-        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = fix
+        let mut pairs: Vec<Weighted> = fix
+            .aps_in_w
             .iter()
-            .filter_map(|(l, old)| {
+            .filter_map(|(l, old, sigma_old)| {
                 let new = self.anchor.transform_point(&w.ap(*l)?.into()).coords;
-                Some((new, *old))
+                let sigma_new = w.ap_horizontal_sigma_m(*l)?;
+                let var = (sigma_old.powi(2) + sigma_new.powi(2)).max(MIN_PAIR_VAR_M2);
+                Some(Weighted {
+                    from: new,
+                    to: *old,
+                    weight: var.recip(),
+                })
             })
             .collect();
+        if pairs.is_empty() {
+            return;
+        }
+        if let Some(first) = w.keyframes().next()
+            && first.t.secs_since(fix.t).abs() <= FIRST_KEYFRAME_WITHIN_S
+        {
+            let here = self.anchor.transform_point(&first.p_b_in_w.into()).coords;
+            pairs.push(Weighted {
+                from: here,
+                to: here,
+                weight: fix.carried_sigma_m.powi(-2),
+            });
+        }
         if let Some(correction) = relocated(&pairs) {
             self.anchor = correction * self.anchor;
         }
     }
 }
 
-/// The rigid motion about the vertical that best moves each pair's first point onto its second
-/// (least squares; heading only from two or more pairs set apart horizontally): `None` without
-/// pairs.
-pub(super) fn relocated(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Option<Isometry3<f64>> {
-    if pairs.is_empty() {
+/// Floor of the carried position's σ, m …
+const MIN_CARRIED_SIGMA_M: f64 = 0.1;
+/// … and its growth per second carried, m/s.
+const CARRIED_SIGMA_M_PER_S: f64 = 0.3;
+/// Floor of an AP pair's variance, m².
+const MIN_PAIR_VAR_M2: f64 = 1e-4;
+/// The new window's first keyframe is taken as the carried state's when it is this close to
+/// the first frame after the hole, s.
+const FIRST_KEYFRAME_WITHIN_S: f64 = 0.5;
+
+/// A point in the new window's placement (`from`) and where it belongs (`to`), with the
+/// pair's weight (1/m²).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Weighted {
+    pub(super) from: Vector3<f64>,
+    pub(super) to: Vector3<f64>,
+    pub(super) weight: f64,
+}
+
+/// The rigid motion about the vertical that best moves each pair's `from` onto its `to`
+/// (weighted least squares; the heading only from two or more pairs set apart horizontally):
+/// `None` without pairs or weight.
+pub(super) fn relocated(pairs: &[Weighted]) -> Option<Isometry3<f64>> {
+    let total: f64 = pairs.iter().map(|p| p.weight).sum();
+    if !(total > 0.0 && total.is_finite()) {
         return None;
     }
-    let n = pairs.len() as f64;
-    let from_mean = pairs.iter().map(|(a, _)| a).sum::<Vector3<f64>>() / n;
-    let to_mean = pairs.iter().map(|(_, b)| b).sum::<Vector3<f64>>() / n;
-    // Heading: the angle that best turns the horizontal spreads (2-D Procrustes).
+    let from_mean = pairs
+        .iter()
+        .map(|p| p.from * p.weight)
+        .sum::<Vector3<f64>>()
+        / total;
+    let to_mean = pairs.iter().map(|p| p.to * p.weight).sum::<Vector3<f64>>() / total;
+    // Heading: the angle that best turns the horizontal spreads (weighted 2-D Procrustes).
     let (mut s_cross, mut s_dot) = (0.0, 0.0);
-    for (a, b) in pairs {
-        let (da, db) = ((a - from_mean).xy(), (b - to_mean).xy());
-        s_cross += da.x * db.y - da.y * db.x;
-        s_dot += da.dot(&db);
+    for p in pairs {
+        let (da, db) = ((p.from - from_mean).xy(), (p.to - to_mean).xy());
+        s_cross += p.weight * (da.x * db.y - da.y * db.x);
+        s_dot += p.weight * da.dot(&db);
     }
-    let yaw = if s_cross.hypot(s_dot) > 1e-6 {
+    let yaw = if s_cross.hypot(s_dot) > 1e-9 * total {
         s_cross.atan2(s_dot)
     } else {
         0.0
@@ -134,14 +247,15 @@ pub(super) fn relocated(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Option<Isomet
 mod tests {
     use super::*;
 
+    fn pair(from: Vector3<f64>, to: Vector3<f64>, weight: f64) -> Weighted {
+        Weighted { from, to, weight }
+    }
+
     #[test]
     fn one_ap_moves_the_frame_and_two_turn_it() {
         let shift = Vector3::new(1.0, -2.0, 0.5);
-        let one = relocated(&[(
-            Vector3::new(3.0, 0.0, 2.0),
-            Vector3::new(3.0, 0.0, 2.0) + shift,
-        )])
-        .expect("one pair");
+        let a = Vector3::new(3.0, 0.0, 2.0);
+        let one = relocated(&[pair(a, a + shift, 1.0)]).expect("one pair");
         assert!((one.translation.vector - shift).norm() < 1e-12);
         assert!(one.rotation.angle() < 1e-12);
 
@@ -152,11 +266,32 @@ mod tests {
         let aps = [Vector3::new(5.0, 0.0, 2.0), Vector3::new(0.0, 6.0, 1.0)];
         let pairs: Vec<_> = aps
             .iter()
-            .map(|a| (*a, truth.transform_point(&(*a).into()).coords))
+            .map(|a| pair(*a, truth.transform_point(&(*a).into()).coords, 1.0))
             .collect();
         let two = relocated(&pairs).expect("two pairs");
         assert!((two.rotation.angle() - 0.35).abs() < 1e-9);
         assert!((two.translation.vector - truth.translation.vector).norm() < 1e-9);
         assert!(relocated(&[]).is_none());
+        assert!(relocated(&[pair(a, a, 0.0)]).is_none());
+    }
+
+    /// One AP and the carried position: the frame turns about the carried position so that
+    /// the AP's direction from it is the lost window's, and the AP (the far tighter pair)
+    /// lands almost exactly.
+    #[test]
+    fn one_ap_and_the_carried_position_fix_the_heading() {
+        let drone = Vector3::new(1.0, 1.0, 1.5);
+        let ap_old = Vector3::new(7.0, 1.0, 1.5);
+        // The new window's frame is turned by 35° about the drone (a heading carried across a
+        // gap), and its AP sits 2 cm off along the range.
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -35f64.to_radians());
+        let ap_new = drone + turn * (ap_old - drone) * (1.0 + 0.02 / 6.0);
+        let fix =
+            relocated(&[pair(ap_new, ap_old, 1e4), pair(drone, drone, 4.0)]).expect("two pairs");
+        assert!((fix.rotation.angle() - 35f64.to_radians()).abs() < 1e-9);
+        let ap_placed = fix.transform_point(&ap_new.into()).coords;
+        assert!((ap_placed - ap_old).norm() < 0.03);
+        let drone_placed = fix.transform_point(&drone.into()).coords;
+        assert!((drone_placed - drone).norm() < 0.03);
     }
 }

@@ -30,6 +30,7 @@ pub mod imu_factor;
 mod late_ap;
 mod nullspace;
 mod output;
+mod relocate;
 pub mod rest;
 mod solve;
 mod start;

@@ -9,7 +9,7 @@ use super::aps::triangulate_within_bounds;
 use super::estimator::NonlinearEstimator;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use super::triangulate::Sight;
-use super::window::{FitStats, NonlinearWindow};
+use super::window::{FitStats, NonlinearWindow, cauchy};
 use crate::chi2::chi2_upper;
 use crate::fusion::window::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -27,6 +27,10 @@ const LINEAR_TILT_SIGMA_RAD: f64 = 0.05;
 const REST_FORCE_SIGMA_M_S2: f64 = 2e-3;
 /// 1σ floor of the gyro bias after a static initialization, rad/s.
 const REST_GYRO_BIAS_SIGMA_RAD_S: f64 = 2e-4;
+/// 1σ of the roll and pitch carried across a hole, rad.
+const HOLE_TILT_SIGMA_RAD: f64 = 0.05;
+/// 1σ of the velocity carried across a hole, once corrected, m/s.
+const HOLE_VELOCITY_SIGMA_M_S: f64 = 0.5;
 /// A start whose APs come closer than this to a keyframe is refused, m (a collapsed AP fits its
 /// bearings trivially).
 const MIN_AP_RANGE_M: f64 = 0.3;
@@ -49,6 +53,10 @@ struct Proposal {
     states: Vec<NavState>,
     /// The APs, `None` where not placed yet.
     aps: Vec<Option<Vector3<f64>>>,
+    /// Priors on APs, in their information (what a window lost to a hole knew of them: range
+    /// and height from the carried position), with the horizontal σ the relocation found them
+    /// with ([`super::relocate`]).
+    ap_priors: Vec<(usize, Matrix3<f64>, f64)>,
     /// σ of the first state's roll and pitch, rad.
     tilt_sigma_rad: f64,
     /// σ of the first state's velocity, m/s (infinite: unknown).
@@ -95,8 +103,8 @@ impl NonlinearEstimator {
         match self.start_window() {
             Some(w) => {
                 self.window = Some(w);
-                self.trim_window();
                 self.place_by_aps();
+                self.trim_window();
                 self.last_good = self.window.as_ref().and_then(|w| w.newest().copied());
                 self.linear = None;
                 self.start.clear();
@@ -121,18 +129,78 @@ impl NonlinearEstimator {
     }
 
     /// The inertial proposal: every start keyframe's dead-reckoned state, and every AP
-    /// triangulated against those poses ([`super::triangulate`]).
+    /// triangulated against those poses ([`super::triangulate`]). After a hole the dead
+    /// reckoning is first corrected by the AP the lost window had placed
+    /// ([`super::relocate`]).
     fn propose_inertial(&self) -> Option<Proposal> {
         let reference = self.reference.as_ref()?;
-        let states: Vec<NavState> = self
+        let mut states: Vec<NavState> = self
             .start
             .iter()
             .map(|k| k.dead_reckoned)
             .collect::<Option<_>>()?;
+        let after_hole = self.ap_fix.is_some();
+        let mut relocated = None;
+        let mut ap_priors = Vec::new();
+        if after_hole {
+            let (l, found, ap) = self.relocate_after_hole(&states)?;
+            for x in &mut states {
+                let t = x.t.secs_since(reference.t);
+                x.p_b_in_w += found.dp(t);
+                x.v_b_in_w += found.dvel(t);
+            }
+            relocated = Some((l, found, ap));
+        }
+        let (_, mut aps) = self.triangulate_along(&states).unwrap_or_default();
+        if let Some((l, found, ap)) = relocated {
+            let range = states
+                .iter()
+                .map(|x| (found.c - x.p_b_in_w).norm())
+                .fold(f64::INFINITY, f64::min);
+            if self.config.ap_sigma_ok(found.ap_sigma_m, range) {
+                if aps.len() <= l {
+                    aps.resize(l + 1, None);
+                }
+                aps[l] = Some(found.c);
+                ap_priors.push((l, ap.information(&found.c), found.ap_sigma_m));
+            }
+        }
+        if aps.iter().all(Option::is_none) {
+            return None;
+        }
+        let elapsed = states.first()?.t.secs_since(reference.t).max(0.0);
+        let x0_rotation = states.first()?.world_from_body;
+        let (tilt_sigma_rad, velocity_sigma_m_s) = match after_hole {
+            true => (HOLE_TILT_SIGMA_RAD, HOLE_VELOCITY_SIGMA_M_S),
+            false => dead_reckoned_sigmas(self.reference_is_rest, elapsed),
+        };
+        Some(Proposal {
+            first: 0,
+            states,
+            aps,
+            ap_priors,
+            tilt_sigma_rad,
+            velocity_sigma_m_s,
+            rest: self
+                .static_init
+                .filter(|_| self.reference_is_rest)
+                .map(|s| RestForce {
+                    rest_from_body: (reference.world_from_body.inverse() * x0_rotation)
+                        .to_rotation_matrix()
+                        .into_inner(),
+                    duration_s: s.duration_s,
+                }),
+        })
+    }
+
+    /// Every AP triangulated against the start keyframes at `states`: the sum of the robust
+    /// costs and the APs placed well enough (the others wait as placeholders); `None` when none
+    /// is.
+    fn triangulate_along(&self, states: &[NavState]) -> Option<(f64, Vec<Option<Vector3<f64>>>)> {
         let g = STANDARD_GRAVITY_M_S2;
         let body_from_array = self.linear_config.window.body_from_array;
         let mut sights: Vec<Vec<Sight>> = Vec::new();
-        for (k, x) in self.start.iter().zip(&states) {
+        for (k, x) in self.start.iter().zip(states) {
             for f in &k.frames {
                 if f.bearings.is_empty() {
                     continue;
@@ -146,34 +214,27 @@ impl NonlinearEstimator {
                 }
             }
         }
-        // Every AP its sights place well enough; the others wait (placeholders).
+        let mut cost = 0.0;
         let aps: Vec<Option<Vector3<f64>>> = sights
             .iter()
-            .map(|s| triangulate_within_bounds(s, &self.config).map(|t| t.c_in_w))
+            .map(|s| {
+                let t = triangulate_within_bounds(s, &self.config)?;
+                cost += t.cost;
+                Some(t.c_in_w)
+            })
             .collect();
         if aps.iter().all(Option::is_none) {
             return None;
         }
-        let elapsed = states.first()?.t.secs_since(reference.t).max(0.0);
-        let x0_rotation = states.first()?.world_from_body;
-        let (tilt_sigma_rad, velocity_sigma_m_s) =
-            dead_reckoned_sigmas(self.reference_is_rest, elapsed);
-        Some(Proposal {
-            first: 0,
-            states,
-            aps,
-            tilt_sigma_rad,
-            velocity_sigma_m_s,
-            rest: self
-                .static_init
-                .filter(|_| self.reference_is_rest)
-                .map(|s| RestForce {
-                    rest_from_body: (reference.world_from_body.inverse() * x0_rotation)
-                        .to_rotation_matrix()
-                        .into_inner(),
-                    duration_s: s.duration_s,
-                }),
-        })
+        // An AP left unplaced costs as if each of its sights were a 3σ outlier.
+        let unplaced: usize = sights
+            .iter()
+            .zip(&aps)
+            .filter(|(_, c)| c.is_none())
+            .map(|(s, _)| s.len())
+            .sum();
+        cost += unplaced as f64 * cauchy(9.0, self.config.cauchy_scale).0;
+        Some((cost, aps))
     }
 
     /// The linear proposal: the linear window's frames, levelled (its mean gravity to −z).
@@ -227,6 +288,7 @@ impl NonlinearEstimator {
             first,
             states,
             aps,
+            ap_priors: Vec::new(),
             tilt_sigma_rad: LINEAR_TILT_SIGMA_RAD,
             velocity_sigma_m_s: f64::INFINITY,
             rest: None,
@@ -239,6 +301,7 @@ impl NonlinearEstimator {
             first,
             states,
             aps,
+            ap_priors,
             tilt_sigma_rad,
             velocity_sigma_m_s,
             rest,
@@ -275,6 +338,11 @@ impl NonlinearEstimator {
             baro,
             (self.config.sin_bias_sigma > 0.0).then_some((0.0, self.config.sin_bias_sigma)),
         );
+        for (l, info, _) in &ap_priors {
+            if let Some(c) = w.ap(*l) {
+                w.place_ap(*l, c, info);
+            }
+        }
         for (k, x) in keys.iter().zip(&states).skip(1) {
             w.push_keyframe(*x, k.from_prev.clone()?, k.frames.clone())?;
         }
@@ -285,7 +353,12 @@ impl NonlinearEstimator {
                 .keyframes()
                 .map(|x| (w.aps()[l] - x.p_b_in_w).norm())
                 .fold(f64::INFINITY, f64::min);
-            w.ap_horizontal_sigma_m(l)
+            // An AP the relocation placed (after a hole) is judged by the relocation's σ, whose
+            // velocity and tilt corrections hold the heading the window's own start lacks for
+            // seconds; the window's χ² still has to pass.
+            let relocated_sigma = ap_priors.iter().find(|p| p.0 == l).map(|p| p.2);
+            relocated_sigma
+                .or(w.ap_horizontal_sigma_m(l))
                 .is_some_and(|s| self.config.ap_sigma_ok(s, range))
                 && range > MIN_AP_RANGE_M
         });

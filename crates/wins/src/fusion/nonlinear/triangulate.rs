@@ -48,7 +48,7 @@ impl Sight {
 
     /// The residual `ŷ_a · unit(d_a) − sin θ` for an AP at `c`, and `∂r/∂c`; `None` at the
     /// array centre.
-    fn residual(&self, c: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
+    pub(super) fn residual(&self, c: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
         let d_a = self
             .world_from_array
             .inverse_transform_vector(&(c - self.p_a_in_w));
