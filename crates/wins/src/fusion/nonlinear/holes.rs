@@ -60,7 +60,22 @@ impl NonlinearEstimator {
             v_b_in_w: a.rotation * p.v_b_in_w,
             ..newest
         };
-        let aps_in_w = (0..w.aps().len())
+        let fix = self.hole_fix(t, carried.dt_s());
+        self.stats.restarts += 1;
+        self.epoch += 1;
+        self.begin_start(t, Some(from));
+        // The carried velocity and attitude are guesses: the linear window starts from zeros.
+        self.linear = Some(Wins::new(self.linear_config.clone()));
+        self.ap_fix = fix;
+    }
+
+    /// What the tracking window leaves for the next one when it ends at `t`, its newest state
+    /// carried `carried_s` by the IMU alone: its placed APs in the output frame, and how far the
+    /// carried position may be off. `None` without a window or a placed AP.
+    pub(super) fn hole_fix(&self, t: Timestamp, carried_s: f64) -> Option<HoleFix> {
+        let w = self.window.as_ref()?;
+        let a = self.anchor;
+        let aps_in_w: Vec<_> = (0..w.aps().len())
             .filter_map(|l| {
                 let c = a.transform_point(&w.ap(l)?.into()).coords;
                 Some((l, c, w.ap_horizontal_sigma_m(l)?))
@@ -69,17 +84,12 @@ impl NonlinearEstimator {
         // How far the carried position may be off horizontally: the straight line across a
         // gap errs by about 0.3 m per second it spans (0.2–0.6 m measured after 2 s of a
         // circle flown at 1.3 m/s), the dead reckoning over an outage likewise.
-        let carried_sigma_m = MIN_CARRIED_SIGMA_M + CARRIED_SIGMA_M_PER_S * carried.dt_s();
-        self.stats.restarts += 1;
-        self.epoch += 1;
-        self.begin_start(t, Some(from));
-        // The carried velocity and attitude are guesses: the linear window starts from zeros.
-        self.linear = Some(Wins::new(self.linear_config.clone()));
-        self.ap_fix = Some(HoleFix {
+        let carried_sigma_m = MIN_CARRIED_SIGMA_M + CARRIED_SIGMA_M_PER_S * carried_s.max(0.0);
+        (!aps_in_w.is_empty()).then_some(HoleFix {
             aps_in_w,
             t,
             carried_sigma_m,
-        });
+        })
     }
 
     /// After a hole: the AP of the lost window with the most bearings since, found with the
