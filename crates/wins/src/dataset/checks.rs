@@ -1,7 +1,7 @@
-//! The checks a dataset's inputs pass as it is loaded ([`check_imu`], [`check_ap`],
-//! [`check_spans`]): what can be used is used, what cannot is dropped and counted, each event is
-//! reported with the time it happened, and inputs that cannot give a meaningful estimate are an
-//! error that says why.
+//! The checks a dataset's inputs pass as it is loaded ([`super::incremental::check_imu`],
+//! [`super::incremental::check_ap`], [`check_spans`]): what can be used is used, what cannot is
+//! dropped and counted, each event is reported with the time it happened, and inputs that cannot
+//! give a meaningful estimate are an error that says why.
 //!
 //! IMU: rows whose time does not increase, values that are not finite or at or beyond the
 //! sensor's range (`[imu] accel_range_m_s2`, `gyro_range_rad_s`; a saturated or corrupted
@@ -20,8 +20,6 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::imu_csv::ImuRows;
-use super::incremental::{ApCheck, ImuCheck};
 use crate::csi::intel5300::CsiRecord;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
@@ -207,38 +205,6 @@ pub struct ImuLimits {
     pub accel_range_m_s2: f64,
     /// Gyroscope full scale per axis, rad/s.
     pub gyro_range_rad_s: f64,
-}
-
-/// Checks the IMU rows: returns the samples kept (strictly increasing time).
-pub fn check_imu(
-    rows: ImuRows,
-    limits: ImuLimits,
-    report: &mut InputReport,
-) -> Result<Vec<ImuSample>, InputError> {
-    let mut check = ImuCheck::new(limits);
-    let mut kept: Vec<ImuSample> = Vec::with_capacity(rows.samples.len());
-    for s in rows.samples {
-        kept.extend(check.push(s, report));
-    }
-    check.finish(rows.cut_last_line, report)?;
-    Ok(kept)
-}
-
-/// One AP's records placed on the IMU clock (`imu_minus_nic_ns`, checked), repeated records and
-/// those after a NIC clock jump dropped and counted.
-pub fn check_ap(
-    name: &str,
-    records: Vec<CsiRecord>,
-    imu_minus_nic_ns: i64,
-    report: &mut InputReport,
-) -> Result<Vec<CsiPacket>, InputError> {
-    let mut check = ApCheck::new(report.aps.len(), name, imu_minus_nic_ns, true);
-    let mut kept: Vec<CsiPacket> = Vec::with_capacity(records.len());
-    for record in records {
-        kept.extend(check.push(record, report)?);
-    }
-    check.finish(report);
-    Ok(kept)
 }
 
 /// The IMU's span against every AP's: records outside it counted, no overlap an error, ends far

@@ -7,6 +7,7 @@ use super::baro_csv::{self, BaroCsvError, BaroSample};
 pub use super::checks::CsiPacket;
 use super::checks::{self, ImuLimits, InputError, InputReport};
 use super::imu_csv::{self, ImuCsvError};
+use super::incremental;
 use super::manifest::{FORMAT, Manifest, VERSION};
 use crate::csi::intel5300::{ReadError, Skip, read_log};
 use crate::imu::ImuSample;
@@ -136,7 +137,7 @@ impl Dataset {
             accel_range_m_s2: manifest.imu.accel_range_m_s2,
             gyro_range_rad_s: manifest.imu.gyro_range_rad_s,
         };
-        let imu = checks::check_imu(rows, limits, &mut inputs).map_err(inputs_error)?;
+        let imu = incremental::check_imu(rows, limits, &mut inputs).map_err(inputs_error)?;
         let mut aps = Vec::with_capacity(manifest.aps.len());
         for entry in &manifest.aps {
             let log = read_log(dir.join(&entry.log))?;
@@ -145,7 +146,7 @@ impl Dataset {
                 .iter()
                 .filter(|r| r.header.rate.bandwidth() != manifest.channel.bandwidth)
                 .count();
-            let packets = checks::check_ap(
+            let packets = incremental::check_ap(
                 &entry.name,
                 log.records,
                 entry.imu_minus_nic_ns,

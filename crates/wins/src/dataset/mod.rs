@@ -23,7 +23,6 @@ pub mod imu_csv;
 pub mod incremental;
 pub(crate) mod load;
 pub(crate) mod manifest;
-pub(crate) mod scoring_truth;
 pub mod stream;
 pub mod truth;
 

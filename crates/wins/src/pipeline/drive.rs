@@ -4,7 +4,7 @@
 use std::io;
 use std::time::Instant;
 
-use super::replay::{ApEstimate, Evaluation, ReplayError, RunOutput};
+use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
 use super::{ChainResolver, Config, PacketLog, Released};
 use crate::dataset::checks::InputReport;
 use crate::fusion::estimator::PoseEstimate;

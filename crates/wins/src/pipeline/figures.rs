@@ -3,7 +3,7 @@
 //! truth. Only numbers here; drawing is the caller's (the CLI uses `wins-plot`).
 
 pub use super::figure_data::{AoaSeries, Points, RunFigures};
-use super::replay::RunOutput;
+use super::run_output::RunOutput;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalError, EvalOptions, Metrics, position_error_series};
 

@@ -29,9 +29,12 @@ pub mod output;
 pub mod replay;
 pub mod run;
 pub mod run_dir;
+pub mod run_output;
 mod score_spooled;
+pub(crate) mod scoring_truth;
 pub(crate) mod slot;
 pub mod spool;
+pub mod spooled;
 pub mod stats;
 pub(crate) mod track;
 

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::replay::RunOutput;
+use super::run_output::RunOutput;
 use super::{ChainReport, PacketStatus, PipelineStats, StageTiming};
 use crate::dataset::checks::InputReport;
 use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};

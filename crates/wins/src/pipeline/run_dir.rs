@@ -23,7 +23,7 @@ use super::output::{
     AOA_FILE, APS_FILE, COVARIANCE_FILE, METRICS_FILE, REPORT_FILE, STATS_FILE,
     TRAJECTORY_ALL_FILE, TRAJECTORY_FILE,
 };
-use super::replay::RunOutput;
+use super::run_output::RunOutput;
 use super::spool::SPOOL_PREFIX;
 use crate::dataset::load::{MANIFEST_FILE as DATASET_MANIFEST, read_manifest};
 use crate::dataset::truth::TRUTH_DIR;
@@ -120,7 +120,7 @@ pub struct RunManifest {
     pub estimate: bool,
     /// The evaluation against the truth: `"ok"`, `"no truth"`, `"not scored: …"` (it never
     /// converged, say) or `"failed: …"` (the truth cannot be read), as
-    /// [`super::replay::Evaluation`] prints.
+    /// [`super::run_output::Evaluation`] prints.
     pub evaluation: String,
     /// The files of the folder the run wrote, by name (without `run.json`).
     pub files: Vec<String>,

@@ -7,9 +7,9 @@ use std::io;
 
 use super::figure_data::RunFigures;
 use super::output::TRUTH_PAIR_NS;
-use super::replay::{Evaluation, RunOutput};
+use super::run_output::{Evaluation, RunOutput};
+use super::scoring_truth::ScoringTruth;
 use super::spool::ScoringSpool;
-use crate::dataset::scoring_truth::ScoringTruth;
 use crate::eval::records::{AoaRecord, read_records};
 use crate::eval::stream::{StreamedError, StreamedEval};
 use crate::eval::{EvalOptions, Metrics};

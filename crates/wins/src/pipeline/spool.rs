@@ -1,7 +1,8 @@
 //! A run's per-frame and per-packet files written as the replay produces them ([`Spool`]), so
 //! a long flight's run does not hold them: the trajectories, the covariances and the packet log
-//! go to hidden files in the output folder, renamed into place by [`super::replay::RunOutput::write`]
-//! (removed when the run is dropped without being written). What the scoring reads goes to two
+//! go to hidden files in the output folder, renamed into place by
+//! [`super::run_output::RunOutput::write`] (removed when the run is dropped without being
+//! written). What the scoring reads goes to two
 //! more, binary, files (`ScoringSpool`): per converged frame its pose and position covariance,
 //! per fed packet its AoA.
 
@@ -15,6 +16,8 @@ use super::output::{
     AOA_FILE, COVARIANCE_FILE, TRAJECTORY_ALL_FILE, TRAJECTORY_FILE, write_covariance_header,
     write_covariance_row,
 };
+use super::spooled::SpoolFiles;
+pub use super::spooled::Spooled;
 use super::{PacketLog, PacketStatus};
 use crate::dataset::truth::{Pose, write_tum_header, write_tum_pose};
 use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
@@ -23,36 +26,6 @@ use crate::fusion::estimator::PoseEstimate;
 
 /// Prefix of a spool file in the output folder.
 pub const SPOOL_PREFIX: &str = ".wins-spool-";
-
-/// The spool files, removed when the last holder drops them unless they were renamed into place.
-#[derive(Debug)]
-struct SpoolFiles {
-    /// (spool file, final name), in the order [`super::output`] lists them.
-    files: Vec<(PathBuf, &'static str)>,
-}
-
-impl Drop for SpoolFiles {
-    fn drop(&mut self) {
-        for (path, _) in &self.files {
-            // Gone already when renamed into place.
-            let _ = std::fs::remove_file(path);
-        }
-    }
-}
-
-/// What a spooled run keeps: counts, and the files to rename into place.
-#[derive(Clone, Debug, Default)]
-pub struct Spooled {
-    /// Frames solved.
-    pub frames: usize,
-    /// Frames after convergence.
-    pub frames_converged: usize,
-    /// The most poses the scoring against a truth held at once, of the estimate and the truth
-    /// together (0 when not scored): it reads both trajectories from files in passes, so this
-    /// does not grow with the flight.
-    pub scoring_poses_held: usize,
-    files: Option<Arc<SpoolFiles>>,
-}
 
 /// What scoring reads of a spooled run, in two more spool files (removed when this is
 /// dropped): per converged frame its pose and position covariance, per fed packet its AoA
@@ -82,23 +55,6 @@ struct ScoringWriters {
     files: ScoringSpool,
     est: RecordWriter<BufWriter<File>>,
     aoa: RecordWriter<BufWriter<File>>,
-}
-
-impl Spooled {
-    /// Renames the spool files into `dir` (the folder they were spooled in) under their final
-    /// names; returns the paths, in [`super::output`]'s order.
-    pub fn persist(&self, dir: &Path) -> io::Result<Vec<PathBuf>> {
-        let Some(files) = &self.files else {
-            return Err(io::Error::other("the run's spool files are gone"));
-        };
-        let mut out = Vec::new();
-        for (path, name) in &files.files {
-            let target = dir.join(name);
-            std::fs::rename(path, &target)?;
-            out.push(target);
-        }
-        Ok(out)
-    }
 }
 
 /// A [`RunSink`] writing the per-frame and per-packet files as they come.

@@ -5,7 +5,7 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::truth::{
+use crate::dataset::truth::{
     ApRow, PacketRow, TRUTH_DIR, TruthError, TruthInfo, packets_file, read_optional, tum_poses,
 };
 use crate::eval::scan::TrajectoryScan;

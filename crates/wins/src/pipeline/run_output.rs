@@ -1,0 +1,152 @@
+//! What a run produced ([`RunOutput`]), its scoring's outcome ([`Evaluation`]) and why a
+//! dataset cannot be replayed ([`ReplayError`]): the types the replay, its driver and the
+//! writers of its outputs share.
+
+use nalgebra::Vector3;
+
+use super::figure_data::RunFigures;
+use super::{ChainReport, PacketLog, PipelineError, PipelineStats, StageTiming};
+use crate::dataset::DatasetError;
+use crate::dataset::checks::InputReport;
+use crate::dataset::truth::Truth;
+use crate::eval::{EvalOptions, Metrics};
+use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::time::Timestamp;
+
+/// Why a dataset cannot be replayed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The manifest has no IMU noise and none was given.
+    #[error("the dataset states no IMU noise densities (dataset.toml [imu.noise]); give them")]
+    NoImuNoise,
+    /// No IMU samples.
+    #[error("the dataset has no IMU samples")]
+    NoImu,
+    /// The pipeline cannot be built.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    /// The dataset could not be read as it was replayed.
+    #[error(transparent)]
+    Dataset(#[from] Box<DatasetError>),
+    /// The frames or packet rows could not be written as they were produced.
+    #[error("writing the run's output: {0}")]
+    Output(#[from] std::io::Error),
+}
+
+/// An estimated AP position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ApEstimate {
+    /// The AP's name.
+    pub name: String,
+    /// Position in the estimator's world frame `w`, m.
+    pub p_in_w: Vector3<f64>,
+    /// Largest standard deviation of the position, m.
+    pub sigma_m: f64,
+}
+
+/// Everything a replay produced.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    /// The pose of every solved frame, in time order (`converged` says which are usable).
+    pub frames: Vec<PoseEstimate>,
+    /// One row per packet, in processing order.
+    pub packets: Vec<PacketLog>,
+    /// The APs at the end of the run (in `w` of the last frame).
+    pub aps: Vec<ApEstimate>,
+    /// When the window reported convergence.
+    pub converged_at: Option<Timestamp>,
+    /// Packet counters.
+    pub stats: PipelineStats,
+    /// The estimator's counters.
+    pub wins: WinsStats,
+    /// Wall time per stage, s (over every chain-offset hypothesis run).
+    pub timing: StageTiming,
+    /// How the receive chains' offsets were resolved from the flight.
+    pub chains: ChainReport,
+    /// Wall time of the whole replay, s.
+    pub wall_s: f64,
+    /// Flight time replayed (first to last IMU sample), s.
+    pub flight_s: f64,
+    /// IMU samples the estimator refused (non-finite, out of order).
+    pub imu_refused: u64,
+    /// The run scored against the dataset's truth (`None`: no truth, or it could not be scored;
+    /// then `warnings` and `evaluation` say why).
+    pub metrics: Option<Metrics>,
+    /// What became of the scoring against the truth.
+    pub evaluation: Evaluation,
+    /// The figures' data against the truth, with `metrics`.
+    pub figures: Option<RunFigures>,
+    /// What the input checks dropped, counted and found.
+    pub inputs: InputReport,
+    /// What limits the result, in words (input problems, no calibration, a run that cannot be
+    /// scored).
+    pub warnings: Vec<String>,
+    /// When the frames and packet rows were written as they came ([`super::spool::Spool`]):
+    /// what the run keeps of them (`frames` and `packets` are then empty).
+    pub spooled: Option<super::spooled::Spooled>,
+}
+
+/// What became of a run's scoring against its dataset's truth.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Evaluation {
+    /// The dataset has no `truth/` folder (or the run was not scored).
+    #[default]
+    NoTruth,
+    /// Scored: [`RunOutput::metrics`] holds the metrics.
+    Scored,
+    /// The truth was read but the run cannot be scored (it never converged, say): why.
+    NotScored(String),
+    /// The truth cannot be read (a malformed `truth/poses.tum`, say): why, naming the file.
+    Failed(String),
+}
+
+impl std::fmt::Display for Evaluation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoTruth => write!(f, "no truth"),
+            Self::Scored => write!(f, "ok"),
+            Self::NotScored(why) => write!(f, "not scored: {why}"),
+            Self::Failed(why) => write!(f, "failed: {why}"),
+        }
+    }
+}
+
+impl RunOutput {
+    /// Flight time over wall time.
+    pub fn realtime_factor(&self) -> f64 {
+        self.flight_s / self.wall_s.max(1e-12)
+    }
+
+    /// Frames after convergence.
+    pub fn converged_frames(&self) -> impl Iterator<Item = &PoseEstimate> {
+        self.frames.iter().filter(|p| p.converged)
+    }
+
+    /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics and the
+    /// figures' data; when it cannot be scored (it never converged, say), says why in
+    /// `warnings` and `evaluation`.
+    pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
+        self.score_against_with(truth, options, true);
+    }
+
+    /// [`RunOutput::score_against`], the figures' data made only when `figures` is true.
+    pub fn score_against_with(&mut self, truth: &Truth, options: &EvalOptions, figures: bool) {
+        let scored = self.score(truth, options).and_then(|m| {
+            let f = figures
+                .then(|| self.figures(truth, &m, options))
+                .transpose()?;
+            Ok((f, m))
+        });
+        match scored {
+            Ok((figures, metrics)) => {
+                self.metrics = Some(metrics);
+                self.figures = figures;
+                self.evaluation = Evaluation::Scored;
+            }
+            Err(e) => {
+                self.warnings.push(format!("cannot score the run: {e}"));
+                self.evaluation = Evaluation::NotScored(e.to_string());
+            }
+        }
+    }
+}
