@@ -58,6 +58,14 @@ impl Estimator {
         }
     }
 
+    /// Runs a keyframe's solve that is due (the nonlinear estimator's
+    /// [`NonlinearEstimator::solve_pending`]); nothing for the paper's.
+    pub fn solve_pending(&mut self) {
+        if let Self::Nonlinear(n) = self {
+            n.solve_pending();
+        }
+    }
+
     /// Queues a frame of bearings at `t`.
     pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
         match self {

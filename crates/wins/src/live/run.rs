@@ -410,11 +410,19 @@ impl Loop<'_> {
                 Err(RecvTimeoutError::Disconnected) => break,
             }
             let now = self.clock.now_ns();
-            for f in session.advance(now)? {
-                let age = session
-                    .host_time(f.pose.t)
-                    .map(|h| (self.clock.now_ns() - h) as f64 * 1e-6);
-                out.frame(&f, age)?;
+            // The frames go out first, the keyframe solve after them, then the inputs that
+            // waited behind the frames.
+            loop {
+                for f in session.advance(now)? {
+                    let age = session
+                        .host_time(f.pose.t)
+                        .map(|h| (self.clock.now_ns() - h) as f64 * 1e-6);
+                    out.frame(&f, age)?;
+                }
+                session.solve_pending();
+                if !session.has_backlog() {
+                    break;
+                }
             }
             if self.status_every_ns > 0 && now - last_status.0 >= self.status_every_ns {
                 let status = self.status(session, out, &last_status, now);

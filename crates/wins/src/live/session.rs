@@ -19,7 +19,7 @@
 //! before it ([`ApBy::Transmitter`]), or the only AP ([`ApBy::Single`]); a record whose AP cannot
 //! be told is counted and left out.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 
 use super::clock::ClockSync;
 pub use super::counts::{ClockReport, LiveStats};
@@ -107,6 +107,9 @@ pub struct LiveSession {
     fc: ClockSync,
     nics: HashMap<u64, Nic>,
     merger: Merger,
+    /// Released inputs not fed yet: feeding stops at the first input that gives frames, so
+    /// that they can be sent before the next input (and the solve it runs first) is fed.
+    backlog: VecDeque<Merged>,
     recorder: Option<Recorder>,
     imu_last: Option<Timestamp>,
     stats: LiveStats,
@@ -182,6 +185,7 @@ impl LiveSession {
             fc: ClockSync::default(),
             nics: HashMap::new(),
             merger: Merger::new(),
+            backlog: VecDeque::new(),
             recorder,
             imu_last: None,
             stats: LiveStats {
@@ -355,14 +359,36 @@ impl LiveSession {
         if let Some(p) = passed {
             watermark = watermark.max(p);
         }
-        let inputs = self.merger.release(watermark);
+        let mut inputs: Vec<Merged> = self.backlog.drain(..).collect();
+        inputs.extend(self.merger.release(watermark));
         self.feed(inputs)
+    }
+
+    /// Whether released inputs wait to be fed ([`LiveSession::advance`] again, after sending
+    /// the frames it gave).
+    pub fn has_backlog(&self) -> bool {
+        !self.backlog.is_empty()
+    }
+
+    /// Runs the pipeline's keyframe solve that is due: after the frames are sent, so that the
+    /// solve is not on their way out ([`crate::pipeline::Pipeline::solve_pending`]).
+    pub fn solve_pending(&mut self) {
+        if let Stage::Running(resolver) = &mut self.stage {
+            resolver.solve_pending();
+        }
     }
 
     /// Feeds released inputs to the pipeline (and the recording), held until it is built.
     fn feed(&mut self, inputs: Vec<Merged>) -> Result<Vec<LiveFrame>, SessionError> {
         let mut frames = Vec::new();
-        for input in inputs {
+        let mut inputs = inputs.into_iter();
+        while let Some(input) = inputs.next() {
+            if !frames.is_empty() {
+                // Frames first: the rest waits for the next call.
+                self.backlog.push_back(input);
+                self.backlog.extend(inputs);
+                break;
+            }
             let start = match &mut self.stage {
                 Stage::Waiting { held, .. } => {
                     let due = matches!(&input, Merged::Imu(s)
@@ -441,8 +467,13 @@ impl LiveSession {
     /// The end: everything held goes to the pipeline, which finishes; the recording is closed.
     /// Returns the last frames and the statistics.
     pub fn finish(mut self) -> Result<(Vec<LiveFrame>, LiveStats), SessionError> {
-        let rest = self.merger.drain();
-        let mut frames = self.feed(rest)?;
+        let mut rest: Vec<Merged> = self.backlog.drain(..).collect();
+        rest.extend(self.merger.drain());
+        let mut frames = Vec::new();
+        while !rest.is_empty() {
+            frames.extend(self.feed(rest)?);
+            rest = self.backlog.drain(..).collect();
+        }
         self.start(&mut frames)?;
         if let Stage::Running(resolver) = self.stage {
             let done = resolver.finish()?;

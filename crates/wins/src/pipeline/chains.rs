@@ -225,10 +225,24 @@ impl ChainResolver {
         self.forward(input)
     }
 
+    /// Runs every pipeline's keyframe solve that is due ([`Pipeline::solve_pending`]).
+    pub fn solve_pending(&mut self) {
+        match &mut self.stage {
+            Stage::Measuring { .. } => {}
+            Stage::Testing(candidates) => {
+                for c in candidates {
+                    c.pipeline.solve_pending();
+                }
+            }
+            Stage::Decided(p) => p.solve_pending(),
+        }
+    }
+
     /// The end of the inputs: starts the hypotheses if the curvature was still being measured,
     /// decides among them if they are still side by side (the one converged longest, else the
     /// prior's), and hands over the kept pipeline with what it still held.
     pub fn finish(mut self) -> Result<Finished, PipelineError> {
+        self.solve_pending();
         let mut released = Released::default();
         if matches!(self.stage, Stage::Measuring { .. }) {
             released = self.start_hypotheses()?;

@@ -203,6 +203,15 @@ impl Pipeline {
         self.aoa.set_calibration(calibration)
     }
 
+    /// Runs the estimator's keyframe solve that is due, if one is
+    /// ([`crate::fusion::nonlinear::NonlinearEstimator::solve_pending`]): every push runs it
+    /// first; a caller that sends poses calls it after sending them.
+    pub fn solve_pending(&mut self) {
+        let started = Instant::now();
+        self.wins.solve_pending();
+        self.timing.estimator_s += started.elapsed().as_secs_f64();
+    }
+
     /// The latest pose, propagated to the last IMU sample.
     pub fn latest(&self) -> Option<&PoseEstimate> {
         self.latest.as_ref()
@@ -212,6 +221,7 @@ impl Pipeline {
     /// estimator), then lets the estimator solve every frame the sample passes.
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, PipelineError> {
         let started = Instant::now();
+        self.wins.solve_pending();
         if self.slot.t.is_some_and(|t| t <= s.t) {
             self.flush_slot()?;
         }
@@ -245,6 +255,7 @@ impl Pipeline {
 
     /// Queues a barometer altitude at `t` (IMU clock), m.
     pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), PipelineError> {
+        self.solve_pending();
         if self.slot.t.is_some_and(|st| st <= t) {
             self.flush_slot()?;
         }
@@ -255,6 +266,7 @@ impl Pipeline {
     /// Packets must come in time order with the IMU samples (a packet at `t` before the samples
     /// after `t`).
     pub fn push_csi(&mut self, ap: usize, t: Timestamp, record: &CsiRecord) -> PacketLog {
+        self.solve_pending();
         let converged = self.wins.is_converged();
         let mut row = PacketLog::new(ap, t, converged);
         let Some(track) = self.tracks.get(ap) else {

@@ -18,19 +18,7 @@ fn no_pose_comes_from_inside_an_imu_gap_and_the_estimate_starts_again_after_it()
     write_dataset(&dir, &s, &out).unwrap();
     // Two seconds of IMU lost in the middle of the circle.
     let (gap_from_ns, gap_to_ns) = (20_000_000_000_i64, 22_000_000_000_i64);
-    let path = dir.join("imu.csv");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let kept: Vec<&str> = text
-        .lines()
-        .filter(|l| {
-            l.starts_with('#')
-                || l.split(',')
-                    .next()
-                    .and_then(|t| t.parse::<i64>().ok())
-                    .is_none_or(|t| t <= gap_from_ns || t >= gap_to_ns)
-        })
-        .collect();
-    std::fs::write(&path, kept.join("\n") + "\n").unwrap();
+    cut_imu(&dir, gap_from_ns, gap_to_ns);
 
     let run = wins::run_dataset(&dir, &Config::default()).unwrap();
     assert_eq!(run.wins.imu_gaps, 1, "{:?}", run.wins);

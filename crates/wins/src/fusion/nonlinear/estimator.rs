@@ -101,6 +101,8 @@ pub struct NonlinearEstimator {
     imu_gap_seen: bool,
     /// What a window lost to a hole leaves to place the next one by ([`super::holes`]).
     pub(super) ap_fix: Option<HoleFix>,
+    /// The newest keyframe's time when its solve has not run yet ([`Self::solve_pending`]).
+    pub(super) solve_due: Option<Timestamp>,
 }
 
 /// What a window lost to a hole (an IMU gap, a CSI outage) leaves for the next one.
@@ -152,6 +154,7 @@ impl NonlinearEstimator {
             epoch: 0,
             imu_gap_seen: false,
             ap_fix: None,
+            solve_due: None,
         }
     }
 
@@ -211,6 +214,7 @@ impl NonlinearEstimator {
 
     /// Queues a frame of bearings at `t`.
     pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
+        self.solve_pending();
         self.check_order(t)?;
         if let Some(l) = &mut self.linear {
             l.push_bearings(t, bearings.clone())?;
@@ -225,6 +229,7 @@ impl NonlinearEstimator {
 
     /// Queues a barometer altitude at `t`, m.
     pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), WinsError> {
+        self.solve_pending();
         self.check_order(t)?;
         if !altitude_m.is_finite() {
             self.stats.frames_refused += 1;
@@ -248,6 +253,7 @@ impl NonlinearEstimator {
 
     /// Integrates one IMU sample, processing every queued frame it passes.
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, WinsError> {
+        self.solve_pending();
         if let Err(e) = self.pre.check(s) {
             self.stats.imu_refused += 1;
             return Err(e.into());
@@ -374,6 +380,7 @@ impl NonlinearEstimator {
 
     /// One frame: into the start window or the nonlinear window; the pose when tracking.
     fn on_frame(&mut self, frame: PendingFrame, interval: Preintegrated) -> Option<PoseEstimate> {
+        self.solve_pending();
         self.stats.bearings += frame.bearings.len() as u64;
         self.stats.frames += 1;
         let imu_gap = std::mem::take(&mut self.imu_gap_seen);
@@ -515,6 +522,24 @@ impl NonlinearEstimator {
             self.stats.frames_refused += 1;
             return self.pose_now(t);
         }
+        // The pose goes out predicted by the IMU, as between keyframes; the solve follows
+        // ([`Self::solve_pending`]).
+        self.solve_due = Some(t);
+        self.pose_now(t)
+    }
+
+    /// Solves the newest keyframe when its solve is due, then trims the window, places late
+    /// APs and runs the loss test. A keyframe's pose is given before its solve (predicted by the
+    /// IMU from the window's last solution, as every frame between keyframes is), so that a
+    /// caller sending poses can send it first and solve after (`wins live`); otherwise the next
+    /// input runs it, before anything else: the estimate is the same either way.
+    pub fn solve_pending(&mut self) {
+        let Some(t) = self.solve_due.take() else {
+            return;
+        };
+        let Some(window) = self.window.as_mut() else {
+            return;
+        };
         let solved = window.optimize(self.config.iterations);
         self.trim_window();
         self.place_late_aps();
@@ -525,6 +550,5 @@ impl NonlinearEstimator {
                 self.lose(t);
             }
         }
-        self.pose_now(t)
     }
 }

@@ -18,6 +18,17 @@ impl NonlinearEstimator {
         if partial.end != t {
             return None;
         }
+        // A keyframe not solved yet: its predicted state is the one before it carried by the
+        // IMU between them, and so is its covariance, with the IMU's noise over that interval.
+        if self.solve_due == Some(t) {
+            let n = w.keyframes.len();
+            if let (Some(prev), Some(Some((between, _)))) = (
+                n.checked_sub(2).and_then(|i| w.keyframes.get(i)),
+                w.keyframes.back().map(|k| k.from_prev.as_ref()),
+            ) {
+                return Some(self.output(&prev.x, between, w.newest_covariance()));
+            }
+        }
         Some(self.output(x, partial, w.newest_covariance()))
     }
 
