@@ -51,9 +51,8 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink2  # noqa: E402
 
-# HIGHRES_IMU.fields_updated bits.
-ACCEL_GYRO_BITS = 0x3F
-PRESSURE_BIT = 0x200
+# Beside this script: the decoding and HIGHRES_IMU.fields_updated bits the cross-check uses.
+from pymavlink_check import ACCEL_GYRO_BITS, PRESSURE_BIT, message_fields  # noqa: E402
 
 # The standard atmosphere (crates/wins/src/live/mavlink/inbound.rs).
 STANDARD_SEA_LEVEL_PA = 101_325.0
@@ -68,24 +67,6 @@ def pressure_at_altitude_pa(altitude_m, sea_level_pa=STANDARD_SEA_LEVEL_PA):
     """The inverse of h = T0/L (1 - (p/p0)^0.190263)."""
     h0 = STANDARD_SEA_LEVEL_K / LAPSE_RATE_K_M
     return sea_level_pa * (1.0 - altitude_m / h0) ** (1.0 / BAROMETRIC_EXPONENT)
-
-
-def no_nan(value):
-    """NaN (not valid JSON) as None, inside lists too."""
-    if isinstance(value, float) and math.isnan(value):
-        return None
-    if isinstance(value, list):
-        return [no_nan(v) for v in value]
-    return value
-
-
-def fields(message):
-    out = {k: no_nan(v) for k, v in message.to_dict().items()}
-    out["type"] = out.pop("mavpackettype")
-    out["src_system"] = message.get_srcSystem()
-    out["src_component"] = message.get_srcComponent()
-    out["seq"] = message.get_seq()
-    return out
 
 
 class Tally:
@@ -105,7 +86,7 @@ class Tally:
             return
         self.counts[kind] = self.counts.get(kind, 0) + 1
         if kind in POSE_TYPES:
-            decoded = fields(message)
+            decoded = message_fields(message)
             decoded.update(extra or {})
             self.poses.append(decoded)
 

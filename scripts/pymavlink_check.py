@@ -78,6 +78,17 @@ def no_nan(value):
     return value
 
 
+def message_fields(message):
+    """A parsed message's fields (NaN as None), its type, sender, sequence number and version."""
+    fields = {k: no_nan(v) for k, v in message.to_dict().items()}
+    fields["type"] = fields.pop("mavpackettype")
+    fields["src_system"] = message.get_srcSystem()
+    fields["src_component"] = message.get_srcComponent()
+    fields["seq"] = message.get_seq()
+    fields["mavlink_version"] = 2 if message.get_msgbuf()[0] == 0xFD else 1
+    return fields
+
+
 def decode(path):
     with open(path, "rb") as f:
         data = f.read()
@@ -85,12 +96,7 @@ def decode(path):
     messages = mav.parse_buffer(data) or []
     out = []
     for message in messages:
-        fields = {k: no_nan(v) for k, v in message.to_dict().items()}
-        fields["type"] = fields.pop("mavpackettype")
-        fields["src_system"] = message.get_srcSystem()
-        fields["src_component"] = message.get_srcComponent()
-        fields["mavlink_version"] = 2 if message.get_msgbuf()[0] == 0xFD else 1
-        out.append(fields)
+        out.append(message_fields(message))
     if len(data) > 0 and not out:
         sys.exit("no MAVLink message could be parsed from " + path)
     print(json.dumps(out, indent=1))
