@@ -19,7 +19,6 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use super::estimator::{HoleFix, NonlinearEstimator};
 use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use super::state::{NavState, pose_at};
-use super::triangulate::Sight;
 use crate::fusion::estimator::Wins;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
@@ -100,24 +99,18 @@ impl NonlinearEstimator {
     ) -> Option<(usize, Relocated, ApFromDrone)> {
         let fix = self.ap_fix.as_ref()?;
         let reference = self.reference.as_ref()?;
-        let g = STANDARD_GRAVITY_M_S2;
-        let body_from_array = self.linear_config.window.body_from_array;
-        let mut sights: Vec<Vec<TimedSight>> = Vec::new();
-        for (k, x) in self.start.iter().zip(states) {
-            for f in &k.frames {
-                let pose = pose_at(x, &f.partial, g);
-                let t_s = f.partial.end.secs_since(reference.t);
-                for b in &f.bearings {
-                    if sights.len() <= b.ap {
-                        sights.resize(b.ap + 1, Vec::new());
-                    }
-                    sights[b.ap].push(TimedSight {
-                        sight: Sight::of(&pose, &body_from_array, b),
-                        t_s,
-                    });
-                }
-            }
-        }
+        let sights: Vec<Vec<TimedSight>> = self
+            .sights_along(states)
+            .into_iter()
+            .map(|s| {
+                s.into_iter()
+                    .map(|(t, sight)| TimedSight {
+                        sight,
+                        t_s: t.secs_since(reference.t),
+                    })
+                    .collect()
+            })
+            .collect();
         let (l, c_old) = fix
             .aps_in_w
             .iter()

@@ -9,7 +9,7 @@ use super::aps::triangulate_within_bounds;
 use super::estimator::NonlinearEstimator;
 use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use super::triangulate::Sight;
-use super::window::{FitStats, NonlinearWindow, cauchy};
+use super::window::{FitStats, NonlinearWindow};
 use crate::chi2::chi2_upper;
 use crate::fusion::window::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -151,7 +151,7 @@ impl NonlinearEstimator {
             }
             relocated = Some((l, found, ap));
         }
-        let (_, mut aps) = self.triangulate_along(&states).unwrap_or_default();
+        let mut aps = self.triangulate_along(&states);
         if let Some((l, found, ap)) = relocated {
             let range = states
                 .iter()
@@ -193,13 +193,24 @@ impl NonlinearEstimator {
         })
     }
 
-    /// Every AP triangulated against the start keyframes at `states`: the sum of the robust
-    /// costs and the APs placed well enough (the others wait as placeholders); `None` when none
-    /// is.
-    fn triangulate_along(&self, states: &[NavState]) -> Option<(f64, Vec<Option<Vector3<f64>>>)> {
+    /// Every AP triangulated against the start keyframes at `states`, `None` where its sights
+    /// do not place it well enough (it waits as a placeholder).
+    fn triangulate_along(&self, states: &[NavState]) -> Vec<Option<Vector3<f64>>> {
+        self.sights_along(states)
+            .iter()
+            .map(|s| {
+                let sights: Vec<Sight> = s.iter().map(|(_, sight)| *sight).collect();
+                triangulate_within_bounds(&sights, &self.config).map(|t| t.c_in_w)
+            })
+            .collect()
+    }
+
+    /// Every bearing of the start seen from the start keyframes at `states`, per AP, with the
+    /// time of its frame.
+    pub(super) fn sights_along(&self, states: &[NavState]) -> Vec<Vec<(Timestamp, Sight)>> {
         let g = STANDARD_GRAVITY_M_S2;
         let body_from_array = self.linear_config.window.body_from_array;
-        let mut sights: Vec<Vec<Sight>> = Vec::new();
+        let mut sights: Vec<Vec<(Timestamp, Sight)>> = Vec::new();
         for (k, x) in self.start.iter().zip(states) {
             for f in &k.frames {
                 if f.bearings.is_empty() {
@@ -210,31 +221,11 @@ impl NonlinearEstimator {
                     if sights.len() <= b.ap {
                         sights.resize(b.ap + 1, Vec::new());
                     }
-                    sights[b.ap].push(Sight::of(&pose, &body_from_array, b));
+                    sights[b.ap].push((f.partial.end, Sight::of(&pose, &body_from_array, b)));
                 }
             }
         }
-        let mut cost = 0.0;
-        let aps: Vec<Option<Vector3<f64>>> = sights
-            .iter()
-            .map(|s| {
-                let t = triangulate_within_bounds(s, &self.config)?;
-                cost += t.cost;
-                Some(t.c_in_w)
-            })
-            .collect();
-        if aps.iter().all(Option::is_none) {
-            return None;
-        }
-        // An AP left unplaced costs as if each of its sights were a 3σ outlier.
-        let unplaced: usize = sights
-            .iter()
-            .zip(&aps)
-            .filter(|(_, c)| c.is_none())
-            .map(|(s, _)| s.len())
-            .sum();
-        cost += unplaced as f64 * cauchy(9.0, self.config.cauchy_scale).0;
-        Some((cost, aps))
+        sights
     }
 
     /// The linear proposal: the linear window's frames, levelled (its mean gravity to −z).
