@@ -28,6 +28,9 @@ use crate::time::Timestamp;
 pub const GAP_PERIODS: f64 = 5.0;
 /// The IMU and the CSI ending (or starting) more than this apart is a warning, s.
 const SPAN_WARN_S: f64 = 2.0;
+/// An AP without a kept record for longer than this is silent (an outage), s: ten times a busy
+/// AP's 10 packets/s spacing.
+pub const SILENCE_S: f64 = 1.0;
 /// Events listed with their times (the counts go on).
 pub(crate) const MAX_LISTED: usize = 20;
 
@@ -141,6 +144,10 @@ pub struct ApInputReport {
     pub before_imu: u64,
     /// Kept records after the last IMU sample.
     pub after_imu: u64,
+    /// Silences: no record kept for longer than [`SILENCE_S`] (an outage, or the NIC off).
+    pub silences: u64,
+    /// The longest time between two kept records, s.
+    pub longest_silence_s: f64,
     /// First and last kept record, s on the IMU clock.
     pub span_s: Option<(f64, f64)>,
 }
@@ -173,6 +180,7 @@ pub(crate) enum Kind {
     Gap,
     Repeated(usize),
     ClockJump(usize),
+    Silence(usize),
 }
 
 impl InputReport {
@@ -343,6 +351,16 @@ pub fn summarize(report: &mut InputReport) {
                 ap.clock_jumps_back,
                 report.first(Kind::ClockJump(index)),
                 ap.after_clock_jump
+            ));
+        }
+        if ap.silences > 0 {
+            lines.push(format!(
+                "AP {}: silent for longer than {SILENCE_S} s (an outage?): {} times (the longest \
+                 {:.3} s){}",
+                ap.name,
+                ap.silences,
+                ap.longest_silence_s,
+                report.first(Kind::Silence(index))
             ));
         }
     }

@@ -14,6 +14,7 @@ use std::collections::{BTreeMap, HashSet, VecDeque};
 
 use super::checks::{
     ApInputReport, CsiPacket, GAP_PERIODS, ImuLimits, InputError, InputReport, Kind, MAX_LISTED,
+    SILENCE_S,
 };
 use super::imu_csv::ImuRows;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord};
@@ -298,6 +299,18 @@ impl ApCheck {
             return Ok(None);
         }
         self.after_jump = false;
+        if self.latest != i64::MIN && t > self.latest {
+            let silent_s = (t - self.latest) as f64 / NANOS_PER_SEC as f64;
+            self.ap.longest_silence_s = self.ap.longest_silence_s.max(silent_s);
+            if silent_s > SILENCE_S {
+                self.ap.silences += 1;
+                report.event(
+                    Kind::Silence(self.index),
+                    Timestamp(self.latest),
+                    format!("AP {name}: no record for {silent_s:.3} s (an outage?)"),
+                );
+            }
+        }
         self.latest = self.latest.max(t);
         self.keep(t, record.header);
         self.ap.kept += 1;

@@ -70,6 +70,10 @@ pub struct PipelineConfig {
     pub track_gate_deg: f64,
     /// After this many packets off the track in a row, the track starts over from SpotFi.
     pub max_off_track_in_row: usize,
+    /// An AP silent for longer than this (an outage), s: its track starts over from SpotFi,
+    /// and the state's gate is not applied to it until one of its bearings falls within the
+    /// gate (the state was dead reckoned across the silence).
+    pub max_silence_s: f64,
     /// How far the track follows each accepted angle (1: to the raw angle, the paper's
     /// Algorithm 1; smaller: a first-order filter against multipath jitter).
     pub track_gain: f64,
@@ -99,6 +103,7 @@ impl Default for PipelineConfig {
             max_gated_in_row: 10,
             track_gate_deg: 10.0,
             max_off_track_in_row: 10,
+            max_silence_s: 1.0,
             track_gain: 0.3,
             track_rate_gain_hz: 0.5,
             assume_front_until_converged: true,
@@ -133,6 +138,7 @@ impl PipelineConfig {
         p.in_range(prefix, "gate_deg", self.gate_deg, 0.01, 180.0);
         p.in_range(prefix, "track_gate_deg", self.track_gate_deg, 0.01, 180.0);
         p.at_least(prefix, "max_off_track_in_row", self.max_off_track_in_row, 1);
+        p.in_range(prefix, "max_silence_s", self.max_silence_s, 0.001, 1e9);
         p.require(
             self.track_gain > 0.0 && self.track_gain <= 1.0,
             prefix,

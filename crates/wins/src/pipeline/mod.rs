@@ -115,6 +115,8 @@ pub struct Pipeline {
     learn_from_turns: bool,
     /// The estimator's frame changes seen so far (a start or restart gives a new `b0`).
     restarts_seen: u64,
+    /// IMU samples further apart than this are a gap (`imu_gap.max_s`), s.
+    imu_gap_s: f64,
     stats: PipelineStats,
     timing: StageTiming,
 }
@@ -152,6 +154,7 @@ impl Pipeline {
         };
         Ok(Self {
             tracks: vec![Track::default(); rig.ap_names.len()],
+
             stats: PipelineStats::new(&rig.ap_names),
             wins: Estimator::new(
                 config.estimator,
@@ -168,6 +171,7 @@ impl Pipeline {
             latest: None,
             learn_from_turns: config.estimator != EstimatorKind::Paper,
             restarts_seen: 0,
+            imu_gap_s: config.imu_gap.max_s,
             timing: StageTiming::default(),
         })
     }
@@ -239,7 +243,15 @@ impl Pipeline {
         }
         if let Some(previous) = self.history.back() {
             let dt_s = s.t.secs_since(previous.t);
-            if dt_s > 0.0 {
+            if dt_s > self.imu_gap_s {
+                // The gyro did not see the turns across the gap: every track starts over.
+                for (track, stats) in self.tracks.iter_mut().zip(&mut self.stats.per_ap) {
+                    if let TrackState::Tracking { .. } = track.state {
+                        track.restart_after_silence();
+                        stats.imu_gap_restarts += 1;
+                    }
+                }
+            } else if dt_s > 0.0 {
                 let bias = self.wins.gyro_bias_rad_s();
                 self.gyro_from_body *= exp(&((previous.gyro_rad_s - bias) * dt_s));
                 self.gyro_from_body.renormalize_fast();
@@ -269,18 +281,26 @@ impl Pipeline {
         self.solve_pending();
         let converged = self.wins.is_converged();
         let mut row = PacketLog::new(ap, t, converged);
-        let Some(track) = self.tracks.get(ap) else {
+        if self.tracks.get(ap).is_none() {
             row.status = PacketStatus::Skipped;
             row.reason = format!("unknown AP index {ap}");
             self.stats.count_unknown_ap();
             return row;
-        };
+        }
         let now = self
             .latest
             .map(|p| ArrayPose::of_body(&p.b0_from_body, &p.p_b_in_b0, &self.rig.body_from_array));
         let attitude = self.gyro_from_body * self.rig.body_from_array.rotation;
         let started = Instant::now();
-        if let TrackState::Acquiring { .. } = track.state {
+        let silent = self.tracks[ap]
+            .packet_at(t)
+            .is_some_and(|s| s > self.config.max_silence_s);
+        if silent {
+            self.tracks[ap].restart_after_silence();
+            self.stats.per_ap[ap].silences += 1;
+            row.reason = "the AP fell silent: reacquiring with SpotFi".into();
+        }
+        if let TrackState::Acquiring { .. } = self.tracks[ap].state {
             self.acquire(ap, t, attitude, record, &mut row);
         } else {
             self.follow(ap, t, attitude, record, now.as_ref(), converged, &mut row);
@@ -423,7 +443,10 @@ impl Pipeline {
             Some(((state_aoa, state_side), _)) => {
                 let off = (peak.aoa_rad - state_aoa).abs() > self.config.gate_deg.to_radians();
                 // A run of gated packets means the state, not the AoA, is off: feed again.
-                if off && track.gated_in_row < self.config.max_gated_in_row {
+                // After a silence the state is doubted until a bearing agrees with it.
+                track.state_doubted &= off;
+                if off && !track.state_doubted && track.gated_in_row < self.config.max_gated_in_row
+                {
                     track.gated_in_row += 1;
                     row.status = PacketStatus::Gated;
                     return;

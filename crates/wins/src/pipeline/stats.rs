@@ -119,6 +119,10 @@ pub struct ApStats {
     pub track_losses: u64,
     /// Times the track changed side from how its angles followed the turns.
     pub side_switches: u64,
+    /// Tracks started over after the AP fell silent (`pipeline.max_silence_s`).
+    pub silences: u64,
+    /// Tracks started over after an IMU gap (the gyro did not see the turns across it).
+    pub imu_gap_restarts: u64,
     /// Stretches of the AP's log the reader skipped (corrupt or truncated bytes, non-CSI
     /// records), filled in by the replay; their packets never reach the pipeline.
     pub log_skips: u64,

@@ -113,6 +113,11 @@ pub struct Track {
     pub state: TrackState,
     /// Packets gated in a row after convergence (see `PipelineConfig::max_gated_in_row`).
     pub gated_in_row: usize,
+    /// The AP fell silent (see `PipelineConfig::max_silence_s`): the state's prediction, dead
+    /// reckoned across the silence, is not trusted to gate until a bearing falls within it.
+    pub state_doubted: bool,
+    /// When the AP's last packet came (whatever became of it).
+    pub last_packet: Option<Timestamp>,
     /// Packets off the track in a row (see `PipelineConfig::track_gate_deg`).
     pub off_track_in_row: usize,
     /// The side of the array the AP is on (front until the turns or the state say otherwise).
@@ -129,6 +134,8 @@ impl Default for Track {
                 records: Vec::new(),
             },
             gated_in_row: 0,
+            state_doubted: false,
+            last_packet: None,
             off_track_in_row: 0,
             side: Side::Front,
             side_evidence: 0.0,
@@ -309,11 +316,30 @@ impl Track {
         false
     }
 
+    /// Records a packet at `t`; returns the seconds since the previous one while tracking
+    /// (`None` while acquiring or for the first packet).
+    pub fn packet_at(&mut self, t: Timestamp) -> Option<f64> {
+        let before = self.last_packet.replace(t)?;
+        match &self.state {
+            TrackState::Tracking { .. } => Some(t.secs_since(before)),
+            TrackState::Acquiring { .. } => None,
+        }
+    }
+
+    /// After a silence: starts over from SpotFi (the gyro's and the state's predictions have
+    /// run on without an angle) and doubts the state's gate until a bearing agrees with it.
+    pub fn restart_after_silence(&mut self) {
+        self.restart();
+        self.state_doubted = true;
+    }
+
     /// Starts over from SpotFi (the side and its evidence are kept).
     fn restart(&mut self) {
         *self = Self {
             side: self.side,
             side_evidence: self.side_evidence,
+            state_doubted: self.state_doubted,
+            last_packet: self.last_packet,
             ..Self::default()
         };
     }
@@ -377,6 +403,25 @@ mod tests {
         assert!(!track.miss(1));
         assert!(track.miss(1));
         assert!(matches!(track.state, TrackState::Acquiring { .. }));
+    }
+
+    #[test]
+    fn the_time_since_the_last_packet_is_told_and_a_silence_restarts_the_track_doubting_the_state()
+    {
+        let mut track = Track::default();
+        assert_eq!(track.packet_at(at(0.0)), None);
+        track.accept(0.2, at(0.0), yaw(0.0));
+        track.side = Side::Back;
+        assert_eq!(track.packet_at(at(0.5)), Some(0.5));
+        assert_eq!(track.packet_at(at(6.5)), Some(6.0));
+        track.restart_after_silence();
+        assert!(matches!(track.state, TrackState::Acquiring { .. }));
+        assert!(track.state_doubted);
+        assert_eq!(track.side, Side::Back);
+        // While acquiring no silence is told; the time of the packet is kept.
+        assert_eq!(track.packet_at(at(9.0)), None);
+        track.accept(0.1, at(9.0), yaw(0.0));
+        assert_eq!(track.packet_at(at(9.02)), Some(0.02));
     }
 
     #[test]

@@ -237,7 +237,7 @@ fn check_events(run: &RunOutput) -> Result<(), String> {
     let per_ap: u64 = inputs
         .aps
         .iter()
-        .map(|a| u64::from(a.repeated > 0) + a.clock_jumps_back)
+        .map(|a| u64::from(a.repeated > 0) + a.clock_jumps_back + a.silences)
         .sum();
     same(
         "events listed + not listed vs counted",
