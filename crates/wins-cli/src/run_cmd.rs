@@ -203,6 +203,14 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
             s.track_losses,
             s.side_switches
         )?;
+        if s.silences + s.imu_gap_restarts > 0 {
+            writeln!(
+                out,
+                "{}: the track started over {} times after the AP fell silent and {} times \
+                 after an IMU gap",
+                s.name, s.silences, s.imu_gap_restarts
+            )?;
+        }
         if s.log_skips > 0 {
             writeln!(
                 out,
