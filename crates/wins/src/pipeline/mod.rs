@@ -54,7 +54,7 @@ use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::choice::{Estimator, EstimatorKind};
 use crate::fusion::estimator::{PoseEstimate, Step, WinsConfig, WinsError};
-use crate::imu::ImuSample;
+use crate::imu::{ImuGap, ImuSample};
 use crate::rig::{ChainCalibration, Rig, RigError};
 use crate::so3::exp;
 use crate::time::Timestamp;
@@ -115,8 +115,8 @@ pub struct Pipeline {
     learn_from_turns: bool,
     /// The estimator's frame changes seen so far (a start or restart gives a new `b0`).
     restarts_seen: u64,
-    /// IMU samples further apart than this are a gap (`imu_gap.max_s`), s.
-    imu_gap_s: f64,
+    /// IMU gaps, and how far the rate may turn across one (`imu_gap`).
+    imu_gap: ImuGap,
     stats: PipelineStats,
     timing: StageTiming,
 }
@@ -171,7 +171,7 @@ impl Pipeline {
             latest: None,
             learn_from_turns: config.estimator != EstimatorKind::Paper,
             restarts_seen: 0,
-            imu_gap_s: config.imu_gap.max_s,
+            imu_gap: config.imu_gap,
             timing: StageTiming::default(),
         })
     }
@@ -243,8 +243,12 @@ impl Pipeline {
         }
         if let Some(previous) = self.history.back() {
             let dt_s = s.t.secs_since(previous.t);
-            if dt_s > self.imu_gap_s {
-                // The gyro did not see the turns across the gap: every track starts over.
+            if self.imu_gap.is_gap(dt_s)
+                && dt_s * self.imu_gap.gyro_sigma_rad_s > self.config.track_gate_deg.to_radians()
+            {
+                // The gyro did not see the turns across the gap, which may have turned every
+                // track's window off its AP (by more than the track's own gate): every track
+                // starts over.
                 for (track, stats) in self.tracks.iter_mut().zip(&mut self.stats.per_ap) {
                     if let TrackState::Tracking { .. } = track.state {
                         track.restart_after_silence();
