@@ -4,11 +4,13 @@
 use std::io;
 use std::time::Instant;
 
+use super::coverage::CoverageCheck;
 use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
 use super::{ChainResolver, Config, PacketLog, Released};
 use crate::dataset::checks::InputReport;
 use crate::fusion::estimator::PoseEstimate;
 use crate::rig::Rig;
+use crate::time::{NANOS_PER_SEC, Timestamp};
 
 /// Where a replay's frames and packet rows go, as they are produced, in order.
 pub trait RunSink {
@@ -62,8 +64,12 @@ pub(crate) fn drive(
     let started = Instant::now();
     let mut pipeline = ChainResolver::new(config, rig, flight.has_baro)?;
     let mut imu_refused = 0;
+    let mut coverage = CoverageCheck::default();
     let mut keep = |r: Released| -> io::Result<()> {
         for f in r.frames {
+            if f.converged {
+                coverage.push(f.t);
+            }
             sink.frame(f)?;
         }
         for p in r.packets {
@@ -77,6 +83,10 @@ pub(crate) fn drive(
     }
     let done = pipeline.finish()?;
     keep(done.released)?;
+    let end = flight.inputs.imu.span_s.map_or(Timestamp(0), |(_, to)| {
+        Timestamp((to * NANOS_PER_SEC as f64).round() as i64)
+    });
+    let coverage = coverage.finish(end);
     let wins = done.pipeline.wins();
     let aps = done
         .pipeline
@@ -109,6 +119,7 @@ pub(crate) fn drive(
         evaluation: Evaluation::NoTruth,
         figures: None,
         inputs: flight.inputs.clone(),
+        coverage,
         warnings: Vec::new(),
         spooled: None,
     })

@@ -21,6 +21,7 @@
 pub mod aoa_log;
 pub mod chains;
 pub mod config;
+pub mod coverage;
 pub mod drive;
 mod figure_data;
 pub mod figures;

@@ -79,6 +79,8 @@ pub struct RunStats<'a> {
     pub chain_offsets: &'a ChainReport,
     /// What the input checks dropped, counted and found.
     pub inputs: &'a InputReport,
+    /// How much of the flight after convergence the poses cover, and its gaps.
+    pub coverage: &'a super::coverage::Coverage,
     /// What limits the result, in words.
     pub warnings: &'a [String],
 }
@@ -132,6 +134,7 @@ impl RunOutput {
             imu_refused: self.imu_refused,
             chain_offsets: &self.chains,
             inputs: &self.inputs,
+            coverage: &self.coverage,
             warnings: &self.warnings,
         }
     }

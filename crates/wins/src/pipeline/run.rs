@@ -152,6 +152,7 @@ fn run_into_sink(
             run.wins.imu_gaps, config.imu_gap.max_s, run.wins.frames_in_imu_gap
         ));
     }
+    run.warnings.extend(run.coverage.warning());
     Ok(run)
 }
 

@@ -78,6 +78,8 @@ pub struct RunOutput {
     pub figures: Option<RunFigures>,
     /// What the input checks dropped, counted and found.
     pub inputs: InputReport,
+    /// How much of the flight after convergence the poses cover.
+    pub coverage: super::coverage::Coverage,
     /// What limits the result, in words (input problems, no calibration, a run that cannot be
     /// scored).
     pub warnings: Vec<String>,

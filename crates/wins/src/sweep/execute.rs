@@ -248,6 +248,7 @@ fn row_of(label: &str, seed: u64, run: &RunOutput) -> RunRow {
     row.converged = run.converged_at.is_some() || run.metrics.is_some();
     row.restarts = Some(run.wins.restarts);
     row.rejected_convergences = Some(run.wins.rejected_convergences);
+    row.pose_coverage = run.coverage.share;
     match &run.metrics {
         Some(m) => {
             if let Err(e) = row.set_metrics(m) {

@@ -14,6 +14,9 @@ pub const SUMMARY_FORMAT: &str = "wins-sweep-summary";
 /// A converged run whose aligned position error ever exceeds this is counted in
 /// [`ScenarioSummary::error_over_2m_after_convergence`], m.
 pub const ERROR_THRESHOLD_M: f64 = 2.0;
+/// A converged run whose poses cover less than this share of the flight after convergence is
+/// counted in [`ScenarioSummary::lost`].
+pub const COVERAGE_THRESHOLD: f64 = 0.9;
 /// What the statistics are taken over, in words (`summary.json`'s `statistics_over`).
 pub const STATISTICS_OVER: &str = "converged runs: runs that never converged or failed are \
                                    counted, not in the statistics";
@@ -90,6 +93,10 @@ pub struct ScenarioSummary {
     /// Converged runs whose aligned position error ever exceeds [`ERROR_THRESHOLD_M`] after
     /// convergence (`max_error_after_convergence_m > 2`).
     pub error_over_2m_after_convergence: usize,
+    /// Converged runs whose poses cover less than [`COVERAGE_THRESHOLD`] of the flight after
+    /// convergence (`pose_coverage`): the estimate was lost for a while, or for good. Their
+    /// errors are over the poses they gave.
+    pub lost: usize,
     /// ATE: RMSE of the aligned position error, m (`ate_rmse_m`).
     pub ate_rmse_m: Spread,
     /// RMSE of the attitude error, deg (`attitude_error_rmse_deg`).
@@ -188,6 +195,10 @@ pub fn summarize(
                             .is_some_and(|e| e > ERROR_THRESHOLD_M)
                     })
                     .count(),
+                lost: converged
+                    .iter()
+                    .filter(|r| r.pose_coverage.is_some_and(|c| c < COVERAGE_THRESHOLD))
+                    .count(),
                 ate_rmse_m: spread(&|r| r.metric("ate_rmse_m")),
                 attitude_error_rmse_deg: spread(&|r| r.metric("attitude_error_rmse_deg")),
                 ap_position_error_max_m: spread(&|r| r.ap_position_error_max_m),
@@ -246,9 +257,11 @@ impl fmt::Display for SweepSummary {
             f,
             "median / p90 / worst over the converged runs (never-converged and failed runs are \
              counted, not in the statistics); >{ERROR_THRESHOLD_M} m: converged runs whose error \
-             exceeds {ERROR_THRESHOLD_M} m after convergence; NEES: the mean over the converged \
+             exceeds {ERROR_THRESHOLD_M} m after convergence; lost: converged runs whose poses \
+             cover less than {:.0} % of the flight after convergence; NEES: the mean over the converged \
              runs of their mean position NEES, 3 when the reported covariance is honest, and the \
-             band that mean lies in then"
+             band that mean lies in then",
+            COVERAGE_THRESHOLD * 100.0
         )?;
         let header = [
             "scenario",
@@ -257,13 +270,14 @@ impl fmt::Display for SweepSummary {
             "never",
             "failed",
             ">2 m",
+            "lost",
             "ATE RMSE (m)",
             "attitude RMSE (deg)",
             "AP error max (m)",
             "convergence (s)",
             "NEES [95 % band]",
         ];
-        let rows: Vec<[String; 11]> = self
+        let rows: Vec<[String; 12]> = self
             .scenarios
             .iter()
             .map(|s| {
@@ -274,6 +288,7 @@ impl fmt::Display for SweepSummary {
                     s.never_converged.to_string(),
                     s.failed.to_string(),
                     s.error_over_2m_after_convergence.to_string(),
+                    s.lost.to_string(),
                     spread_cell(&s.ate_rmse_m, 3),
                     spread_cell(&s.attitude_error_rmse_deg, 2),
                     spread_cell(&s.ap_position_error_max_m, 3),

@@ -36,9 +36,10 @@ pub const LEADING_COLUMNS: [&str; 5] = [
     "rejected_convergences",
 ];
 /// Columns after the metrics.
-pub const TRAILING_COLUMNS: [&str; 4] = [
+pub const TRAILING_COLUMNS: [&str; 5] = [
     "ap_position_error_max_m",
     "max_error_after_convergence_m",
+    "pose_coverage",
     "wall_s",
     "error",
 ];
@@ -67,6 +68,9 @@ pub struct RunRow {
     /// `Metrics::position_error_max_m`: the largest aligned position error over the
     /// converged trajectory (the pipeline writes converged poses only), m.
     pub max_error_after_convergence_m: Option<f64>,
+    /// Share of the flight after convergence its converged poses cover (`stats.json`
+    /// `coverage.share`; 1: never lost); `None` when it never converged.
+    pub pose_coverage: Option<f64>,
     /// Wall time of the whole run (simulation, dataset, pipeline, scoring), s.
     pub wall_s: f64,
     /// Why the run failed (empty: it did not). A run that never converged has not failed.
@@ -85,6 +89,7 @@ impl RunRow {
             metrics: Vec::new(),
             ap_position_error_max_m: None,
             max_error_after_convergence_m: None,
+            pose_coverage: None,
             wall_s: 0.0,
             error,
         }
@@ -386,6 +391,7 @@ pub fn runs_csv(columns: &[String], rows: &[RunRow]) -> Result<Vec<u8>, SweepErr
         record.extend([
             number_cell(r.ap_position_error_max_m),
             number_cell(r.max_error_after_convergence_m),
+            number_cell(r.pose_coverage),
             format!("{:.3}", r.wall_s),
             r.error.clone(),
         ]);
@@ -468,8 +474,9 @@ pub fn read_runs_csv(path: &Path) -> Result<(Vec<String>, Vec<RunRow>), SweepErr
                 .collect(),
             ap_position_error_max_m: real(t)?,
             max_error_after_convergence_m: real(t + 1)?,
-            wall_s: real(t + 2)?.unwrap_or(0.0),
-            error: at(t + 3).to_string(),
+            pose_coverage: real(t + 2)?,
+            wall_s: real(t + 3)?.unwrap_or(0.0),
+            error: at(t + 4).to_string(),
         };
         rows.push(row);
     }

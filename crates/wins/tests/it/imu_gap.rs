@@ -35,9 +35,17 @@ fn no_pose_comes_from_inside_an_imu_gap_and_the_estimate_starts_again_after_it()
         .collect();
     assert!(inside.is_empty(), "poses inside the gap at {inside:?} s");
     assert!(run.converged_at.is_some_and(|t| t.0 < gap_from_ns));
-    // The run says so.
+    // The run says so, and that its poses do not cover the flight after convergence.
     let w = run.warnings.join("\n");
     assert!(w.contains("IMU gap"), "{w}");
+    assert!(run.coverage.gaps >= 1, "{:?}", run.coverage);
+    assert!(run.coverage.longest_gap_s >= 2.0, "{:?}", run.coverage);
+    assert!(
+        run.coverage.share.is_some_and(|s| s < 0.95),
+        "{:?}",
+        run.coverage
+    );
+    assert!(w.contains("gap(s) without a pose"), "{w}");
 }
 
 /// What is cut out of the flight.

@@ -77,9 +77,14 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
     let mut never = RunRow::failed("a", 3, String::new());
     never.restarts = Some(0);
     never.rejected_convergences = Some(4);
+    // The far run was also lost: its poses cover half the flight after convergence.
+    let mut far_row = converged_row("a", 2, &far);
+    far_row.pose_coverage = Some(0.5);
+    let mut whole = converged_row("a", 1, &m);
+    whole.pose_coverage = Some(1.0);
     let rows = vec![
-        converged_row("a", 1, &m),
-        converged_row("a", 2, &far),
+        whole,
+        far_row,
         never,
         RunRow::failed("a", 4, "simulation: boom".into()),
         RunRow::failed("b", 1, String::new()),
@@ -92,6 +97,7 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
         (4, 2, 1, 1)
     );
     assert_eq!(a.error_over_2m_after_convergence, 1);
+    assert_eq!(a.lost, 1);
     assert_eq!(a.ate_rmse_m.count, 2);
     let mean = m.ate_rmse_m / 2.0 + 3.0 / 2.0;
     assert!((a.ate_rmse_m.median.unwrap() - mean).abs() < 1e-12);
@@ -119,7 +125,7 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
     assert!(table.contains("5.00 [0."), "{table}");
     let line_a = table.lines().find(|l| l.starts_with("a ")).unwrap();
     let cells: Vec<&str> = line_a.split_whitespace().collect();
-    assert_eq!(&cells[..6], ["a", "4", "2", "1", "1", "1"], "{line_a}");
+    assert_eq!(&cells[..7], ["a", "4", "2", "1", "1", "1", "1"], "{line_a}");
     assert!(
         table
             .lines()

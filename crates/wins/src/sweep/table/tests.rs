@@ -52,6 +52,7 @@ pub(crate) fn converged_row(scenario: &str, seed: u64, metrics: &Metrics) -> Run
     row.restarts = Some(1);
     row.rejected_convergences = Some(2);
     row.set_metrics(metrics).unwrap();
+    row.pose_coverage = Some(0.875);
     row.wall_s = 1.25;
     row
 }
@@ -191,7 +192,7 @@ fn a_file_that_is_not_a_runs_csv_is_refused() {
     let header = [&LEADING_COLUMNS[..], &TRAILING_COLUMNS[..]]
         .concat()
         .join(",");
-    std::fs::write(&path, format!("{header}\ns,x,true,,,,,1.0,\n")).unwrap();
+    std::fs::write(&path, format!("{header}\ns,x,true,,,,,,1.0,\n")).unwrap();
     let err = read_runs_csv(&path).unwrap_err();
     assert!(err.to_string().contains("line 2, column seed"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
