@@ -140,20 +140,25 @@ fn cut_csi(dir: &std::path::Path, from_ns: i64, to_ns: i64) {
     }
 }
 
-/// After a 2 s IMU gap in the middle of the circle (the heading carried across it 30° or more
-/// off) the restart is placed by the lost window's AP and the carried position: the error
-/// after it comes back to within twice the undamaged flight's (docs/VALIDATION.md has the
-/// eight-seed table; these two seeds re-converge there).
-#[test]
-fn after_an_imu_gap_the_error_comes_back_to_within_twice_the_undamaged() {
+/// On seeds 1 and 4, the error after 45 s with `damage` is within twice the undamaged flight's.
+fn comes_back_to_within_twice_the_undamaged(damage: Damage) {
     for seed in [1, 4] {
         let undamaged = error_after_45_s(seed, Damage::None);
-        let damaged = error_after_45_s(seed, Damage::ImuGap);
+        let damaged = error_after_45_s(seed, damage);
         assert!(
             damaged <= 2.0 * undamaged,
-            "seed {seed}: {damaged:.3} m after the gap against {undamaged:.3} m undamaged"
+            "seed {seed}: {damaged:.3} m after the {damage:?} against {undamaged:.3} m undamaged"
         );
     }
+}
+
+/// After a 2 s IMU gap in the middle of the circle (the heading carried across it 30° or more
+/// off) the restart is placed by the lost window's AP and the carried position, and the tracks
+/// start over: the error after it comes back to within twice the undamaged flight's
+/// (docs/VALIDATION.md has the eight-seed table: 6 of 8 do).
+#[test]
+fn after_an_imu_gap_the_error_comes_back_to_within_twice_the_undamaged() {
+    comes_back_to_within_twice_the_undamaged(Damage::ImuGap);
 }
 
 /// After a 6 s CSI outage the track starts over from SpotFi and the state's gate waits for a
@@ -162,12 +167,5 @@ fn after_an_imu_gap_the_error_comes_back_to_within_twice_the_undamaged() {
 /// 4–7 m (docs/VALIDATION.md has the eight-seed table).
 #[test]
 fn after_a_csi_outage_the_error_comes_back_to_within_twice_the_undamaged() {
-    for seed in [1, 4] {
-        let undamaged = error_after_45_s(seed, Damage::None);
-        let damaged = error_after_45_s(seed, Damage::CsiOutage);
-        assert!(
-            damaged <= 2.0 * undamaged,
-            "seed {seed}: {damaged:.3} m after the outage against {undamaged:.3} m undamaged"
-        );
-    }
+    comes_back_to_within_twice_the_undamaged(Damage::CsiOutage);
 }
