@@ -227,6 +227,36 @@ fn a_nic_clock_reset_mid_log_drops_the_records_it_cannot_place() {
 }
 
 #[test]
+fn a_silent_ap_is_counted_with_its_length_and_time() {
+    let dir = flight("silent");
+    let n = load(&dir).aps[0].packets.len();
+    let mut cut = 0;
+    edit_log(&dir, |records| {
+        let before = records.len();
+        // 3 s without a record from 8 s on (NIC µs, from its first record near 0 s).
+        let t0 = records[0].header.timestamp_low;
+        records.retain(|r| {
+            !(8_000_000..11_000_000).contains(&r.header.timestamp_low.wrapping_sub(t0))
+        });
+        cut = before - records.len();
+    });
+    let d = load(&dir);
+    let ap = &d.inputs.aps[0];
+    assert!(cut > 100, "{cut} records cut");
+    assert_eq!(ap.kept as usize, n - cut);
+    assert_eq!(ap.silences, 1, "{ap:?}");
+    assert!((ap.longest_silence_s - 3.0).abs() < 0.1, "{ap:?}");
+    let w = d.inputs.warnings.join("\n");
+    assert!(
+        w.contains("AP ap0: silent for longer than 1 s (an outage?): 1 times")
+            && w.contains("the first at 7.9"),
+        "{w}"
+    );
+    let event = &d.inputs.events[0];
+    assert!(event.what.contains("no record for 3.0"), "{event:?}");
+}
+
+#[test]
 fn a_log_cut_short_says_so_and_the_run_accounts_for_it() {
     let dir = flight("half-log");
     let bytes = fs::read(dir.join("ap0.dat")).unwrap();
