@@ -115,6 +115,19 @@ pub(super) struct HoleFix {
     pub(super) t: Timestamp,
     /// 1σ of the carried position there, horizontal, m.
     pub(super) carried_sigma_m: f64,
+    /// The lost window's newest keyframe, before the hole.
+    pub(super) before: Option<Before>,
+}
+
+/// The lost window's last state before a hole, in the output frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Before {
+    /// Its time.
+    pub(super) t: Timestamp,
+    /// The body's position, m.
+    pub(super) p: Vector3<f64>,
+    /// The body's velocity, m/s.
+    pub(super) v: Vector3<f64>,
 }
 
 impl NonlinearEstimator {
