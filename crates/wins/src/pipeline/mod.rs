@@ -155,7 +155,6 @@ impl Pipeline {
         };
         Ok(Self {
             tracks: vec![Track::default(); rig.ap_names.len()],
-
             stats: PipelineStats::new(&rig.ap_names),
             wins: Estimator::new(
                 config.estimator,
