@@ -116,7 +116,7 @@ pub(super) struct HoleFix {
     /// 1σ of the carried position there, horizontal, m.
     pub(super) carried_sigma_m: f64,
     /// The lost window's newest keyframe, before the hole.
-    pub(super) before: Option<Before>,
+    pub(super) before: Before,
 }
 
 /// The lost window's last state before a hole, in the output frame.

@@ -59,14 +59,7 @@ impl NonlinearEstimator {
             v_b_in_w: a.rotation * p.v_b_in_w,
             ..newest
         };
-        let mut fix = self.hole_fix(t, carried.dt_s());
-        if let Some(f) = &mut fix {
-            f.before = Some(Before {
-                t: newest.t,
-                p: a.transform_point(&newest.p_b_in_w.into()).coords,
-                v: a.rotation * newest.v_b_in_w,
-            });
-        }
+        let fix = self.hole_fix(t, carried.dt_s());
         self.stats.restarts += 1;
         self.epoch += 1;
         self.begin_start(t, Some(from));
@@ -76,10 +69,12 @@ impl NonlinearEstimator {
     }
 
     /// What the tracking window leaves for the next one when it ends at `t`, its newest state
-    /// carried `carried_s` by the IMU alone: its placed APs in the output frame, and how far the
-    /// carried position may be off. `None` without a window or a placed AP.
+    /// carried `carried_s` by the IMU alone: its placed APs and that newest state in the output
+    /// frame, and how far the carried position may be off. `None` without a window, a keyframe
+    /// or a placed AP.
     pub(super) fn hole_fix(&self, t: Timestamp, carried_s: f64) -> Option<HoleFix> {
         let w = self.window.as_ref()?;
+        let newest = w.newest()?;
         let a = self.anchor;
         let aps_in_w: Vec<_> = (0..w.aps().len())
             .filter_map(|l| {
@@ -95,7 +90,11 @@ impl NonlinearEstimator {
             aps_in_w,
             t,
             carried_sigma_m,
-            before: None,
+            before: Before {
+                t: newest.t,
+                p: a.transform_point(&newest.p_b_in_w.into()).coords,
+                v: a.rotation * newest.v_b_in_w,
+            },
         })
     }
 
@@ -157,10 +156,11 @@ impl NonlinearEstimator {
     /// At the acceptance of a window started after a hole: moves the output frame so that the
     /// window's APs fall where the lost window had them and its first keyframe, when it is the
     /// first frame after the hole, stays where the IMU carried it and where the bridge from the
-    /// lost window's last state with the new window's first velocity puts it ([`Before::bridged`];
-    /// [`relocated`], each pair weighted by its inverse variance). With one AP the second pair fixes the heading: the
-    /// new window's own heading is the carried one, which the hole may have turned by tens of
-    /// degrees, and a turn about the AP moves the whole trajectory by range × angle.
+    /// lost window's last state with the new window's first velocity puts it
+    /// ([`Before::bridged`]; [`relocated`], each pair weighted by its inverse variance). With
+    /// one AP the first keyframe's pairs fix the heading: the new window's own heading is the
+    /// carried one, which the hole may have turned by tens of degrees, and a turn about the AP
+    /// moves the whole trajectory by range × angle.
     /// Called before the window is trimmed (its first keyframe is the start's).
     pub(super) fn place_by_aps(&mut self) {
         let Some(fix) = self.ap_fix.take() else {
@@ -198,24 +198,23 @@ impl NonlinearEstimator {
             // The bridge: where the lost window's last state and the new window's first
             // velocity, turned as the placement turns it, put the drone (found with the
             // placement, a few rounds).
-            if let Some(before) = fix.before {
-                let v_here = self.anchor.rotation * first.v_b_in_w;
-                let span_s = first.t.secs_since(before.t).max(0.0);
-                let mut bridge = Weighted {
-                    from: here,
-                    to: here,
-                    weight: bridge_sigma_m(span_s).powi(-2),
+            let before = fix.before;
+            let v_here = self.anchor.rotation * first.v_b_in_w;
+            let span_s = first.t.secs_since(before.t).max(0.0);
+            let mut bridge = Weighted {
+                from: here,
+                to: here,
+                weight: bridge_sigma_m(span_s).powi(-2),
+            };
+            for _ in 0..BRIDGE_ROUNDS {
+                let mut all = pairs.clone();
+                all.push(bridge);
+                let Some(correction) = relocated(&all) else {
+                    break;
                 };
-                for _ in 0..BRIDGE_ROUNDS {
-                    let mut all = pairs.clone();
-                    all.push(bridge);
-                    let Some(correction) = relocated(&all) else {
-                        break;
-                    };
-                    bridge.to = before.bridged(first.t, &(correction.rotation * v_here));
-                }
-                pairs.push(bridge);
+                bridge.to = before.bridged(first.t, &(correction.rotation * v_here));
             }
+            pairs.push(bridge);
         }
         if let Some(correction) = relocated(&pairs) {
             self.anchor = correction * self.anchor;
@@ -244,6 +243,7 @@ impl Before {
         self.p + (self.v + v_after) * (0.5 * span_s)
     }
 }
+
 /// Floor of the carried position's σ, m …
 const MIN_CARRIED_SIGMA_M: f64 = 0.1;
 /// … and its growth per second carried, m/s.
