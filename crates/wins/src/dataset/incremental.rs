@@ -1,6 +1,6 @@
 //! The input checks one sample or record at a time ([`ImuCheck`], [`ApCheck`]): what
-//! [`check_imu`] and [`check_ap`] do over a whole file, with state
-//! that does not grow with the flight's length, so a reader can check a file as it streams it.
+//! [`check_imu`] and [`check_ap`] do over a whole file, with state that does not grow with the
+//! flight's length, so a reader can check a file as it streams it.
 //!
 //! What is kept: the IMU's sample intervals as a histogram (exact while they take at most
 //! [`MAX_INTERVALS`] distinct values, else in power-of-two buckets of nanoseconds, so the median
@@ -372,6 +372,7 @@ fn header_key(h: &BfeeHeader) -> u128 {
         | (u128::from(h.rate.0) << 64)
         | u128::from(u64::from_le_bytes(bytes))
 }
+
 /// Checks the IMU rows: returns the samples kept (strictly increasing time).
 pub fn check_imu(
     rows: ImuRows,

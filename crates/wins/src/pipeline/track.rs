@@ -326,8 +326,9 @@ impl Track {
         }
     }
 
-    /// After a silence: starts over from SpotFi (the gyro's and the state's predictions have
-    /// run on without an angle) and doubts the state's gate until a bearing agrees with it.
+    /// After a silence of the AP, or of the gyro (an IMU gap): starts over from SpotFi (the
+    /// gyro's and the state's predictions have run on without an angle, or without the turns)
+    /// and doubts the state's gate until a bearing agrees with it.
     pub fn restart_after_silence(&mut self) {
         self.restart();
         self.state_doubted = true;
