@@ -26,6 +26,7 @@ use std::collections::VecDeque;
 
 use nalgebra::{Isometry3, Translation3, Vector3};
 
+use super::bridge::Before;
 use super::config::NonlinearConfig;
 use super::rest::{RestDetector, StaticInit};
 use super::state::{NavState, pose_at};
@@ -97,8 +98,8 @@ pub struct NonlinearEstimator {
     pub(super) converged_at: Option<Timestamp>,
     /// Changes of the frame poses are given in (a start or a restart).
     pub(super) epoch: u64,
-    /// An IMU gap came since the last frame ([`super::holes`]).
-    imu_gap_seen: bool,
+    /// How long the IMU gaps since the last frame lasted, s ([`super::holes`]).
+    imu_gap_s: f64,
     /// What a window lost to a hole leaves to place the next one by ([`super::holes`]).
     pub(super) ap_fix: Option<HoleFix>,
     /// The newest keyframe's time when its solve has not run yet ([`Self::solve_pending`]).
@@ -117,17 +118,6 @@ pub(super) struct HoleFix {
     pub(super) carried_sigma_m: f64,
     /// The lost window's newest keyframe, before the hole.
     pub(super) before: Before,
-}
-
-/// The lost window's last state before a hole, in the output frame.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Before {
-    /// Its time.
-    pub(super) t: Timestamp,
-    /// The body's position, m.
-    pub(super) p: Vector3<f64>,
-    /// The body's velocity, m/s.
-    pub(super) v: Vector3<f64>,
 }
 
 impl NonlinearEstimator {
@@ -165,7 +155,7 @@ impl NonlinearEstimator {
             stats: WinsStats::default(),
             converged_at: None,
             epoch: 0,
-            imu_gap_seen: false,
+            imu_gap_s: 0.0,
             ap_fix: None,
             solve_due: None,
         }
@@ -271,8 +261,9 @@ impl NonlinearEstimator {
             self.stats.imu_refused += 1;
             return Err(e.into());
         }
+        let gap_s = self.pre.gap_before(s).map(|from| s.t.secs_since(from));
         if drop_frames_in_gap(&mut self.pending, |p| p.t, &self.pre, s, &mut self.stats) {
-            self.imu_gap_seen = true;
+            self.imu_gap_s += gap_s.unwrap_or(0.0);
         }
         let mut step = Step::default();
         if !self.rest.moved() {
@@ -396,7 +387,8 @@ impl NonlinearEstimator {
         self.solve_pending();
         self.stats.bearings += frame.bearings.len() as u64;
         self.stats.frames += 1;
-        let imu_gap = std::mem::take(&mut self.imu_gap_seen);
+        let imu_gap_s = std::mem::take(&mut self.imu_gap_s);
+        let imu_gap = imu_gap_s > 0.0;
         // Frames at rest carry no geometry; their IMU is kept for the motion's onset.
         if self.moving_since.is_none() {
             let keep_s = 2.0 * super::rest::ONSET_MARGIN_S + 0.2;
@@ -412,7 +404,7 @@ impl NonlinearEstimator {
         }
         let t = frame.t;
         if self.after_hole(t, imu_gap) {
-            self.restart_after_hole(t, &interval);
+            self.restart_after_hole(t, &interval, imu_gap_s);
             return None;
         }
         if imu_gap && self.window.is_none() {

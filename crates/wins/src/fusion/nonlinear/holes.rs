@@ -12,11 +12,13 @@
 //! that its APs fall where the lost window had them ([`relocated`]): the APs do not move, so
 //! they undo the drift of the guess. With one AP that fixes the position; with two or more, the
 //! heading too (a rotation about the vertical through one AP leaves every bearing of it
-//! unchanged, so one AP cannot).
+//! unchanged, so one AP cannot). With one AP the heading comes from the path's continuity
+//! across the hole ([`super::bridge`]).
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-use super::estimator::{Before, HoleFix, NonlinearEstimator};
+use super::bridge::{Before, bridge_sigma_m, end_motion};
+use super::estimator::{HoleFix, NonlinearEstimator};
 use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use super::state::{NavState, pose_at};
 use crate::fusion::estimator::Wins;
@@ -34,9 +36,14 @@ impl NonlinearEstimator {
     }
 
     /// Ends the tracking window at the frame `t` after a hole, `interval` the IMU since the
-    /// last frame: restarts from the newest keyframe carried to `t` by the IMU, keeping its
-    /// placed APs for the new window ([`relocated`]).
-    pub(super) fn restart_after_hole(&mut self, t: Timestamp, interval: &Preintegrated) {
+    /// last frame (with gaps of `imu_gap_s` s in it): restarts from the newest keyframe
+    /// carried to `t` by the IMU, keeping its placed APs for the new window ([`relocated`]).
+    pub(super) fn restart_after_hole(
+        &mut self,
+        t: Timestamp,
+        interval: &Preintegrated,
+        imu_gap_s: f64,
+    ) {
         let Some(w) = self.window.as_ref() else {
             return;
         };
@@ -59,7 +66,7 @@ impl NonlinearEstimator {
             v_b_in_w: a.rotation * p.v_b_in_w,
             ..newest
         };
-        let fix = self.hole_fix(t, carried.dt_s());
+        let fix = self.hole_fix(t, carried.dt_s(), imu_gap_s);
         self.stats.restarts += 1;
         self.epoch += 1;
         self.begin_start(t, Some(from));
@@ -69,10 +76,10 @@ impl NonlinearEstimator {
     }
 
     /// What the tracking window leaves for the next one when it ends at `t`, its newest state
-    /// carried `carried_s` by the IMU alone: its placed APs and that newest state in the output
-    /// frame, and how far the carried position may be off. `None` without a window, a keyframe
-    /// or a placed AP.
-    pub(super) fn hole_fix(&self, t: Timestamp, carried_s: f64) -> Option<HoleFix> {
+    /// carried `carried_s` by the IMU alone, across gaps of `imu_gap_s` s: its placed APs and
+    /// that newest state in the output frame, and how far the carried position may be off.
+    /// `None` without a window, a keyframe or a placed AP.
+    pub(super) fn hole_fix(&self, t: Timestamp, carried_s: f64, imu_gap_s: f64) -> Option<HoleFix> {
         let w = self.window.as_ref()?;
         let newest = w.newest()?;
         let a = self.anchor;
@@ -82,10 +89,13 @@ impl NonlinearEstimator {
                 Some((l, c, w.ap_horizontal_sigma_m(l)?))
             })
             .collect();
-        // How far the carried position may be off horizontally: the straight line across a
-        // gap errs by about 0.3 m per second it spans (0.2–0.6 m measured after 2 s of a
-        // circle flown at 1.3 m/s), the dead reckoning over an outage likewise.
-        let carried_sigma_m = MIN_CARRIED_SIGMA_M + CARRIED_SIGMA_M_PER_S * carried_s.max(0.0);
+        // How far the carried position may be off horizontally: the dead reckoning errs by
+        // about 0.3 m per second it spans, and the straight line across an IMU gap of `h` s by
+        // `j h³/6` under a jerk `j` (0.7 m after 2.3 s of a circle flown at 1.3 m/s, 6 m
+        // after 5.3 s).
+        let dead_reckoning_m = MIN_CARRIED_SIGMA_M + CARRIED_SIGMA_M_PER_S * carried_s.max(0.0);
+        let straight_line_m = STRAIGHT_LINE_JERK_M_S3 * imu_gap_s.max(0.0).powi(3) / 6.0;
+        let carried_sigma_m = dead_reckoning_m.hypot(straight_line_m);
         (!aps_in_w.is_empty()).then_some(HoleFix {
             aps_in_w,
             t,
@@ -93,7 +103,7 @@ impl NonlinearEstimator {
             before: Before {
                 t: newest.t,
                 p: a.transform_point(&newest.p_b_in_w.into()).coords,
-                v: a.rotation * newest.v_b_in_w,
+                motion: end_motion(w.keyframes().rev()).turned(&a.rotation),
             },
         })
     }
@@ -156,7 +166,7 @@ impl NonlinearEstimator {
     /// At the acceptance of a window started after a hole: moves the output frame so that the
     /// window's APs fall where the lost window had them and its first keyframe, when it is the
     /// first frame after the hole, stays where the IMU carried it and where the bridge from the
-    /// lost window's last state with the new window's first velocity puts it
+    /// lost window's last state with the new window's first motion puts it
     /// ([`Before::bridged`]; [`relocated`], each pair weighted by its inverse variance). With
     /// one AP the first keyframe's pairs fix the heading: the new window's own heading is the
     /// carried one, which the hole may have turned by tens of degrees, and a turn about the AP
@@ -196,10 +206,10 @@ impl NonlinearEstimator {
                 weight: fix.carried_sigma_m.powi(-2),
             });
             // The bridge: where the lost window's last state and the new window's first
-            // velocity, turned as the placement turns it, put the drone (found with the
-            // placement, a few rounds).
+            // motion, turned as the placement turns it, put the drone (found with the
+            // placement, a few rounds; [`super::bridge`]).
             let before = fix.before;
-            let v_here = self.anchor.rotation * first.v_b_in_w;
+            let here_motion = end_motion(w.keyframes()).turned(&self.anchor.rotation);
             let span_s = first.t.secs_since(before.t).max(0.0);
             let mut bridge = Weighted {
                 from: here,
@@ -212,7 +222,7 @@ impl NonlinearEstimator {
                 let Some(correction) = relocated(&all) else {
                     break;
                 };
-                bridge.to = before.bridged(first.t, &(correction.rotation * v_here));
+                bridge.to = before.bridged(first.t, &here_motion.turned(&correction.rotation));
             }
             pairs.push(bridge);
         }
@@ -222,32 +232,15 @@ impl NonlinearEstimator {
     }
 }
 
-/// The jerk a drone's path may have across a hole, m/s³ (a circle of 2.5 m flown at 1.3 m/s
-/// has 0.35): the trapezoid's error over `T` s is about `j T³ / 12`.
-const BRIDGE_JERK_M_S3: f64 = 0.5;
 /// Rounds of the placement and the bridge it turns.
 const BRIDGE_ROUNDS: usize = 3;
-
-/// 1σ of the bridge across a hole of `span_s` s, m: 0.43 m at 2 s, 5.3 m at 5 s (the
-/// carried position is then the better guess).
-fn bridge_sigma_m(span_s: f64) -> f64 {
-    MIN_CARRIED_SIGMA_M + BRIDGE_JERK_M_S3 * span_s.powi(3) / 12.0
-}
-
-impl Before {
-    /// Where the drone is at `t`, having left this state with the velocity `v_after` at `t`
-    /// (output frame): the trapezoid `p + (v + v_after) T / 2`, exact for a constant
-    /// acceleration.
-    pub(super) fn bridged(&self, t: Timestamp, v_after: &Vector3<f64>) -> Vector3<f64> {
-        let span_s = t.secs_since(self.t).max(0.0);
-        self.p + (self.v + v_after) * (0.5 * span_s)
-    }
-}
-
 /// Floor of the carried position's σ, m …
 const MIN_CARRIED_SIGMA_M: f64 = 0.1;
-/// … and its growth per second carried, m/s.
+/// … its growth per second carried, m/s …
 const CARRIED_SIGMA_M_PER_S: f64 = 0.3;
+/// … and the jerk the straight line across an IMU gap misses, m/s³ (a circle of 2.5 m flown
+/// at 1.3 m/s has 0.35).
+const STRAIGHT_LINE_JERK_M_S3: f64 = 0.5;
 /// Floor of an AP pair's variance, m².
 const MIN_PAIR_VAR_M2: f64 = 1e-4;
 /// The new window's first keyframe is taken as the carried state's when it is this close to
@@ -327,27 +320,6 @@ mod tests {
         assert!((two.translation.vector - truth.translation.vector).norm() < 1e-9);
         assert!(relocated(&[]).is_none());
         assert!(relocated(&[pair(a, a, 0.0)]).is_none());
-    }
-
-    #[test]
-    fn the_bridge_is_exact_for_a_constant_acceleration_and_loose_for_long_holes() {
-        let (p0, v0, a) = (
-            Vector3::new(1.0, 2.0, 1.5),
-            Vector3::new(1.2, -0.3, 0.1),
-            Vector3::new(-0.6, 0.4, 0.0),
-        );
-        let before = Before {
-            t: Timestamp(10_000_000_000),
-            p: p0,
-            v: v0,
-        };
-        let t = Timestamp(12_000_000_000);
-        let p = before.bridged(t, &(v0 + a * 2.0));
-        assert!((p - (p0 + v0 * 2.0 + a * 2.0)).norm() < 1e-12);
-        // Before its start: no motion.
-        assert!((before.bridged(Timestamp(0), &v0) - p0).norm() < 1e-12);
-        assert!((bridge_sigma_m(2.0) - 0.433).abs() < 1e-3);
-        assert!(bridge_sigma_m(5.0) > 5.0);
     }
 
     /// One AP and the carried position: the frame turns about the carried position so that

@@ -22,6 +22,7 @@
 
 mod aps;
 pub mod baro_factor;
+mod bridge;
 pub mod cone_factor;
 pub mod config;
 pub mod estimator;

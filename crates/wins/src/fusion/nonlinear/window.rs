@@ -253,7 +253,7 @@ impl NonlinearWindow {
     }
 
     /// Keyframes, oldest first.
-    pub fn keyframes(&self) -> impl Iterator<Item = &NavState> + '_ {
+    pub fn keyframes(&self) -> impl DoubleEndedIterator<Item = &NavState> + '_ {
         self.keyframes.iter().map(|k| &k.x)
     }
 
