@@ -8,8 +8,9 @@ use anyhow::{Context, Result, bail};
 use wins::dataset::truth::{ApRow, Pose, Truth, read_tum};
 use wins::eval::{
     DEFAULT_MAX_TIME_DIFF_S, DEFAULT_RPE_DELTA_FRAMES, EstimatedAp, EvalOptions, evaluate,
-    read_estimated_aps,
+    position_error_rms_from, read_estimated_aps,
 };
+use wins::time::Timestamp;
 
 /// `wins eval`.
 #[derive(clap::Args)]
@@ -34,6 +35,11 @@ pub struct EvalArgs {
     /// Also write the metrics as JSON to this file (metrics.json).
     #[arg(long, short, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// Also the position error RMS over the poses at or after this time (s, the trajectory's
+    /// clock), under the alignment of the whole trajectory: the error after a restart, its
+    /// placement scored and not only its shape.
+    #[arg(long, value_name = "S")]
+    from: Option<f64>,
 }
 
 /// Runs `wins eval`.
@@ -66,7 +72,22 @@ pub fn eval(args: EvalArgs) -> Result<()> {
             args.truth.display()
         )
     })?;
-    let json = serde_json::to_string_pretty(&metrics)?;
+    let from = match args.from {
+        Some(s) => Some(error_from(&est, &truth, &options, s)?),
+        None => None,
+    };
+    let mut value = serde_json::to_value(&metrics)?;
+    if let (Some((t_s, late)), Some(map)) = (from, value.as_object_mut()) {
+        map.insert(
+            "position_error_from".to_string(),
+            serde_json::json!({
+                "t_s": t_s,
+                "rmse_m": late.map(|(rms, _)| rms),
+                "poses": late.map_or(0, |(_, n)| n),
+            }),
+        );
+    }
+    let json = serde_json::to_string_pretty(&value)?;
     if let Some(path) = &args.out {
         std::fs::write(path, format!("{json}\n"))
             .with_context(|| format!("cannot write {}", path.display()))?;
@@ -77,8 +98,32 @@ pub fn eval(args: EvalArgs) -> Result<()> {
         writeln!(out, "{json}")?;
     } else {
         write!(out, "{}", metrics.report())?;
+        match from {
+            Some((t_s, Some((rms, n)))) => writeln!(
+                out,
+                "position error from {t_s:.3} s on: {rms:.3} m RMS over {n} poses (whole alignment)"
+            )?,
+            Some((t_s, None)) => writeln!(out, "position error from {t_s:.3} s on: no pose")?,
+            None => {}
+        }
     }
     Ok(())
+}
+
+/// The position error RMS and count from `t_s` on ([`position_error_rms_from`]).
+fn error_from(
+    est: &[Pose],
+    truth: &[Pose],
+    options: &EvalOptions,
+    t_s: f64,
+) -> Result<(f64, Option<(f64, usize)>)> {
+    if !(t_s.is_finite() && t_s.abs() < 9e9) {
+        bail!("--from {t_s}: not a time in seconds (finite, below 9e9 in size)");
+    }
+    let from = Timestamp((t_s * 1e9).round() as i64);
+    let late = position_error_rms_from(est, truth, options, from)
+        .context("scoring the poses from --from on")?;
+    Ok((t_s, late))
 }
 
 fn read_tum_file(path: &Path) -> Result<Vec<Pose>> {

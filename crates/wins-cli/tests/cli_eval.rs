@@ -170,6 +170,37 @@ fn eval_of_a_moved_noisy_estimate() {
         "{text}"
     );
     assert!(text.contains("Δ 5 frames"), "{text}");
+
+    // The error from a time on, under the same alignment: the later half's poses (less the two
+    // unmatched ones at the end), at about the noise's RMS.
+    let from = est[est.len() / 2].t;
+    let later = est.iter().filter(|r| r.t >= from - 1e-9).count() - 2;
+    let from_arg = format!("{from}");
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&truth_path),
+        "--json",
+        "--from",
+        &from_arg,
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(m["position_error_from"]["poses"], later);
+    let late = m["position_error_from"]["rmse_m"].as_f64().expect("rmse");
+    assert!(
+        late > 0.8 * rms && late < 1.2 * rms,
+        "{late} against noise RMS {rms}"
+    );
+    let out = wins(&["eval", s(&est_path), s(&truth_path), "--from", &from_arg]);
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(text.contains("position error from"), "{text}");
+    let out = wins(&["eval", s(&est_path), s(&truth_path), "--from", "1e6"]);
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    assert!(text.contains("no pose"), "{text}");
+    let out = wins(&["eval", s(&est_path), s(&truth_path), "--from", "NaN"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--from"), "{}", stderr(&out));
 }
 
 #[test]

@@ -92,6 +92,27 @@ pub fn position_error_series(
         .collect())
 }
 
+/// The RMS of the aligned position error (m) over the associated estimated poses at or after
+/// `from`, and their count, under the alignment of the whole trajectory
+/// ([`position_error_series`]): the error after a restart, its placement scored and not only
+/// its shape. `None` when no associated pose is that late.
+pub fn position_error_rms_from(
+    est: &[Pose],
+    truth: &[Pose],
+    options: &EvalOptions,
+    from: Timestamp,
+) -> Result<Option<(f64, usize)>, EvalError> {
+    let late: Vec<f64> = position_error_series(est, truth, options)?
+        .into_iter()
+        .filter(|(t, _)| *t >= from)
+        .map(|(_, e)| e * e)
+        .collect();
+    Ok((!late.is_empty()).then(|| {
+        let n = late.len();
+        ((late.iter().sum::<f64>() / n as f64).sqrt(), n)
+    }))
+}
+
 /// `R·p_est + t − p_truth` per associated pair, m.
 fn aligned_errors(
     est: &[Pose],
@@ -208,6 +229,42 @@ mod tests {
         assert!(v["packets_used"].is_null() && v["realtime_factor"].is_null());
         assert_eq!(v["ap_position_error_m"], serde_json::json!({}));
         assert_eq!(serde_json::from_value::<Metrics>(v).expect("parsed"), m);
+    }
+
+    /// The error after a time: zero for a moved truth; after a jump of 1 m in the last quarter,
+    /// that quarter's error is what the whole trajectory's alignment leaves of the jump.
+    #[test]
+    fn the_error_from_a_time_on_is_scored_under_the_whole_alignment() {
+        let truth = truth();
+        let options = EvalOptions::default();
+        let est = moved(&truth);
+        let from = Timestamp(10_000_000_000);
+        let (rms, n) = position_error_rms_from(&est, &truth, &options, from)
+            .expect("scored")
+            .expect("late poses");
+        assert!(rms < 1e-12 && n == 500, "{rms} {n}");
+        let late = Timestamp(30_000_000_000);
+        assert_eq!(
+            position_error_rms_from(&est, &truth, &options, late).expect("scored"),
+            None
+        );
+        let jump = Timestamp(15_000_000_000);
+        let jumped: Vec<_> = est
+            .iter()
+            .map(|p| Pose {
+                p_b_in_w: p.p_b_in_w + Vector3::x() * if p.t >= jump { 1.0 } else { 0.0 },
+                ..*p
+            })
+            .collect();
+        let (rms, n) = position_error_rms_from(&jumped, &truth, &options, jump)
+            .expect("scored")
+            .expect("late poses");
+        let ate = run(&jumped, &truth).ate_rmse_m;
+        assert_eq!(n, 250);
+        assert!(
+            rms > 0.5 && rms < 1.0 && rms > ate,
+            "{rms} against ATE {ate}"
+        );
     }
 
     #[test]

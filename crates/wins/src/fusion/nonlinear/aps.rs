@@ -57,6 +57,26 @@ impl NonlinearWindow {
         self.placed[l] = true;
     }
 
+    /// Holds placed AP `l` near `target` with information `info` (what is known of it from
+    /// outside the window: where a lost window had it), added to its prior:
+    /// `(c − target)ᵀ Λ (c − target)` about the AP's linearization point, frozen here at its
+    /// estimate if it was not yet (as when it enters the prior at a marginalization). `false`
+    /// when the AP is not placed.
+    pub(super) fn hold_ap(&mut self, l: usize, target: Vector3<f64>, info: &Matrix3<f64>) -> bool {
+        let (Some(true), Some(c), Some(lin)) =
+            (self.placed.get(l), self.aps.get(l), self.ap_lin.get_mut(l))
+        else {
+            return false;
+        };
+        let lin = *lin.get_or_insert(*c);
+        let o = STATE_DIM + self.ap_offset(l);
+        let mut block = self.prior_h.view_mut((o, o), (3, 3));
+        block += info;
+        let mut g = self.prior_g.rows_mut(o, 3);
+        g += info * (lin - target);
+        true
+    }
+
     fn push_placeholder(&mut self) {
         let dim = self.prior_h.nrows();
         let full = STATE_DIM + self.border_dim() + 3;
@@ -102,5 +122,69 @@ impl NonlinearWindow {
     /// to the bearings.
     pub fn ap_horizontal_sigma_m(&self, l: usize) -> Option<f64> {
         self.ap_covariance(l).map(|p| horizontal_sigma_m(&p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Isometry3, Matrix3, Vector3};
+
+    use super::super::config::NonlinearConfig;
+    use super::super::state::{Mat15, NavState};
+    use super::super::window::NonlinearWindow;
+    use crate::rig::ImuNoise;
+    use crate::time::Timestamp;
+
+    fn window(aps: Vec<Option<Vector3<f64>>>) -> NonlinearWindow {
+        let noise = ImuNoise {
+            gyro_noise_density_rad_s_sqrt_hz: 1e-4,
+            gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
+            gyro_turn_on_bias_rad_s: 1e-3,
+            accel_noise_density_m_s2_sqrt_hz: 1e-3,
+            accel_bias_random_walk_m_s3_sqrt_hz: 1e-4,
+            accel_turn_on_bias_m_s2: 1e-2,
+        };
+        let x0 = NavState {
+            t: Timestamp(0),
+            world_from_body: nalgebra::UnitQuaternion::identity(),
+            p_b_in_w: Vector3::new(0.0, 0.0, 1.5),
+            v_b_in_w: Vector3::zeros(),
+            gyro_bias_rad_s: Vector3::zeros(),
+            accel_bias_m_s2: Vector3::zeros(),
+        };
+        NonlinearWindow::new(
+            NonlinearConfig::default(),
+            9.81,
+            noise,
+            Isometry3::identity(),
+            x0,
+            Vec::new(),
+            &Mat15::identity(),
+            aps,
+            None,
+            None,
+        )
+    }
+
+    /// An AP held where a lost window had it, with nothing else on it, goes there; an AP not
+    /// placed cannot be held.
+    #[test]
+    fn a_held_ap_goes_where_it_is_held() {
+        let (start, target) = (Vector3::new(6.0, 1.0, 2.0), Vector3::new(5.6, 1.3, 1.8));
+        let mut w = window(vec![Some(start), None]);
+        assert!(w.hold_ap(0, target, &(Matrix3::identity() * 1e4)));
+        assert!(!w.hold_ap(1, target, &Matrix3::identity()));
+        assert!(!w.hold_ap(2, target, &Matrix3::identity()));
+        w.optimize(5).expect("solved");
+        let c = w.ap(0).expect("placed");
+        assert!((c - target).norm() < 1e-6, "{c:?}");
+        // Held at two points, it settles between them, by their information.
+        let other = target + Vector3::new(0.3, 0.0, 0.0);
+        let mut w = window(vec![Some(start)]);
+        assert!(w.hold_ap(0, target, &(Matrix3::identity() * 1e4)));
+        assert!(w.hold_ap(0, other, &(Matrix3::identity() * 3e4)));
+        w.optimize(5).expect("solved");
+        let c = w.ap(0).expect("placed");
+        assert!((c - (target * 0.25 + other * 0.75)).norm() < 1e-6, "{c:?}");
     }
 }

@@ -15,12 +15,13 @@
 //! unchanged, so one AP cannot). With one AP the heading comes from the path's continuity
 //! across the hole ([`super::bridge`]).
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
 use super::bridge::{Before, bridge_sigma_m, end_motion};
 use super::estimator::{HoleFix, NonlinearEstimator};
 use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use super::state::{NavState, pose_at};
+use super::window::NonlinearWindow;
 use crate::fusion::estimator::Wins;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
@@ -163,22 +164,18 @@ impl NonlinearEstimator {
         self.linear = Some(Wins::new(self.linear_config.clone()));
     }
 
-    /// At the acceptance of a window started after a hole: moves the output frame so that the
-    /// window's APs fall where the lost window had them and its first keyframe, when it is the
+    /// Where a window `w` started after a hole goes, at its acceptance: the move of the output
+    /// frame that puts the window's APs where the lost window had them and its first keyframe, when it is the
     /// first frame after the hole, stays where the IMU carried it and where the bridge from the
     /// lost window's last state with the new window's first motion puts it
     /// ([`Before::bridged`]; [`relocated`], each pair weighted by its inverse variance). With
     /// one AP the first keyframe's pairs fix the heading: the new window's own heading is the
     /// carried one, which the hole may have turned by tens of degrees, and a turn about the AP
     /// moves the whole trajectory by range × angle.
-    /// Called before the window is trimmed (its first keyframe is the start's).
-    pub(super) fn place_by_aps(&mut self) {
-        let Some(fix) = self.ap_fix.take() else {
-            return;
-        };
-        let Some(w) = self.window.as_ref() else {
-            return;
-        };
+    /// `w` is untrimmed (its first keyframe is the start's). `None` without a lost window's AP
+    /// in `w`.
+    pub(super) fn placement(&self, w: &NonlinearWindow) -> Option<Placement> {
+        let fix = self.ap_fix.as_ref()?;
         let mut pairs: Vec<Weighted> = fix
             .aps_in_w
             .iter()
@@ -193,11 +190,11 @@ impl NonlinearEstimator {
                 })
             })
             .collect();
-        if pairs.is_empty() {
-            return;
-        }
+        let aps = pairs.clone();
+        let mut agrees = true;
         if let Some(first) = w.keyframes().next()
             && first.t.secs_since(fix.t).abs() <= FIRST_KEYFRAME_WITHIN_S
+            && !aps.is_empty()
         {
             let here = self.anchor.transform_point(&first.p_b_in_w.into()).coords;
             pairs.push(Weighted {
@@ -225,13 +222,67 @@ impl NonlinearEstimator {
                 bridge.to = before.bridged(first.t, &here_motion.turned(&correction.rotation));
             }
             pairs.push(bridge);
+            // Each AP's horizontal range from the first keyframe, in the new window and from
+            // the bridge's end in the lost one (no turn or shift changes either), agrees for
+            // at least half of the APs: the lost window may have had one of several wrong.
+            agrees = ranges_agree(&aps, &bridge);
         }
-        if let Some(correction) = relocated(&pairs) {
-            self.anchor = correction * self.anchor;
+        relocated(&pairs).map(|correction| Placement { correction, agrees })
+    }
+
+    /// At the acceptance of a window started after a hole, its [`placement`](Self::placement):
+    /// moves the output frame by it and holds the window's APs where the lost window had them.
+    /// Called before the window is trimmed.
+    pub(super) fn place_by_aps(&mut self, placement: Option<Placement>) {
+        let Some(fix) = self.ap_fix.take() else {
+            return;
+        };
+        if let Some(p) = placement {
+            self.anchor = p.correction * self.anchor;
+        }
+        // The APs do not move: the new window keeps them where the lost window had them (in its
+        // own frame, as now placed), or its drift after the placement moves the trajectory
+        // against the one before the hole.
+        let anchor = self.anchor;
+        if let Some(w) = self.window.as_mut() {
+            for (l, old, sigma_old) in &fix.aps_in_w {
+                let target = anchor.inverse_transform_point(&(*old).into()).coords;
+                let info = Matrix3::identity() * sigma_old.max(MIN_HELD_SIGMA_M).powi(-2);
+                w.hold_ap(*l, target, &info);
+            }
         }
     }
 }
 
+/// Where a window started after a hole is placed ([`NonlinearEstimator::placement`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Placement {
+    /// The move of the output frame.
+    pub(super) correction: Isometry3<f64>,
+    /// Whether the window's APs agree with the lost window's: at least half of them have their
+    /// horizontal range from the first keyframe within [`AGREEING_SIGMAS`] of the lost
+    /// window's range from the bridge's end.
+    pub(super) agrees: bool,
+}
+
+/// Whether at least half of the AP pairs `aps` (`from`: in the new window, `to`: in the lost
+/// one) have their horizontal range from the `bridge` pair's ends within [`AGREEING_SIGMAS`]
+/// of each other, σ from the pairs' weights. Neither range changes with a turn or a shift.
+fn ranges_agree(aps: &[Weighted], bridge: &Weighted) -> bool {
+    let agreeing = aps
+        .iter()
+        .filter(|ap| {
+            let range_new = (ap.from - bridge.from).xy().norm();
+            let range_old = (ap.to - bridge.to).xy().norm();
+            let sigma = (ap.weight.recip() + bridge.weight.recip()).sqrt();
+            (range_new - range_old).abs() <= AGREEING_SIGMAS * sigma
+        })
+        .count();
+    2 * agreeing >= aps.len()
+}
+
+/// How many σ an AP's range from the bridge's end may differ between the two windows.
+const AGREEING_SIGMAS: f64 = 3.0;
 /// Rounds of the placement and the bridge it turns.
 const BRIDGE_ROUNDS: usize = 3;
 /// Floor of the carried position's σ, m …
@@ -241,6 +292,8 @@ const CARRIED_SIGMA_M_PER_S: f64 = 0.3;
 /// … and the jerk the straight line across an IMU gap misses, m/s³ (a circle of 2.5 m flown
 /// at 1.3 m/s has 0.35).
 const STRAIGHT_LINE_JERK_M_S3: f64 = 0.5;
+/// Floor of the σ an AP is held to where the lost window had it, m.
+const MIN_HELD_SIGMA_M: f64 = 0.05;
 /// Floor of an AP pair's variance, m².
 const MIN_PAIR_VAR_M2: f64 = 1e-4;
 /// The new window's first keyframe is taken as the carried state's when it is this close to
@@ -320,6 +373,40 @@ mod tests {
         assert!((two.translation.vector - truth.translation.vector).norm() < 1e-9);
         assert!(relocated(&[]).is_none());
         assert!(relocated(&[pair(a, a, 0.0)]).is_none());
+    }
+
+    /// The new window's AP 0.5 m nearer the drone than the lost window's is a wrong window
+    /// at σ 0.1 m, and a right one at σ 0.3 m; of three APs, one off is outvoted, two are not.
+    #[test]
+    fn a_window_agrees_when_its_ranges_do() {
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 1.0);
+        let drone = Vector3::new(1.0, 2.0, 1.5);
+        let bridge = pair(drone, turn * drone + Vector3::new(0.3, -0.2, 0.0), 100.0);
+        let ap = |old: Vector3<f64>, nearer_m: f64, sigma_m: f64| {
+            let from_drone = turn.inverse() * (old - bridge.to);
+            let new = drone + from_drone * (1.0 - nearer_m / from_drone.xy().norm());
+            pair(new, old, (sigma_m * sigma_m - 0.01).recip())
+        };
+        let old = [
+            Vector3::new(7.0, 1.0, 2.0),
+            Vector3::new(-3.0, 5.0, 1.0),
+            Vector3::new(2.0, -6.0, 2.5),
+        ];
+        assert!(ranges_agree(&[ap(old[0], 0.0, 0.12)], &bridge));
+        assert!(!ranges_agree(&[ap(old[0], 0.5, 0.12)], &bridge));
+        assert!(ranges_agree(&[ap(old[0], 0.5, 0.3)], &bridge));
+        let one_off = [
+            ap(old[0], 0.5, 0.12),
+            ap(old[1], 0.0, 0.12),
+            ap(old[2], 0.0, 0.12),
+        ];
+        assert!(ranges_agree(&one_off, &bridge));
+        let two_off = [
+            ap(old[0], 0.5, 0.12),
+            ap(old[1], 0.6, 0.12),
+            ap(old[2], 0.0, 0.12),
+        ];
+        assert!(!ranges_agree(&two_off, &bridge));
     }
 
     /// One AP and the carried position: the frame turns about the carried position so that

@@ -100,10 +100,15 @@ impl NonlinearEstimator {
             return;
         }
         self.last_try = Some(t);
-        match self.start_window() {
-            Some(w) => {
+        let started = self.start_window().and_then(|w| {
+            let placement = self.placement(&w);
+            // After a hole, a window whose APs disagree with the lost window's is a wrong one.
+            placement.is_none_or(|p| p.agrees).then_some((w, placement))
+        });
+        match started {
+            Some((w, placement)) => {
                 self.window = Some(w);
-                self.place_by_aps();
+                self.place_by_aps(placement);
                 self.trim_window();
                 self.last_good = self.window.as_ref().and_then(|w| w.newest().copied());
                 self.linear = None;
