@@ -13,7 +13,9 @@
 //! they undo the drift of the guess. With one AP that fixes the position; with two or more, the
 //! heading too (a rotation about the vertical through one AP leaves every bearing of it
 //! unchanged, so one AP cannot). With one AP the heading comes from the path's continuity
-//! across the hole ([`super::bridge`]).
+//! across the hole ([`super::bridge`]). A new window whose APs' ranges from the bridge's end
+//! disagree with the lost window's is refused ([`Placement::agrees`]), and an accepted one keeps
+//! its APs where the lost window had them (in its prior).
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
