@@ -407,22 +407,20 @@ pub(crate) fn check_frame_order(
 
 /// When `s` comes after an IMU gap ([`crate::imu::ImuGap`]): counts it, drops the queued frames
 /// strictly inside it (no pose for a time the IMU did not see; `time` gives a frame's time) and
-/// returns `true`.
+/// returns its length, s.
 pub(crate) fn drop_frames_in_gap<F>(
     pending: &mut VecDeque<F>,
     time: impl Fn(&F) -> Timestamp,
     pre: &Preintegrator,
     s: &ImuSample,
     stats: &mut WinsStats,
-) -> bool {
-    let Some(from) = pre.gap_before(s) else {
-        return false;
-    };
+) -> Option<f64> {
+    let from = pre.gap_before(s)?;
     stats.imu_gaps += 1;
     let before = pending.len();
     pending.retain(|f| !(time(f) > from && time(f) < s.t));
     stats.frames_in_imu_gap += (before - pending.len()) as u64;
-    true
+    Some(s.t.secs_since(from))
 }
 
 /// The rotation about z with the heading of `r` (its x axis projected on the horizontal plane);

@@ -72,8 +72,7 @@ impl EndMotion {
 /// velocity, and the acceleration and jerk of the quadratic `v + a τ + j τ²/2` fitted by
 /// least squares to the velocities within [`END_FIT_S`] of it; with fewer than
 /// [`END_FIT_MIN_STATES`] there, the acceleration between the first two alone.
-pub(super) fn end_motion<'a>(states: impl Iterator<Item = &'a NavState>) -> EndMotion {
-    let mut states = states.peekable();
+pub(super) fn end_motion<'a>(mut states: impl Iterator<Item = &'a NavState>) -> EndMotion {
     let Some(end) = states.next() else {
         return EndMotion::default();
     };

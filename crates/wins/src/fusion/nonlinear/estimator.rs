@@ -261,9 +261,10 @@ impl NonlinearEstimator {
             self.stats.imu_refused += 1;
             return Err(e.into());
         }
-        let gap_s = self.pre.gap_before(s).map(|from| s.t.secs_since(from));
-        if drop_frames_in_gap(&mut self.pending, |p| p.t, &self.pre, s, &mut self.stats) {
-            self.imu_gap_s += gap_s.unwrap_or(0.0);
+        if let Some(gap_s) =
+            drop_frames_in_gap(&mut self.pending, |p| p.t, &self.pre, s, &mut self.stats)
+        {
+            self.imu_gap_s += gap_s;
         }
         let mut step = Step::default();
         if !self.rest.moved() {

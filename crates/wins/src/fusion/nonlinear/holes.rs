@@ -167,15 +167,14 @@ impl NonlinearEstimator {
     }
 
     /// Where a window `w` started after a hole goes, at its acceptance: the move of the output
-    /// frame that puts the window's APs where the lost window had them and its first keyframe, when it is the
-    /// first frame after the hole, stays where the IMU carried it and where the bridge from the
-    /// lost window's last state with the new window's first motion puts it
+    /// frame that puts the window's APs where the lost window had them and its first keyframe,
+    /// when it is the first frame after the hole, where the IMU carried it and where the bridge
+    /// from the lost window's last state with the new window's first motion puts it
     /// ([`Before::bridged`]; [`relocated`], each pair weighted by its inverse variance). With
     /// one AP the first keyframe's pairs fix the heading: the new window's own heading is the
     /// carried one, which the hole may have turned by tens of degrees, and a turn about the AP
-    /// moves the whole trajectory by range × angle.
-    /// `w` is untrimmed (its first keyframe is the start's). `None` without a lost window's AP
-    /// in `w`.
+    /// moves the whole trajectory by range × angle. `w` is untrimmed (its first keyframe is the
+    /// start's). `None` without a lost window's AP in `w`.
     pub(super) fn placement(&self, w: &NonlinearWindow) -> Option<Placement> {
         let fix = self.ap_fix.as_ref()?;
         let mut pairs: Vec<Weighted> = fix
