@@ -77,6 +77,19 @@ impl NonlinearWindow {
         true
     }
 
+    /// Holds the barometer offset near `target_m` with information `info` (1/m²; what is known
+    /// of it from outside the window: a lost window's offset, the barometer having run on),
+    /// added to its prior as [`hold_ap`](Self::hold_ap) does. `false` without a barometer.
+    pub(super) fn hold_baro_offset(&mut self, target_m: f64, info: f64) -> bool {
+        let Some((o, lin)) = self.baro.as_mut() else {
+            return false;
+        };
+        let lin = *lin.get_or_insert(*o);
+        self.prior_h[(STATE_DIM, STATE_DIM)] += info;
+        self.prior_g[STATE_DIM] += info * (lin - target_m);
+        true
+    }
+
     fn push_placeholder(&mut self) {
         let dim = self.prior_h.nrows();
         let full = STATE_DIM + self.border_dim() + 3;
@@ -136,6 +149,13 @@ mod tests {
     use crate::time::Timestamp;
 
     fn window(aps: Vec<Option<Vector3<f64>>>) -> NonlinearWindow {
+        window_with_baro(aps, None)
+    }
+
+    fn window_with_baro(
+        aps: Vec<Option<Vector3<f64>>>,
+        baro_offset_m: Option<f64>,
+    ) -> NonlinearWindow {
         let noise = ImuNoise {
             gyro_noise_density_rad_s_sqrt_hz: 1e-4,
             gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
@@ -161,7 +181,7 @@ mod tests {
             Vec::new(),
             &Mat15::identity(),
             aps,
-            None,
+            baro_offset_m,
             None,
         )
     }
@@ -186,5 +206,23 @@ mod tests {
         w.optimize(5).expect("solved");
         let c = w.ap(0).expect("placed");
         assert!((c - (target * 0.25 + other * 0.75)).norm() < 1e-6, "{c:?}");
+    }
+
+    /// A barometer offset held where a lost window had it goes there, and between two holds by
+    /// their information; a window without a barometer has none to hold.
+    #[test]
+    fn a_held_barometer_offset_goes_where_it_is_held() {
+        let mut w = window_with_baro(vec![Some(Vector3::new(6.0, 1.0, 2.0))], Some(0.4));
+        assert!(w.hold_baro_offset(-0.2, 1e4));
+        w.optimize(5).expect("solved");
+        let o = w.baro_offset_m().expect("a barometer");
+        assert!((o + 0.2).abs() < 1e-4, "{o}");
+        let mut w = window_with_baro(vec![Some(Vector3::new(6.0, 1.0, 2.0))], Some(0.4));
+        assert!(w.hold_baro_offset(-0.2, 1e4));
+        assert!(w.hold_baro_offset(0.2, 3e4));
+        w.optimize(5).expect("solved");
+        let o = w.baro_offset_m().expect("a barometer");
+        assert!((o - 0.1).abs() < 1e-4, "{o}");
+        assert!(!window(Vec::new()).hold_baro_offset(0.0, 1.0));
     }
 }

@@ -28,6 +28,7 @@ use nalgebra::{Isometry3, Translation3, Vector3};
 
 use super::bridge::Before;
 use super::config::NonlinearConfig;
+use super::holes::LostAp;
 use super::rest::{RestDetector, StaticInit};
 use super::state::{NavState, pose_at};
 use super::window::{NonlinearWindow, SubFrame};
@@ -109,9 +110,12 @@ pub struct NonlinearEstimator {
 /// What a window lost to a hole (an IMU gap, a CSI outage) leaves for the next one.
 #[derive(Clone, Debug)]
 pub(super) struct HoleFix {
-    /// `(AP index, position in the output frame, its horizontal σ in m)` of every AP the lost
-    /// window had placed.
-    pub(super) aps_in_w: Vec<(usize, Vector3<f64>, f64)>,
+    /// Every AP the lost window had placed, in the output frame.
+    pub(super) aps_in_w: Vec<LostAp>,
+    /// The lost window's barometer offset in the output frame (`h = z + o`), m, when it had a
+    /// barometer: the barometer runs on through an IMU gap, so the next window's height is
+    /// placed by it.
+    pub(super) baro_offset_m: Option<f64>,
     /// The first frame after the hole (where the new start leaves from).
     pub(super) t: Timestamp,
     /// 1σ of the carried position there, horizontal, m.

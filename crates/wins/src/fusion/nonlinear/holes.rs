@@ -15,7 +15,10 @@
 //! unchanged, so one AP cannot). With one AP the heading comes from the path's continuity
 //! across the hole ([`super::bridge`]). A new window whose APs' ranges from the bridge's end
 //! disagree with the lost window's is refused ([`Placement::agrees`]), and an accepted one keeps
-//! its APs where the lost window had them (in its prior).
+//! its APs where the lost window had them (in its prior). The height comes mostly from the
+//! barometer, which runs on through an IMU gap: the new window's barometer offset, as placed, is
+//! the lost window's give or take the offset's walk since, and is held there; an AP's own
+//! height, weakly seen, weighs by its vertical σ.
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
@@ -86,10 +89,16 @@ impl NonlinearEstimator {
         let w = self.window.as_ref()?;
         let newest = w.newest()?;
         let a = self.anchor;
+        let turn = a.rotation.to_rotation_matrix().into_inner();
         let aps_in_w: Vec<_> = (0..w.aps().len())
             .filter_map(|l| {
-                let c = a.transform_point(&w.ap(l)?.into()).coords;
-                Some((l, c, w.ap_horizontal_sigma_m(l)?))
+                let covariance = w.ap_covariance(l)?;
+                Some(LostAp {
+                    l,
+                    c_in_w: a.transform_point(&w.ap(l)?.into()).coords,
+                    sigma_m: w.ap_horizontal_sigma_m(l)?,
+                    covariance_in_w: turn * covariance * turn.transpose(),
+                })
             })
             .collect();
         // How far the carried position may be off horizontally: the dead reckoning errs by
@@ -101,6 +110,8 @@ impl NonlinearEstimator {
         let carried_sigma_m = dead_reckoning_m.hypot(straight_line_m);
         (!aps_in_w.is_empty()).then_some(HoleFix {
             aps_in_w,
+            // The anchor turns about the vertical only: `z_out = z_w + t_z`.
+            baro_offset_m: w.baro_offset_m().map(|o| o - a.translation.vector.z),
             t,
             carried_sigma_m,
             before: Before {
@@ -131,18 +142,14 @@ impl NonlinearEstimator {
                     .collect()
             })
             .collect();
-        let (l, c_old) = fix
+        let lost = fix
             .aps_in_w
             .iter()
-            .map(|(l, c, _)| (*l, *c))
-            .max_by_key(|(l, _)| sights.get(*l).map_or(0, Vec::len))?;
+            .max_by_key(|ap| sights.get(ap.l).map_or(0, Vec::len))?;
+        let (l, c_old) = (lost.l, lost.c_in_w);
         // The lost window's AP in the new window's frame, were the carried heading right.
         let c_guess = self.anchor.inverse_transform_point(&c_old.into()).coords;
-        let sigma_old = fix
-            .aps_in_w
-            .iter()
-            .find(|(m, _, _)| *m == l)
-            .map_or(0.0, |(_, _, s)| *s);
+        let sigma_old = lost.sigma_m;
         let ap = ApFromDrone {
             drone: reference.p_b_in_w,
             offset: c_guess - reference.p_b_in_w,
@@ -180,14 +187,18 @@ impl NonlinearEstimator {
         let mut pairs: Vec<Weighted> = fix
             .aps_in_w
             .iter()
-            .filter_map(|(l, old, sigma_old)| {
-                let new = self.anchor.transform_point(&w.ap(*l)?.into()).coords;
-                let sigma_new = w.ap_horizontal_sigma_m(*l)?;
-                let var = (sigma_old.powi(2) + sigma_new.powi(2)).max(MIN_PAIR_VAR_M2);
+            .filter_map(|old| {
+                let new = self.anchor.transform_point(&w.ap(old.l)?.into()).coords;
+                let sigma_new = w.ap_horizontal_sigma_m(old.l)?;
+                let var = (old.sigma_m.powi(2) + sigma_new.powi(2)).max(MIN_PAIR_VAR_M2);
+                // An AP's height is weakly determined ([`NonlinearWindow::ap_horizontal_sigma_m`]):
+                // its pair weighs on the vertical by its own σ there.
+                let var_z = old.covariance_in_w[(2, 2)] + w.ap_covariance(old.l)?[(2, 2)];
                 Some(Weighted {
                     from: new,
-                    to: *old,
+                    to: old.c_in_w,
                     weight: var.recip(),
+                    weight_z: var_z.max(MIN_PAIR_VAR_M2).recip(),
                 })
             })
             .collect();
@@ -198,22 +209,14 @@ impl NonlinearEstimator {
             && !aps.is_empty()
         {
             let here = self.anchor.transform_point(&first.p_b_in_w.into()).coords;
-            pairs.push(Weighted {
-                from: here,
-                to: here,
-                weight: fix.carried_sigma_m.powi(-2),
-            });
+            pairs.push(Weighted::even(here, here, fix.carried_sigma_m.powi(-2)));
             // The bridge: where the lost window's last state and the new window's first
             // motion, turned as the placement turns it, put the drone (found with the
             // placement, a few rounds; [`super::bridge`]).
             let before = fix.before;
             let here_motion = end_motion(w.keyframes()).turned(&self.anchor.rotation);
             let span_s = first.t.secs_since(before.t).max(0.0);
-            let mut bridge = Weighted {
-                from: here,
-                to: here,
-                weight: bridge_sigma_m(span_s).powi(-2),
-            };
+            let mut bridge = Weighted::even(here, here, bridge_sigma_m(span_s).powi(-2));
             for _ in 0..BRIDGE_ROUNDS {
                 let mut all = pairs.clone();
                 all.push(bridge);
@@ -228,7 +231,29 @@ impl NonlinearEstimator {
             // at least half of the APs: the lost window may have had one of several wrong.
             agrees = ranges_agree(&aps, &bridge);
         }
-        relocated(&pairs).map(|correction| Placement { correction, agrees })
+        // The barometer ran on through the hole: the new window's offset, in the output frame
+        // as placed, is the lost window's (`o_new − (t_z + δz) = o_old`), give or take its walk
+        // since; a pair on the height alone.
+        if let (Some(o_old), Some(o_new)) = (fix.baro_offset_m, w.baro_offset_m()) {
+            let dz = o_new - self.anchor.translation.vector.z - o_old;
+            pairs.push(Weighted {
+                from: Vector3::zeros(),
+                to: Vector3::z() * dz,
+                weight: 0.0,
+                weight_z: self.baro_offset_variance_m2(fix, w).recip(),
+            });
+        }
+        let correction = relocated(&pairs)?;
+        Some(Placement { correction, agrees })
+    }
+
+    /// How far the barometer's offset may have walked between the lost window's last state and
+    /// the newest keyframe of `w`, m² (at least [`MIN_BARO_VAR_M2`]).
+    fn baro_offset_variance_m2(&self, fix: &HoleFix, w: &NonlinearWindow) -> f64 {
+        let since_s = w
+            .newest()
+            .map_or(0.0, |x| x.t.secs_since(fix.before.t).max(0.0));
+        (self.config.baro_offset_walk_m_sqrt_s.powi(2) * since_s).max(MIN_BARO_VAR_M2)
     }
 
     /// At the acceptance of a window started after a hole, its [`placement`](Self::placement):
@@ -245,11 +270,22 @@ impl NonlinearEstimator {
         // own frame, as now placed), or its drift after the placement moves the trajectory
         // against the one before the hole.
         let anchor = self.anchor;
+        let baro_var = self
+            .window
+            .as_ref()
+            .map_or(MIN_BARO_VAR_M2, |w| self.baro_offset_variance_m2(&fix, w));
         if let Some(w) = self.window.as_mut() {
-            for (l, old, sigma_old) in &fix.aps_in_w {
-                let target = anchor.inverse_transform_point(&(*old).into()).coords;
-                let info = Matrix3::identity() * sigma_old.max(MIN_HELD_SIGMA_M).powi(-2);
-                w.hold_ap(*l, target, &info);
+            // The barometer ran on through the hole: its offset is the lost window's, give or
+            // take its walk since.
+            if let Some(o_old) = fix.baro_offset_m {
+                w.hold_baro_offset(o_old + anchor.translation.vector.z, baro_var.recip());
+            }
+            for old in &fix.aps_in_w {
+                let target = anchor.inverse_transform_point(&old.c_in_w.into()).coords;
+                // Its height too is held by the horizontal σ: held by its own (larger) σ, the
+                // AP's height and the window's drift together after the placement.
+                let info = Matrix3::identity() * old.sigma_m.max(MIN_HELD_SIGMA_M).powi(-2);
+                w.hold_ap(old.l, target, &info);
             }
         }
     }
@@ -295,6 +331,8 @@ const CARRIED_SIGMA_M_PER_S: f64 = 0.3;
 const STRAIGHT_LINE_JERK_M_S3: f64 = 0.5;
 /// Floor of the σ an AP is held to where the lost window had it, m.
 const MIN_HELD_SIGMA_M: f64 = 0.05;
+/// Floor of the variance a barometer offset is held to, m².
+const MIN_BARO_VAR_M2: f64 = 1e-4;
 /// Floor of an AP pair's variance, m².
 const MIN_PAIR_VAR_M2: f64 = 1e-4;
 /// The new window's first keyframe is taken as the carried state's when it is this close to
@@ -302,17 +340,43 @@ const MIN_PAIR_VAR_M2: f64 = 1e-4;
 const FIRST_KEYFRAME_WITHIN_S: f64 = 0.5;
 
 /// A point in the new window's placement (`from`) and where it belongs (`to`), with the
-/// pair's weight (1/m²).
+/// pair's weights (1/m²) across and along the vertical.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Weighted {
     pub(super) from: Vector3<f64>,
     pub(super) to: Vector3<f64>,
     pub(super) weight: f64,
+    pub(super) weight_z: f64,
+}
+
+impl Weighted {
+    /// A pair weighing `weight` on every axis.
+    pub(super) fn even(from: Vector3<f64>, to: Vector3<f64>, weight: f64) -> Self {
+        Self {
+            from,
+            to,
+            weight,
+            weight_z: weight,
+        }
+    }
+}
+
+/// An AP a window lost to a hole had placed, in the output frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LostAp {
+    /// Its index.
+    pub(super) l: usize,
+    /// Its position, m.
+    pub(super) c_in_w: Vector3<f64>,
+    /// Its horizontal σ, m.
+    pub(super) sigma_m: f64,
+    /// Its position covariance, m².
+    pub(super) covariance_in_w: Matrix3<f64>,
 }
 
 /// The rigid motion about the vertical that best moves each pair's `from` onto its `to`
-/// (weighted least squares; the heading only from two or more pairs set apart horizontally):
-/// `None` without pairs or weight.
+/// (weighted least squares; the heading only from two or more pairs set apart horizontally, the
+/// height by the vertical weights): `None` without pairs or weight.
 pub(super) fn relocated(pairs: &[Weighted]) -> Option<Isometry3<f64>> {
     let total: f64 = pairs.iter().map(|p| p.weight).sum();
     if !(total > 0.0 && total.is_finite()) {
@@ -337,7 +401,17 @@ pub(super) fn relocated(pairs: &[Weighted]) -> Option<Isometry3<f64>> {
         0.0
     };
     let rotation = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw);
-    let translation = to_mean - rotation * from_mean;
+    let mut translation = to_mean - rotation * from_mean;
+    // The vertical: a turn about it leaves heights alone, so the shift is the mean of the
+    // pairs' height differences by their vertical weights (the horizontal one's without).
+    let total_z: f64 = pairs.iter().map(|p| p.weight_z).sum();
+    if total_z > 0.0 && total_z.is_finite() {
+        translation.z = pairs
+            .iter()
+            .map(|p| (p.to.z - p.from.z) * p.weight_z)
+            .sum::<f64>()
+            / total_z;
+    }
     Some(Isometry3::from_parts(
         Translation3::from(translation),
         rotation,
@@ -346,10 +420,12 @@ pub(super) fn relocated(pairs: &[Weighted]) -> Option<Isometry3<f64>> {
 
 #[cfg(test)]
 mod tests {
+    use nalgebra::Vector2;
+
     use super::*;
 
     fn pair(from: Vector3<f64>, to: Vector3<f64>, weight: f64) -> Weighted {
-        Weighted { from, to, weight }
+        Weighted::even(from, to, weight)
     }
 
     #[test]
@@ -408,6 +484,33 @@ mod tests {
             ap(old[2], 0.0, 0.12),
         ];
         assert!(!ranges_agree(&two_off, &bridge));
+    }
+
+    /// The height is the mean of the pairs' height differences by their vertical weights: an AP
+    /// pair tight across but loose along the vertical (its height weakly seen) leaves the
+    /// height to a pair on the height alone (the barometer's), which moves nothing across.
+    #[test]
+    fn the_height_goes_by_the_vertical_weights() {
+        let a = Vector3::new(3.0, 0.0, 2.0);
+        let ap = Weighted {
+            from: a,
+            to: a + Vector3::new(0.2, -0.1, 0.6),
+            weight: 100.0,
+            weight_z: 1.0,
+        };
+        let baro = Weighted {
+            from: Vector3::zeros(),
+            to: Vector3::z() * -0.1,
+            weight: 0.0,
+            weight_z: 9.0,
+        };
+        let fix = relocated(&[ap, baro]).expect("pairs");
+        assert!((fix.translation.vector.z - (0.6 + 9.0 * -0.1) / 10.0).abs() < 1e-12);
+        assert!((fix.translation.vector.xy() - Vector2::new(0.2, -0.1)).norm() < 1e-12);
+        assert!(fix.rotation.angle() < 1e-12);
+        // A pair weighing alike on every axis moves the height by its own difference.
+        let even = relocated(&[pair(a, a + Vector3::z() * 0.6, 1.0)]).expect("a pair");
+        assert!((even.translation.vector.z - 0.6).abs() < 1e-12);
     }
 
     /// One AP and the carried position: the frame turns about the carried position so that

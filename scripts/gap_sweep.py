@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""Measures the estimator across IMU gaps over many simulated flights.
+
+    python3 scripts/gap_sweep.py WINS WORKDIR [--scenario S] [--seeds A..B] [--at S] [--gaps 2,5]
+
+For every seed: simulates the scenario (`wins simulate`), cuts each gap out of imu.csv at --at
+seconds (scripts/cut_flight.py), runs the undamaged and every damaged copy (`wins run`), and
+scores each with `wins eval --from F` (F = the cut plus 15 s): the position error RMS after F
+under one alignment of the whole trajectory, so that a restart's placement is scored and not
+only its shape. Also the height error after F, mean |z_est + dz - z_true| with dz the mean
+height offset over the poses before the cut (a turn about the vertical leaves heights alone).
+
+Prints one row per seed (each run's RMS and height error), then per gap: how many flights come back to within twice the
+undamaged error, the ratio's median, 90th percentile and worst, the lost runs (no pose after
+F), and the height error's median, 90th percentile and worst beside the undamaged flights'.
+
+WINS is the wins binary (target/release/wins); WORKDIR must not exist (it is created and
+kept). Needs only the Python standard library (3.11+).
+"""
+import argparse
+import os
+import re
+import statistics
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def run(cmd):
+    return subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
+
+
+def tum(path):
+    rows = []
+    with open(path) as f:
+        for line in f:
+            if line.strip() and not line.startswith("#"):
+                v = [float(x) for x in line.split()]
+                rows.append((v[0], v[3]))
+    return rows
+
+
+def height_error(est_path, truth_path, cut_s, from_s):
+    """Mean |z| error after from_s, the heights offset by their mean difference before cut_s."""
+    truth = tum(truth_path)
+    times = [t for t, _ in truth]
+
+    def z_true(t):
+        import bisect
+
+        i = min(bisect.bisect_left(times, t), len(truth) - 1)
+        return truth[i][1]
+
+    est = tum(est_path)
+    before = [z_true(t) - z for t, z in est if t < cut_s]
+    after = [(t, z) for t, z in est if t >= from_s]
+    if not before or not after:
+        return None
+    dz = statistics.fmean(before)
+    return statistics.fmean(abs(z + dz - z_true(t)) for t, z in after)
+
+
+def rms_from(wins, est, base, from_s):
+    out = run([wins, "eval", est, base, "--from", str(from_s)])
+    m = re.search(r"position error from [0-9.]+ s on: ([0-9.]+) m RMS", out)
+    return float(m.group(1)) if m else None
+
+
+def pct(xs, q):
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))]
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("wins")
+    p.add_argument("workdir")
+    p.add_argument("--scenario", default="paper-circle")
+    p.add_argument("--seeds", default="1..32")
+    p.add_argument("--at", type=float, default=30.0)
+    p.add_argument("--gaps", default="2,5")
+    a = p.parse_args()
+    lo, hi = (int(x) for x in a.seeds.split(".."))
+    gaps = [float(g) for g in a.gaps.split(",")]
+    from_s = a.at + 15.0
+    os.makedirs(a.workdir)
+    rows = []
+    for seed in range(lo, hi + 1):
+        d = os.path.join(a.workdir, f"seed{seed}")
+        base = d + "-base"
+        run([a.wins, "simulate", "--scenario", a.scenario, "--seed", str(seed), "-o", base])
+        truth = os.path.join(base, "truth", "poses.tum")
+        row = {"seed": seed}
+        for gap in [0.0] + gaps:
+            src = base
+            if gap > 0:
+                src = f"{d}-gap{gap:g}"
+                run([sys.executable, os.path.join(HERE, "cut_flight.py"), base, src,
+                     str(a.at), str(gap), "imu"])
+            out = f"{src}-run"
+            run([a.wins, "run", src, "--out", out, "--no-plots"])
+            est = os.path.join(out, "trajectory.tum")
+            row[gap] = (rms_from(a.wins, est, base, from_s),
+                        height_error(est, truth, a.at, from_s))
+        rows.append(row)
+        cells = ", ".join(
+            f"{'undamaged' if g == 0 else f'{g:g} s gap'} "
+            + ("no pose" if row[g][0] is None
+               else f"{row[g][0]:.3f} m (height {row[g][1]:.2f} m)")
+            for g in [0.0] + gaps)
+        print(f"seed {seed:3}: {cells}", flush=True)
+    und = [r[0.0] for r in rows]
+    print(f"undamaged: RMS after {from_s:g} s median {statistics.median(x[0] for x in und if x[0]):.3f} m; "
+          f"height error median {statistics.median(x[1] for x in und if x[1] is not None):.2f} m, "
+          f"90th percentile {pct([x[1] for x in und if x[1] is not None], 0.9):.2f}, "
+          f"worst {max(x[1] for x in und if x[1] is not None):.2f}")
+    for gap in gaps:
+        ratios, heights, lost = [], [], 0
+        for r in rows:
+            u, g = r[0.0][0], r[gap][0]
+            if g is None or u is None:
+                lost += 1
+                continue
+            ratios.append(g / u)
+            if r[gap][1] is not None:
+                heights.append(r[gap][1])
+        within = sum(q <= 2.0 for q in ratios)
+        print(f"{gap:g} s IMU gap: {within} of {len(rows)} within twice the undamaged; ratio "
+              f"median {statistics.median(ratios):.2f}, 90th percentile {pct(ratios, 0.9):.2f}, "
+              f"worst {max(ratios):.2f}; lost {lost}; height error median "
+              f"{statistics.median(heights):.2f} m, 90th percentile {pct(heights, 0.9):.2f}, "
+              f"worst {max(heights):.2f}")
+
+
+if __name__ == "__main__":
+    main()
