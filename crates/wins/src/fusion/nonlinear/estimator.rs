@@ -24,11 +24,10 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Translation3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 
 use super::bridge::Before;
 use super::config::NonlinearConfig;
-use super::holes::LostAp;
 use super::rest::{RestDetector, StaticInit};
 use super::state::{NavState, pose_at};
 use super::window::{NonlinearWindow, SubFrame};
@@ -122,6 +121,19 @@ pub(super) struct HoleFix {
     pub(super) carried_sigma_m: f64,
     /// The lost window's newest keyframe, before the hole.
     pub(super) before: Before,
+}
+
+/// An AP a window lost to a hole had placed, in the output frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LostAp {
+    /// Its index.
+    pub(super) l: usize,
+    /// Its position, m.
+    pub(super) c_in_w: Vector3<f64>,
+    /// Its horizontal σ, m.
+    pub(super) sigma_m: f64,
+    /// Its position covariance, m².
+    pub(super) covariance_in_w: Matrix3<f64>,
 }
 
 impl NonlinearEstimator {

@@ -23,7 +23,7 @@
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
 use super::bridge::{Before, bridge_sigma_m, end_motion};
-use super::estimator::{HoleFix, NonlinearEstimator};
+use super::estimator::{HoleFix, LostAp, NonlinearEstimator};
 use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use super::state::{NavState, pose_at};
 use super::window::NonlinearWindow;
@@ -359,19 +359,6 @@ impl Weighted {
             weight_z: weight,
         }
     }
-}
-
-/// An AP a window lost to a hole had placed, in the output frame.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct LostAp {
-    /// Its index.
-    pub(super) l: usize,
-    /// Its position, m.
-    pub(super) c_in_w: Vector3<f64>,
-    /// Its horizontal σ, m.
-    pub(super) sigma_m: f64,
-    /// Its position covariance, m².
-    pub(super) covariance_in_w: Matrix3<f64>,
 }
 
 /// The rigid motion about the vertical that best moves each pair's `from` onto its `to`
