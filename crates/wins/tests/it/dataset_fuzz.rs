@@ -13,7 +13,7 @@ pub mod accounting;
 mod mutate;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -24,15 +24,15 @@ use wins::sim::{Scenario, simulate, write_dataset};
 
 use self::accounting::check_outcome;
 use self::mutate::{Mutation, mutation};
-use super::pipeline_run::temp_dir;
+use super::pipeline_run::{TempDir, temp_dir};
 
 /// Cases CI runs (each a whole run of an 8 s flight).
 const DEFAULT_CASES: u32 = 24;
 
 /// The base dataset: 8 s of the paper's circle started in the air (seed 1), written once per
-/// test process.
+/// test process (and, held by a static, left in the temporary folder).
 fn base() -> &'static Path {
-    static BASE: OnceLock<PathBuf> = OnceLock::new();
+    static BASE: OnceLock<TempDir> = OnceLock::new();
     BASE.get_or_init(|| {
         let dir = temp_dir("fuzz-base");
         let mut s = Scenario::built_in("paper-circle").unwrap().airborne();

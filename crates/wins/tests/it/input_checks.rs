@@ -3,17 +3,17 @@
 //! reason; what can be used is used.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use wins::Config;
 use wins::csi::intel5300::{LogWriter, read_log};
 use wins::dataset::{Dataset, DatasetError};
 use wins::sim::{Scenario, simulate, write_dataset};
 
-use super::pipeline_run::temp_dir;
+use super::pipeline_run::{TempDir, temp_dir};
 
 /// A 20 s paper-circle dataset (seed 1), written to a fresh folder.
-fn flight(name: &str) -> PathBuf {
+fn flight(name: &str) -> TempDir {
     let dir = temp_dir(&format!("inputs-{name}"));
     let mut s = Scenario::built_in("paper-circle").unwrap();
     s.seed = 1;

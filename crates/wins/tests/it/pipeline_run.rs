@@ -17,13 +17,37 @@ use wins::pipeline::output::{COVARIANCE_FILE, METRICS_FILE, TRAJECTORY_FILE};
 use wins::pipeline::replay::{RunOutput, replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
-/// A fresh folder for `name`, its own even when two tests fly the same scenario and seed at once.
-pub(crate) fn temp_dir(name: &str) -> PathBuf {
+/// A fresh folder for `name`, its own even when two tests fly the same scenario and seed at once,
+/// removed with everything in it when the value is dropped (at the end of the test, or when it
+/// fails).
+pub(crate) fn temp_dir(name: &str) -> TempDir {
     static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let d = std::env::temp_dir().join(format!("wins-it-{}-{k}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
-    d
+    TempDir(d)
+}
+
+/// A test's scratch folder ([`temp_dir`]): removed on drop.
+pub(crate) struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+impl std::ops::Deref for TempDir {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for TempDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
 }
 
 /// Simulates `name` for `seconds`, writes it, loads it back; `spoil` may damage the loaded data.

@@ -1,8 +1,7 @@
 //! The simulator's files. The IMU integrates back to the trajectory, the logs read back
 //! bit for bit, the clocks line up, and each random stream is independent of the others.
 
-use std::path::PathBuf;
-
+use super::pipeline_run::temp_dir;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use wins::csi::intel5300::read_log;
 use wins::dataset::Dataset;
@@ -17,12 +16,6 @@ fn scenario(name: &str) -> Scenario {
 
 fn run(s: &Scenario) -> SimOutput {
     simulate(s, &mut |_| {}).unwrap()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("wins-it-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
 }
 
 /// Classical RK4 over (q, v, p) with step 2Δt, using samples k, k+1 (midpoint) and k+2.
