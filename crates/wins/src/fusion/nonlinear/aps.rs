@@ -225,4 +225,21 @@ mod tests {
         assert!((o - 0.1).abs() < 1e-4, "{o}");
         assert!(!window(Vec::new()).hold_baro_offset(0.0, 1.0));
     }
+
+    /// A hold added after a solve that ended at its minimum (no step lowering the cost, the
+    /// cost negative from a prior's gradient) is followed by the next solve: the damping that
+    /// solve left is not carried into the next one.
+    #[test]
+    fn a_hold_after_a_converged_solve_is_followed() {
+        let start = Vector3::new(6.0, 1.0, 2.0);
+        let mut w = window_with_baro(vec![Some(start)], Some(0.4));
+        assert!(w.hold_baro_offset(-0.2, 1e4));
+        w.optimize(5).expect("solved");
+        w.optimize(5).expect("solved at the minimum");
+        let target = Vector3::new(5.0, 1.0, 2.0);
+        assert!(w.hold_ap(0, target, &(Matrix3::identity() * 1e4)));
+        w.optimize(5).expect("solved");
+        let c = w.ap(0).expect("placed");
+        assert!((c - target).norm() < 1e-3, "{c:?}");
+    }
 }

@@ -120,7 +120,11 @@ impl NonlinearWindow {
                     self.apply(&frames, &(&sol.border * alpha));
                 }
                 let (new_sys, new_cost, _) = self.build(true);
-                if self.is_finite() && new_cost.is_finite() && new_cost <= cost * (1.0 + 1e-12) {
+                // Not above the cost, give or take rounding (the prior's gradient term can make
+                // the cost negative: a relative tolerance on `cost` alone would then refuse an
+                // equal one).
+                if self.is_finite() && new_cost.is_finite() && new_cost <= cost + 1e-12 * cost.abs()
+                {
                     accepted = Some((new_sys, new_cost, alpha));
                     break;
                 }
@@ -151,7 +155,10 @@ impl NonlinearWindow {
             self.last_covariance = sol.last_frame_covariance;
             self.border_covariance = sol.border_covariance;
         }
-        self.lambda = lambda;
+        // The next solve starts where this one ended, but never more damped than a new window: a
+        // solve that found no lower cost (at its minimum) leaves the damping past 1e6, which
+        // would freeze the next solve's new information.
+        self.lambda = lambda.min(LAMBDA_FIRST);
         if !self.is_finite() {
             return Err(SolveError::NotFinite);
         }
