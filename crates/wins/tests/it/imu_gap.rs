@@ -180,7 +180,7 @@ fn after_an_imu_gap_the_error_comes_back_to_within_twice_the_undamaged() {
 /// refused, and the new window keeps the AP where the lost one had it: on seed 1 (2.6× with the
 /// trapezoid) and seed 5 (8× when a wrong window was accepted 8 s after the gap) the error
 /// comes back to within twice the undamaged flight's (docs/VALIDATION.md has the 32-seed
-/// table: 24 of 32 do).
+/// table: 26 of 32 do).
 #[test]
 fn after_a_five_second_imu_gap_the_bridge_places_the_restart() {
     comes_back_to_within_twice_the_undamaged(Damage::LongImuGap, &[1, 5]);
