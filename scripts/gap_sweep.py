@@ -18,6 +18,7 @@ WINS is the wins binary (target/release/wins); WORKDIR must not exist (it is cre
 kept). Needs only the Python standard library (3.11+).
 """
 import argparse
+import bisect
 import os
 import re
 import statistics
@@ -47,8 +48,6 @@ def height_error(est_path, truth_path, cut_s, from_s):
     times = [t for t, _ in truth]
 
     def z_true(t):
-        import bisect
-
         i = min(bisect.bisect_left(times, t), len(truth) - 1)
         return truth[i][1]
 
@@ -62,14 +61,25 @@ def height_error(est_path, truth_path, cut_s, from_s):
 
 
 def rms_from(wins, est, base, from_s):
-    out = run([wins, "eval", est, base, "--from", str(from_s)])
-    m = re.search(r"position error from [0-9.]+ s on: ([0-9.]+) m RMS", out)
-    return float(m.group(1)) if m else None
+    """The RMS after from_s, None when the run gave no pose then (wins eval refuses an empty
+    trajectory)."""
+    done = subprocess.run([wins, "eval", est, base, "--from", str(from_s)],
+                          capture_output=True, text=True)
+    m = re.search(r"position error from [0-9.]+ s on: ([0-9.]+) m RMS", done.stdout)
+    return float(m.group(1)) if done.returncode == 0 and m else None
 
 
 def pct(xs, q):
     xs = sorted(xs)
     return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))]
+
+
+def spread(xs, unit=""):
+    """Median, 90th percentile (nearest rank) and worst of xs, or "-" without any."""
+    if not xs:
+        return "-"
+    return (f"median {statistics.median(xs):.2f}{unit}, 90th percentile {pct(xs, 0.9):.2f}, "
+            f"worst {max(xs):.2f}")
 
 
 def main():
@@ -106,15 +116,15 @@ def main():
         rows.append(row)
         cells = ", ".join(
             f"{'undamaged' if g == 0 else f'{g:g} s gap'} "
-            + ("no pose" if row[g][0] is None
-               else f"{row[g][0]:.3f} m (height {row[g][1]:.2f} m)")
+            + ("no pose" if row[g][0] is None else f"{row[g][0]:.3f} m")
+            + ("" if row[g][1] is None else f" (height {row[g][1]:.2f} m)")
             for g in [0.0] + gaps)
         print(f"seed {seed:3}: {cells}", flush=True)
-    und = [r[0.0] for r in rows]
-    print(f"undamaged: RMS after {from_s:g} s median {statistics.median(x[0] for x in und if x[0]):.3f} m; "
-          f"height error median {statistics.median(x[1] for x in und if x[1] is not None):.2f} m, "
-          f"90th percentile {pct([x[1] for x in und if x[1] is not None], 0.9):.2f}, "
-          f"worst {max(x[1] for x in und if x[1] is not None):.2f}")
+    und_rms = [r[0.0][0] for r in rows if r[0.0][0] is not None]
+    und_heights = [r[0.0][1] for r in rows if r[0.0][1] is not None]
+    rms = f"{statistics.median(und_rms):.3f} m" if und_rms else "-"
+    print(f"undamaged: RMS after {from_s:g} s median {rms}; "
+          f"height error {spread(und_heights, ' m')}")
     for gap in gaps:
         ratios, heights, lost = [], [], 0
         for r in rows:
@@ -127,11 +137,7 @@ def main():
                 heights.append(r[gap][1])
         within = sum(q <= 2.0 for q in ratios)
         print(f"{gap:g} s IMU gap: {within} of {len(rows)} within twice the undamaged; ratio "
-              f"median {statistics.median(ratios):.2f}, 90th percentile {pct(ratios, 0.9):.2f}, "
-              f"worst {max(ratios):.2f}; lost {lost}; height error median "
-              f"{statistics.median(heights):.2f} m, 90th percentile {pct(heights, 0.9):.2f}, "
-              f"worst {max(heights):.2f}")
-
+              f"{spread(ratios)}; lost {lost}; height error {spread(heights, ' m')}")
 
 if __name__ == "__main__":
     main()
