@@ -24,7 +24,7 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
+use nalgebra::{Isometry3, Translation3, Vector3};
 
 use super::bridge::Before;
 use super::config::NonlinearConfig;
@@ -132,8 +132,9 @@ pub(super) struct LostAp {
     pub(super) c_in_w: Vector3<f64>,
     /// Its horizontal σ, m.
     pub(super) sigma_m: f64,
-    /// Its position covariance, m².
-    pub(super) covariance_in_w: Matrix3<f64>,
+    /// The variance of its height, m² (weakly seen: an AP near the drone's height is seen at
+    /// an elevation near zero).
+    pub(super) var_z_m2: f64,
 }
 
 impl NonlinearEstimator {

@@ -89,15 +89,14 @@ impl NonlinearEstimator {
         let w = self.window.as_ref()?;
         let newest = w.newest()?;
         let a = self.anchor;
-        let turn = a.rotation.to_rotation_matrix().into_inner();
         let aps_in_w: Vec<_> = (0..w.aps().len())
             .filter_map(|l| {
-                let covariance = w.ap_covariance(l)?;
                 Some(LostAp {
                     l,
                     c_in_w: a.transform_point(&w.ap(l)?.into()).coords,
                     sigma_m: w.ap_horizontal_sigma_m(l)?,
-                    covariance_in_w: turn * covariance * turn.transpose(),
+                    // The anchor turns about the vertical only: heights' variances stay.
+                    var_z_m2: w.ap_covariance(l)?[(2, 2)],
                 })
             })
             .collect();
@@ -180,8 +179,9 @@ impl NonlinearEstimator {
     /// ([`Before::bridged`]; [`relocated`], each pair weighted by its inverse variance). With
     /// one AP the first keyframe's pairs fix the heading: the new window's own heading is the
     /// carried one, which the hole may have turned by tens of degrees, and a turn about the AP
-    /// moves the whole trajectory by range × angle. `w` is untrimmed (its first keyframe is the
-    /// start's). `None` without a lost window's AP in `w`.
+    /// moves the whole trajectory by range × angle. The height goes mostly by the barometer
+    /// (a pair on the height alone: the two windows' offsets). `w` is untrimmed (its first
+    /// keyframe is the start's). `None` without a lost window's AP in `w`.
     pub(super) fn placement(&self, w: &NonlinearWindow) -> Option<Placement> {
         let fix = self.ap_fix.as_ref()?;
         let mut pairs: Vec<Weighted> = fix
@@ -193,7 +193,7 @@ impl NonlinearEstimator {
                 let var = (old.sigma_m.powi(2) + sigma_new.powi(2)).max(MIN_PAIR_VAR_M2);
                 // An AP's height is weakly determined ([`NonlinearWindow::ap_horizontal_sigma_m`]):
                 // its pair weighs on the vertical by its own σ there.
-                let var_z = old.covariance_in_w[(2, 2)] + w.ap_covariance(old.l)?[(2, 2)];
+                let var_z = old.var_z_m2 + w.ap_covariance(old.l)?[(2, 2)];
                 Some(Weighted {
                     from: new,
                     to: old.c_in_w,
