@@ -37,9 +37,10 @@ pub const PLACEHOLDER_INFORMATION: f64 = 1e-6;
 
 /// LM damping of a new window, and the least after a rejected step, relative to the diagonal.
 /// Each accepted step divides it by 10, down to a floor where it is Gauss–Newton in effect, and
-/// the next solve starts where the last ended: the IMU factors make the window stiff (their information is many orders above
-/// the bearings'), and a damping relative to the diagonal that stayed on would freeze exactly the
-/// motions only the bearings see, the trajectory's shifts the IMU cannot.
+/// the next solve starts where the last ended, never above this: the IMU factors make the
+/// window stiff (their information is many orders above the bearings'), and a damping relative
+/// to the diagonal that stayed on would freeze exactly the motions only the bearings see, the
+/// trajectory's shifts the IMU cannot.
 pub(super) const LAMBDA_FIRST: f64 = 1e-4;
 
 /// Measurements at one instant inside a keyframe's interval.
