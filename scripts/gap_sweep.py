@@ -10,15 +10,21 @@ under one alignment of the whole trajectory, so that a restart's placement is sc
 only its shape. Also the height error after F, mean |z_est + dz - z_true| with dz the mean
 height offset over the poses before the cut (a turn about the vertical leaves heights alone).
 
-Prints one row per seed (each run's RMS and height error), then per gap: how many flights come back to within twice the
-undamaged error, the ratio's median, 90th percentile and worst, the lost runs (no pose after
-F), and the height error's median, 90th percentile and worst beside the undamaged flights'.
+Prints one row per seed (each run's RMS and height error), then per gap: how many flights come
+back to within twice the undamaged error, the ratio's median, 90th percentile and worst, the
+lost runs (no pose after F), and the height error's median, 90th percentile and worst beside
+the undamaged flights'. A last line per gap scores each run after F under that segment's own
+turn about the vertical and shift (the four directions one AP leaves free), against the
+undamaged run's scored the same way: the shape after the restart, its placement against the
+flight before set aside. When this line passes where the first does not, what is left is the
+heading and position carried across the gap, not the new window.
 
 WINS is the wins binary (target/release/wins); WORKDIR must not exist (it is created and
 kept). Needs only the Python standard library (3.11+).
 """
 import argparse
 import bisect
+import math
 import os
 import re
 import statistics
@@ -58,6 +64,48 @@ def height_error(est_path, truth_path, cut_s, from_s):
         return None
     dz = statistics.fmean(before)
     return statistics.fmean(abs(z + dz - z_true(t)) for t, z in after)
+
+
+def tum_xyz(path):
+    rows = []
+    with open(path) as f:
+        for line in f:
+            if line.strip() and not line.startswith("#"):
+                v = [float(x) for x in line.split()]
+                rows.append((v[0], v[1], v[2], v[3]))
+    return rows
+
+
+def own_rms(est_path, truth_path, from_s):
+    """The RMS after from_s under that segment's own best turn about the vertical and shift
+    (the four directions one AP leaves free): the shape of the estimate after a restart, its
+    placement against the flight before set aside. None without poses then."""
+    truth = tum_xyz(truth_path)
+    times = [r[0] for r in truth]
+    pairs = []
+    for t, x, y, z in tum_xyz(est_path):
+        if t >= from_s:
+            i = min(bisect.bisect_left(times, t), len(truth) - 1)
+            pairs.append(((x, y, z), truth[i][1:]))
+    if len(pairs) < 3:
+        return None
+    n = len(pairs)
+    me = [sum(e[k] for e, _ in pairs) / n for k in range(3)]
+    mt = [sum(q[k] for _, q in pairs) / n for k in range(3)]
+    s_cross = s_dot = 0.0
+    for e, q in pairs:
+        ex, ey, tx, ty = e[0] - me[0], e[1] - me[1], q[0] - mt[0], q[1] - mt[1]
+        s_cross += ex * ty - ey * tx
+        s_dot += ex * tx + ey * ty
+    yaw = math.atan2(s_cross, s_dot)
+    c, s = math.cos(yaw), math.sin(yaw)
+    total = 0.0
+    for e, q in pairs:
+        ex, ey, ez = e[0] - me[0], e[1] - me[1], e[2] - me[2]
+        d = (c * ex - s * ey - (q[0] - mt[0]), s * ex + c * ey - (q[1] - mt[1]),
+             ez - (q[2] - mt[2]))
+        total += d[0] ** 2 + d[1] ** 2 + d[2] ** 2
+    return math.sqrt(total / n)
 
 
 def rms_from(wins, est, base, from_s):
@@ -112,7 +160,8 @@ def main():
             run([a.wins, "run", src, "--out", out, "--no-plots"])
             est = os.path.join(out, "trajectory.tum")
             row[gap] = (rms_from(a.wins, est, base, from_s),
-                        height_error(est, truth, a.at, from_s))
+                        height_error(est, truth, a.at, from_s),
+                        own_rms(est, truth, from_s))
         rows.append(row)
         cells = ", ".join(
             f"{'undamaged' if g == 0 else f'{g:g} s gap'} "
@@ -126,7 +175,7 @@ def main():
     print(f"undamaged: RMS after {from_s:g} s median {rms}; "
           f"height error {spread(und_heights, ' m')}")
     for gap in gaps:
-        ratios, heights, lost = [], [], 0
+        ratios, own, heights, lost = [], [], [], 0
         for r in rows:
             u, g = r[0.0][0], r[gap][0]
             if g is None or u is None:
@@ -135,9 +184,14 @@ def main():
             ratios.append(g / u)
             if r[gap][1] is not None:
                 heights.append(r[gap][1])
+            if r[gap][2] is not None and r[0.0][2]:
+                own.append(r[gap][2] / r[0.0][2])
         within = sum(q <= 2.0 for q in ratios)
         print(f"{gap:g} s IMU gap: {within} of {len(rows)} within twice the undamaged; ratio "
               f"{spread(ratios)}; lost {lost}; height error {spread(heights, ' m')}")
+        print(f"{gap:g} s IMU gap, each run after {from_s:g} s under its own turn and shift: "
+              f"{sum(q <= 2.0 for q in own)} of {len(rows)} within twice the undamaged; ratio "
+              f"{spread(own)}")
 
 if __name__ == "__main__":
     main()

@@ -156,11 +156,17 @@ fn cut_csi(dir: &std::path::Path, from_ns: i64, to_ns: i64) {
 /// On each of `seeds`, the error after 45 s with `damage` is within twice the undamaged
 /// flight's.
 fn comes_back_to_within_twice_the_undamaged(damage: Damage, seeds: &[u64]) {
+    comes_back_to_within(damage, seeds, 2.0);
+}
+
+/// On each of `seeds`, the error after 45 s with `damage` is within `factor` times the
+/// undamaged flight's.
+fn comes_back_to_within(damage: Damage, seeds: &[u64], factor: f64) {
     for &seed in seeds {
         let undamaged = error_after_45_s(seed, Damage::None);
         let damaged = error_after_45_s(seed, damage);
         assert!(
-            damaged <= 2.0 * undamaged,
+            damaged <= factor * undamaged,
             "seed {seed}: {damaged:.3} m after the {damage:?} against {undamaged:.3} m undamaged"
         );
     }
@@ -184,6 +190,15 @@ fn after_an_imu_gap_the_error_comes_back_to_within_twice_the_undamaged() {
 #[test]
 fn after_a_five_second_imu_gap_the_bridge_places_the_restart() {
     comes_back_to_within_twice_the_undamaged(Damage::LongImuGap, &[1, 5]);
+}
+
+/// After a 5 s IMU gap the restarted window's range to its AP is anchored to the lost window's
+/// (through the bridge), which sets its scale: on seeds 10 and 14 the error after 45 s comes
+/// back to within 1.35 times the undamaged flight's (0.94× and 1.26×; 1.12× and 1.51× without
+/// the anchor).
+#[test]
+fn after_a_five_second_imu_gap_the_lost_range_anchors_the_restart() {
+    comes_back_to_within(Damage::LongImuGap, &[10, 14], 1.35);
 }
 
 /// After a 5 s IMU gap the restart's height is placed by the barometer, which ran on through

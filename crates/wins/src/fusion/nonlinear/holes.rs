@@ -249,7 +249,7 @@ impl NonlinearEstimator {
 
     /// How far the barometer's offset may have walked between the lost window's last state and
     /// the newest keyframe of `w`, m² (at least [`MIN_BARO_VAR_M2`]).
-    fn baro_offset_variance_m2(&self, fix: &HoleFix, w: &NonlinearWindow) -> f64 {
+    pub(super) fn baro_offset_variance_m2(&self, fix: &HoleFix, w: &NonlinearWindow) -> f64 {
         let since_s = w
             .newest()
             .map_or(0.0, |x| x.t.secs_since(fix.before.t).max(0.0));
@@ -337,7 +337,7 @@ const MIN_BARO_VAR_M2: f64 = 1e-4;
 const MIN_PAIR_VAR_M2: f64 = 1e-4;
 /// The new window's first keyframe is taken as the carried state's when it is this close to
 /// the first frame after the hole, s.
-const FIRST_KEYFRAME_WITHIN_S: f64 = 0.5;
+pub(super) const FIRST_KEYFRAME_WITHIN_S: f64 = 0.5;
 
 /// A point in the new window's placement (`from`) and where it belongs (`to`), with the
 /// pair's weights (1/m²) across and along the vertical.

@@ -20,6 +20,7 @@
 //! bearings. [`estimator::NonlinearEstimator`] runs the start (static initialization, the paper's linear
 //! window, the χ² acceptance) and the loss test.
 
+mod anchor;
 mod aps;
 pub mod baro_factor;
 mod bridge;
@@ -31,6 +32,7 @@ pub mod imu_factor;
 mod late_ap;
 mod nullspace;
 mod output;
+mod range_anchor;
 mod relocate;
 pub mod rest;
 mod solve;

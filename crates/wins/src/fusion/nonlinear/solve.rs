@@ -194,6 +194,13 @@ impl NonlinearWindow {
                 }
             }
         }
+        // An anchor on it goes into the prior with its AP.
+        let t0 = self.keyframes.front().map(|k| k.x.t);
+        for a in self.anchors.iter().filter(|a| Some(a.t) == t0) {
+            if let (Some(c), Some(lin)) = (self.aps.get(a.l), self.ap_lin.get_mut(a.l)) {
+                lin.get_or_insert(*c);
+            }
+        }
         if let Some(b) = &mut self.baro
             && (has_altitude || self.prior_h.nrows() > STATE_DIM)
         {
@@ -219,6 +226,7 @@ impl NonlinearWindow {
         ]);
         let (sys, _, _) = self.build(true);
         self.keyframes = rest;
+        self.anchors.retain(|a| Some(a.t) != t0);
         let (h, rhs) = sys.to_dense();
         let dim = h.nrows();
         let s = STATE_DIM;

@@ -81,8 +81,8 @@ struct RestForce {
 /// measurements beyond the IMU chain's own (the IMU factors alone are met exactly by any
 /// trajectory: each adds as many residuals as states), less the border's `border_dim` unknowns.
 pub fn passes_chi2(fit: &FitStats, border_dim: usize, alpha: f64) -> bool {
-    let dof = (fit.bearings + fit.baro).saturating_sub(border_dim);
-    let cost = fit.imu_chi2 + fit.bearing_robust + fit.baro_chi2;
+    let dof = (fit.bearings + fit.baro + fit.anchors).saturating_sub(border_dim);
+    let cost = fit.imu_chi2 + fit.bearing_robust + fit.baro_chi2 + fit.anchor_chi2;
     dof == 0 || cost <= chi2_upper(dof as f64, alpha)
 }
 
@@ -103,7 +103,15 @@ impl NonlinearEstimator {
         let started = self.start_window().and_then(|w| {
             let placement = self.placement(&w);
             // After a hole, a window whose APs disagree with the lost window's is a wrong one.
-            placement.is_none_or(|p| p.agrees).then_some((w, placement))
+            if !placement.is_none_or(|p| p.agrees) {
+                return None;
+            }
+            // After a hole, the lost window's APs also anchor the new window's ranges
+            // ([`super::anchor`]).
+            Some(match self.anchored(&w) {
+                Some(a) => (a.window, Some(a.placement)),
+                None => (w, placement),
+            })
         });
         match started {
             Some((w, placement)) => {

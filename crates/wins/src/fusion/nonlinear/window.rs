@@ -26,6 +26,7 @@ use super::baro_factor::{baro_jacobian, baro_residual};
 use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
 use super::config::NonlinearConfig;
 use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
+use super::range_anchor::RangeAnchor;
 use super::state::{Mat15, NavState, STATE_DIM, Vec15};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::window::arrow::ArrowSystem;
@@ -92,6 +93,11 @@ pub struct FitStats {
     pub baro: usize,
     /// See `baro`.
     pub baro_chi2: f64,
+    /// Range anchors (what a window lost to a hole knew of an AP's range, on a window started
+    /// after it) and their Σ r².
+    pub anchors: usize,
+    /// See `anchors`.
+    pub anchor_chi2: f64,
 }
 
 /// The window (module doc).
@@ -121,6 +127,8 @@ pub struct NonlinearWindow {
     pub(super) skipped_bearings: u64,
     /// The Levenberg–Marquardt damping the last solve ended with (the next one starts there).
     pub(super) lambda: f64,
+    /// Range anchors on the first keyframe ([`super::range_anchor`]).
+    pub(super) anchors: Vec<RangeAnchor>,
 }
 
 /// Cauchy loss `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight
@@ -191,6 +199,7 @@ impl NonlinearWindow {
             marginalized: 0,
             skipped_bearings: 0,
             lambda: LAMBDA_FIRST,
+            anchors: Vec::new(),
         }
     }
 
@@ -341,6 +350,9 @@ impl NonlinearWindow {
                 stats.imu_dof += STATE_DIM;
             }
             self.add_measurements(k, kf, &lin_k, &mut sys, &mut cost, &mut stats);
+            if k == 0 {
+                self.add_anchors(kf, &lin_k, &mut sys, &mut cost, &mut stats);
+            }
         }
         if with_prior {
             cost += self.add_prior(&mut sys);
