@@ -13,6 +13,8 @@
 //!   (Cauchy) loss so that one reflection cannot drag the solution; `∂r/∂β = 1` for the
 //!   bearings' common offset β when it is estimated;
 //! - [`baro_factor`]: the barometer's altitude, `z + o`, with the offset `o` a state;
+//! - after a hole in the information, a range anchor (`range_anchor`): what the window lost to it
+//!   knew of an AP's horizontal range from the path across the hole;
 //! - the marginalization prior ([`window`]), with first-estimate Jacobians.
 //!
 //! Measurements between keyframes are tied to the keyframe before them through the partial
