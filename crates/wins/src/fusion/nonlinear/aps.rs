@@ -7,9 +7,12 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::config::NonlinearConfig;
-use super::state::STATE_DIM;
+use super::fit::FitStats;
+use super::range_anchor::RangeAnchor;
+use super::state::{NavState, STATE_DIM};
 use super::triangulate::{Sight, Triangulated, triangulate};
-use super::window::{NonlinearWindow, PLACEHOLDER_INFORMATION};
+use super::window::{Keyframe, NonlinearWindow, PLACEHOLDER_INFORMATION};
+use crate::fusion::window::arrow::ArrowSystem;
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
 pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {
@@ -138,11 +141,64 @@ impl NonlinearWindow {
     }
 }
 
+impl NonlinearWindow {
+    /// Adds range anchor `a` (module doc), on the keyframe at `a.t` while it is the window's
+    /// first (its marginalization folds the anchor into the prior). `false` when AP `a.l` is not
+    /// placed or no keyframe is at `a.t`.
+    pub(super) fn add_range_anchor(&mut self, a: RangeAnchor) -> bool {
+        let ok = self.is_placed(a.l)
+            && self.keyframes.front().is_some_and(|k| k.x.t == a.t)
+            && a.sigma_m > 0.0
+            && a.range_m.is_finite();
+        if ok {
+            self.anchors.push(a);
+        }
+        ok
+    }
+
+    /// The range anchors on keyframe `kf`, the window's first, into `sys` (first-estimate
+    /// Jacobians, as the other factors).
+    pub(super) fn add_anchors(
+        &self,
+        kf: &Keyframe,
+        lin: &NavState,
+        sys: &mut ArrowSystem<STATE_DIM>,
+        cost: &mut f64,
+        stats: &mut FitStats,
+    ) {
+        for a in self.anchors.iter().filter(|a| a.t == kf.x.t) {
+            let (Some(c), Some(true)) = (self.aps.get(a.l), self.placed.get(a.l)) else {
+                continue;
+            };
+            let c_lin = match self.ap_lin[a.l] {
+                Some(l) if self.fej => l,
+                _ => *c,
+            };
+            let r = a.residual(&kf.x, c);
+            let (jx, jc) = a.jacobian(lin, &c_lin);
+            *cost += r * r;
+            stats.anchors += 1;
+            stats.anchor_chi2 += r * r;
+            sys.diag[0] += jx.transpose() * jx;
+            sys.rhs_frames[0] -= jx.transpose() * r;
+            let o = self.ap_offset(a.l);
+            let mut fb = sys.frame_border[0].columns_mut(o, 3);
+            fb += jx.transpose() * jc.transpose();
+            let mut corner = sys.corner.view_mut((o, o), (3, 3));
+            corner += jc * jc.transpose();
+            let mut rb = sys.rhs_border.rows_mut(o, 3);
+            rb -= jc * r;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use nalgebra::{Isometry3, Matrix3, Vector3};
 
     use super::super::config::NonlinearConfig;
+    use super::super::range_anchor::RangeAnchor;
+    use super::super::range_anchor::tests::{anchor, state};
     use super::super::state::{Mat15, NavState};
     use super::super::window::NonlinearWindow;
     use crate::rig::ImuNoise;
@@ -156,14 +212,6 @@ mod tests {
         aps: Vec<Option<Vector3<f64>>>,
         baro_offset_m: Option<f64>,
     ) -> NonlinearWindow {
-        let noise = ImuNoise {
-            gyro_noise_density_rad_s_sqrt_hz: 1e-4,
-            gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
-            gyro_turn_on_bias_rad_s: 1e-3,
-            accel_noise_density_m_s2_sqrt_hz: 1e-3,
-            accel_bias_random_walk_m_s3_sqrt_hz: 1e-4,
-            accel_turn_on_bias_m_s2: 1e-2,
-        };
         let x0 = NavState {
             t: Timestamp(0),
             world_from_body: nalgebra::UnitQuaternion::identity(),
@@ -171,6 +219,22 @@ mod tests {
             v_b_in_w: Vector3::zeros(),
             gyro_bias_rad_s: Vector3::zeros(),
             accel_bias_m_s2: Vector3::zeros(),
+        };
+        window_at(x0, aps, baro_offset_m)
+    }
+
+    fn window_at(
+        x0: NavState,
+        aps: Vec<Option<Vector3<f64>>>,
+        baro_offset_m: Option<f64>,
+    ) -> NonlinearWindow {
+        let noise = ImuNoise {
+            gyro_noise_density_rad_s_sqrt_hz: 1e-4,
+            gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
+            gyro_turn_on_bias_rad_s: 1e-3,
+            accel_noise_density_m_s2_sqrt_hz: 1e-3,
+            accel_bias_random_walk_m_s3_sqrt_hz: 1e-4,
+            accel_turn_on_bias_m_s2: 1e-2,
         };
         NonlinearWindow::new(
             NonlinearConfig::default(),
@@ -241,5 +305,97 @@ mod tests {
         w.optimize(5).expect("solved");
         let c = w.ap(0).expect("placed");
         assert!((c - target).norm() < 1e-3, "{c:?}");
+    }
+
+    /// A window at the anchors' tests' moving state, with AP 0 at `ap`.
+    fn moving_window(ap: Option<Vector3<f64>>) -> NonlinearWindow {
+        window_at(state(), vec![ap], None)
+    }
+
+    /// In a window, an anchored AP settles at the anchor's range from the lever's origin (its
+    /// σ far below the other information on it), and its fit counts the anchor; an anchor on
+    /// an AP not placed, or on a keyframe not the window's first, is refused.
+    #[test]
+    fn an_anchored_window_takes_the_range() {
+        let c0 = Vector3::new(6.0, 1.0, 2.0);
+        let mut w = moving_window(Some(c0));
+        let a = RangeAnchor {
+            sigma_m: 0.01,
+            ..anchor()
+        };
+        assert!(!w.add_range_anchor(RangeAnchor {
+            t: Timestamp(1),
+            ..a
+        }));
+        assert!(w.add_range_anchor(a));
+        assert!(w.hold_ap(0, c0, &(Matrix3::identity() * 1e-2)));
+        let before = a.residual(&w.keyframes().next().copied().unwrap(), &c0);
+        assert!(before.abs() > 100.0, "{before}");
+        w.optimize(10).expect("solved");
+        let x = *w.keyframes().next().unwrap();
+        let r = a.residual(&x, &w.ap(0).unwrap());
+        assert!(r.abs() < 0.05, "{r}");
+        let fit = w.fit();
+        assert_eq!(fit.anchors, 1);
+        assert!((fit.anchor_chi2 - r * r).abs() < 1e-12);
+        assert!(!moving_window(None).add_range_anchor(a));
+    }
+
+    /// When its keyframe leaves the window, the anchor goes into the prior: the next solve
+    /// still holds the range against a hold that pulls the AP 1 m along it, and the anchor is
+    /// gone from the factors.
+    #[test]
+    fn a_marginalized_anchor_stays_in_the_prior() {
+        use crate::imu::{ImuBiases, ImuSample, Preintegrator};
+        let c0 = Vector3::new(6.0, 1.0, 2.0);
+        let mut w = moving_window(Some(c0));
+        let x0 = *w.keyframes().next().unwrap();
+        let a = RangeAnchor {
+            range_m: (c0 - x0.p_b_in_w + x0.v_b_in_w * 2.5 + anchor().offset_m)
+                .xy()
+                .norm(),
+            sigma_m: 0.01,
+            ..anchor()
+        };
+        assert!(w.add_range_anchor(a));
+        assert!(w.hold_ap(0, c0, &(Matrix3::identity() * 1e-2)));
+        // A second keyframe 0.1 s on, the IMU measuring the state's own motion (none but
+        // gravity against its attitude).
+        let mut pre = Preintegrator::new(w.imu_noise.clone(), ImuBiases::zero());
+        let f = x0.world_from_body.inverse() * Vector3::new(0.0, 0.0, 9.81);
+        let sample = |ms: i64| ImuSample {
+            t: Timestamp(ms * 1_000_000),
+            gyro_rad_s: Vector3::zeros(),
+            accel_m_s2: f,
+        };
+        for ms in (0..100).step_by(10) {
+            pre.push(&sample(ms)).unwrap();
+        }
+        let interval = pre.cut(Timestamp(100_000_000), &sample(100)).unwrap();
+        let x1 = NavState {
+            t: Timestamp(100_000_000),
+            p_b_in_w: x0.p_b_in_w + x0.v_b_in_w * 0.1,
+            ..x0
+        };
+        assert!(w.push_keyframe(x1, interval, Vec::new()).is_some());
+        w.optimize(5).unwrap();
+        w.marginalize_oldest();
+        assert!(w.anchors.is_empty());
+        assert_eq!(w.fit().anchors, 0);
+        // Held 1 m farther along the range (σ 0.1 m): the anchor (σ 0.01 m) keeps the range.
+        let farther = c0 + Vector3::new(1.0, 0.0, 0.0);
+        assert!(w.hold_ap(0, farther, &(Matrix3::identity() * 1e2)));
+        w.optimize(10).unwrap();
+        // The first keyframe where the second now puts it (the IMU measured no acceleration):
+        // the two moved with the AP, whose range from it is kept.
+        let x1 = *w.keyframes().next().unwrap();
+        let back = NavState {
+            p_b_in_w: x1.p_b_in_w - x1.v_b_in_w * 0.1,
+            ..x1
+        };
+        let c = w.ap(0).unwrap();
+        assert!((c - farther).norm() < 0.1, "{c:?}");
+        let r = a.residual(&back, &c);
+        assert!(r.abs() < 1.0, "{r} σ off the anchor's range");
     }
 }

@@ -29,6 +29,7 @@ mod bridge;
 pub mod cone_factor;
 pub mod config;
 pub mod estimator;
+mod fit;
 mod holes;
 pub mod imu_factor;
 mod late_ap;

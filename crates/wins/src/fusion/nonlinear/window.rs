@@ -25,6 +25,7 @@ use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 use super::baro_factor::{baro_jacobian, baro_residual};
 use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
 use super::config::NonlinearConfig;
+pub use super::fit::{FitStats, cauchy};
 use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
 use super::range_anchor::RangeAnchor;
 use super::state::{Mat15, NavState, STATE_DIM, Vec15};
@@ -74,32 +75,6 @@ impl Keyframe {
     }
 }
 
-/// Residual statistics of the window at its estimate (whitened: in units of each σ).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FitStats {
-    /// Σ rᵀ Λ r over the IMU factors.
-    pub imu_chi2: f64,
-    /// Number of IMU residual components (15 per factor).
-    pub imu_dof: usize,
-    /// Number of AoA residuals.
-    pub bearings: usize,
-    /// Σ e² over the AoA residuals.
-    pub bearing_chi2: f64,
-    /// Σ ρ(e²) over the AoA residuals (Cauchy).
-    pub bearing_robust: f64,
-    /// AoA residuals with |e| > 3.
-    pub bearing_outliers: usize,
-    /// Barometer residuals and their Σ e².
-    pub baro: usize,
-    /// See `baro`.
-    pub baro_chi2: f64,
-    /// Range anchors (what a window lost to a hole knew of an AP's range, on a window started
-    /// after it) and their Σ r².
-    pub anchors: usize,
-    /// See `anchors`.
-    pub anchor_chi2: f64,
-}
-
 /// The window (module doc).
 #[derive(Clone, Debug)]
 pub struct NonlinearWindow {
@@ -129,13 +104,6 @@ pub struct NonlinearWindow {
     pub(super) lambda: f64,
     /// Range anchors on the first keyframe ([`super::range_anchor`]).
     pub(super) anchors: Vec<RangeAnchor>,
-}
-
-/// Cauchy loss `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight
-/// `ρ'(s) = 1 / (1 + s/c²)`.
-pub fn cauchy(s: f64, c: f64) -> (f64, f64) {
-    let c2 = c * c;
-    (c2 * (s / c2).ln_1p(), 1.0 / (1.0 + s / c2))
 }
 
 impl NonlinearWindow {
