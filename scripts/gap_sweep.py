@@ -39,34 +39,7 @@ def run(cmd):
 
 
 def tum(path):
-    rows = []
-    with open(path) as f:
-        for line in f:
-            if line.strip() and not line.startswith("#"):
-                v = [float(x) for x in line.split()]
-                rows.append((v[0], v[3]))
-    return rows
-
-
-def height_error(est_path, truth_path, cut_s, from_s):
-    """Mean |z| error after from_s, the heights offset by their mean difference before cut_s."""
-    truth = tum(truth_path)
-    times = [t for t, _ in truth]
-
-    def z_true(t):
-        i = min(bisect.bisect_left(times, t), len(truth) - 1)
-        return truth[i][1]
-
-    est = tum(est_path)
-    before = [z_true(t) - z for t, z in est if t < cut_s]
-    after = [(t, z) for t, z in est if t >= from_s]
-    if not before or not after:
-        return None
-    dz = statistics.fmean(before)
-    return statistics.fmean(abs(z + dz - z_true(t)) for t, z in after)
-
-
-def tum_xyz(path):
+    """(t, x, y, z) of each pose of a TUM file."""
     rows = []
     with open(path) as f:
         for line in f:
@@ -76,14 +49,32 @@ def tum_xyz(path):
     return rows
 
 
+def height_error(est_path, truth_path, cut_s, from_s):
+    """Mean |z| error after from_s, the heights offset by their mean difference before cut_s."""
+    truth = tum(truth_path)
+    times = [r[0] for r in truth]
+
+    def z_true(t):
+        i = min(bisect.bisect_left(times, t), len(truth) - 1)
+        return truth[i][3]
+
+    est = [(r[0], r[3]) for r in tum(est_path)]
+    before = [z_true(t) - z for t, z in est if t < cut_s]
+    after = [(t, z) for t, z in est if t >= from_s]
+    if not before or not after:
+        return None
+    dz = statistics.fmean(before)
+    return statistics.fmean(abs(z + dz - z_true(t)) for t, z in after)
+
+
 def own_rms(est_path, truth_path, from_s):
     """The RMS after from_s under that segment's own best turn about the vertical and shift
     (the four directions one AP leaves free): the shape of the estimate after a restart, its
     placement against the flight before set aside. None without poses then."""
-    truth = tum_xyz(truth_path)
+    truth = tum(truth_path)
     times = [r[0] for r in truth]
     pairs = []
-    for t, x, y, z in tum_xyz(est_path):
+    for t, x, y, z in tum(est_path):
         if t >= from_s:
             i = min(bisect.bisect_left(times, t), len(truth) - 1)
             pairs.append(((x, y, z), truth[i][1:]))
