@@ -41,6 +41,7 @@ pub mod rest;
 mod solve;
 mod start;
 pub mod state;
+mod track;
 pub mod triangulate;
 pub mod window;
 

@@ -1,0 +1,71 @@
+//! Tracking (module doc of [`super::estimator`], step 4): a frame while the nonlinear window
+//! runs, and the solve of a keyframe after its pose has gone out.
+
+use super::estimator::NonlinearEstimator;
+use super::state::{NavState, pose_at};
+use super::window::SubFrame;
+use crate::fusion::estimator::PoseEstimate;
+use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
+use crate::time::Timestamp;
+
+impl NonlinearEstimator {
+    /// A frame while tracking: a keyframe is solved and checked.
+    pub(super) fn track(
+        &mut self,
+        t: Timestamp,
+        is_keyframe: bool,
+        from_prev: Option<Preintegrated>,
+        sub: SubFrame,
+    ) -> Option<PoseEstimate> {
+        let window = self.window.as_mut()?;
+        if !is_keyframe {
+            window.push_frame(sub);
+            return self.pose_now(t);
+        }
+        let newest = *window.newest()?;
+        let g = STANDARD_GRAVITY_M_S2;
+        let Some(from_prev) = from_prev else {
+            return self.pose_now(t);
+        };
+        let p = pose_at(&newest, &from_prev, g);
+        let x = NavState {
+            t,
+            world_from_body: p.world_from_body,
+            p_b_in_w: p.p_b_in_w,
+            v_b_in_w: p.v_b_in_w,
+            ..newest
+        };
+        if window.push_keyframe(x, from_prev, vec![sub]).is_none() {
+            self.stats.frames_refused += 1;
+            return self.pose_now(t);
+        }
+        // The pose goes out predicted by the IMU, as between keyframes; the solve follows
+        // ([`Self::solve_pending`]).
+        self.solve_due = Some(t);
+        self.pose_now(t)
+    }
+
+    /// Solves the newest keyframe when its solve is due, then trims the window, places late
+    /// APs and runs the loss test. A keyframe's pose is given before its solve (predicted by the
+    /// IMU from the window's last solution, as every frame between keyframes is), so that a
+    /// caller sending poses can send it first and solve after (`wins live`); otherwise the next
+    /// input runs it, before anything else: the estimate is the same either way.
+    pub fn solve_pending(&mut self) {
+        let Some(t) = self.solve_due.take() else {
+            return;
+        };
+        let Some(window) = self.window.as_mut() else {
+            return;
+        };
+        let solved = window.optimize(self.config.iterations);
+        self.trim_window();
+        self.place_late_aps();
+        match solved {
+            Ok(_) => self.check_health(t),
+            Err(_) => {
+                self.stats.solve_failures += 1;
+                self.lose(t);
+            }
+        }
+    }
+}
