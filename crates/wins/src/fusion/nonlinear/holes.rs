@@ -249,7 +249,7 @@ impl NonlinearEstimator {
 
     /// How far the barometer's offset may have walked between the lost window's last state and
     /// the newest keyframe of `w`, m² (at least [`MIN_BARO_VAR_M2`]).
-    pub(super) fn baro_offset_variance_m2(&self, fix: &HoleFix, w: &NonlinearWindow) -> f64 {
+    fn baro_offset_variance_m2(&self, fix: &HoleFix, w: &NonlinearWindow) -> f64 {
         let since_s = w
             .newest()
             .map_or(0.0, |x| x.t.secs_since(fix.before.t).max(0.0));
