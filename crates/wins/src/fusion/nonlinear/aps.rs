@@ -2,7 +2,8 @@
 //! seen but not yet placed (the border keeps their slot so that an AP's index is its number; a
 //! vanishing prior keeps the system regular; their bearings are skipped). An AP is placed at the
 //! start, or later from its triangulation ([`super::late_ap`]), whose information joins the
-//! prior at that point.
+//! prior at that point. What is known of them from outside the window (a window lost to a hole:
+//! where it had them, their ranges) is held here too.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
@@ -142,7 +143,7 @@ impl NonlinearWindow {
 }
 
 impl NonlinearWindow {
-    /// Adds range anchor `a` (module doc), on the keyframe at `a.t` while it is the window's
+    /// Adds range anchor `a` ([`super::range_anchor`]), on the keyframe at `a.t` while it is the window's
     /// first (its marginalization folds the anchor into the prior). `false` when AP `a.l` is not
     /// placed or no keyframe is at `a.t`.
     pub(super) fn add_range_anchor(&mut self, a: RangeAnchor) -> bool {
