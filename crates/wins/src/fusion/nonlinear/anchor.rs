@@ -51,11 +51,7 @@ impl NonlinearEstimator {
             return None;
         }
         let placed_by_itself = (0..w.aps().len()).filter(|&l| w.is_placed(l)).all(|l| {
-            let c = w.aps()[l];
-            let range = w
-                .keyframes()
-                .map(|x| (c - x.p_b_in_w).norm())
-                .fold(f64::INFINITY, f64::min);
+            let range = w.ap_nearest_range_m(l).unwrap_or(f64::INFINITY);
             w.ap_horizontal_sigma_m(l)
                 .is_some_and(|s| self.config.ap_sigma_ok(s, range))
         });
@@ -64,11 +60,13 @@ impl NonlinearEstimator {
         }
         let span_s = first.t.secs_since(fix.before.t).max(0.0);
         let sigma_bridge = bridge_sigma_m(span_s);
-        let (before, here) = (&fix.before.motion, end_motion(w.keyframes()));
+        let here = end_motion(w.keyframes());
         let mut anchored = w.clone();
         let mut any = false;
+        let before = &fix.before.motion;
         for old in &fix.aps_in_w {
-            // `D` of [`super::range_anchor`], in the output frame.
+            // `D` of [`super::range_anchor`], in the output frame: the AP from the lost window's
+            // half of the bridge ([`Before::bridged`](super::bridge::Before::bridged)).
             let d = old.c_in_w
                 - fix.before.p
                 - before.v * (span_s / 2.0)
@@ -94,13 +92,17 @@ impl NonlinearEstimator {
                 .ap(a.l)
                 .is_some_and(|c| a.residual(&first, &c).abs() <= MAX_ANCHOR_RESIDUAL)
         });
-        let fits = passes_chi2(
-            &anchored.fit(),
-            anchored.border_dim(),
-            self.config.chi2_significance,
-        );
+        if !(met
+            && passes_chi2(
+                &anchored.fit(),
+                anchored.border_dim(),
+                self.config.chi2_significance,
+            ))
+        {
+            return None;
+        }
         let placement = self.placement(&anchored).filter(|p| p.agrees)?;
-        (met && fits).then_some(Anchored {
+        Some(Anchored {
             window: anchored,
             placement,
         })

@@ -133,6 +133,16 @@ impl NonlinearWindow {
             .map(|p| p.symmetric_eigenvalues().max().max(0.0).sqrt())
     }
 
+    /// AP `l`'s smallest range from the window's keyframes, m, when placed.
+    pub fn ap_nearest_range_m(&self, l: usize) -> Option<f64> {
+        let c = self.ap(l)?;
+        Some(
+            self.keyframes()
+                .map(|x| (c - x.p_b_in_w).norm())
+                .fold(f64::INFINITY, f64::min),
+        )
+    }
+
     /// AP `l`'s largest horizontal marginal σ (of its x–y block), m. An AP near the array's
     /// height is seen at an elevation `e ≈ 0`, where the cone angle changes only to second order
     /// with `e` (`sin θ = cos e sin φ`): its height is weakly determined, and matters as little

@@ -19,7 +19,7 @@
 //! gives a new window the AP's range, the one thing its first seconds of bearings lack, and no
 //! heading: the turn between the windows is found afterwards ([`super::holes`]).
 
-use nalgebra::{Vector3, Vector6};
+use nalgebra::Vector3;
 
 use super::state::{NavState, POS, Row15, VEL};
 use crate::time::Timestamp;
@@ -61,12 +61,9 @@ impl RangeAnchor {
             return (jx, Vector3::zeros());
         }
         let u = Vector3::new(l.x / n, l.y / n, 0.0) / self.sigma_m;
-        let mut pv = Vector6::zeros();
-        pv.fixed_rows_mut::<3>(0).copy_from(&(-u));
-        pv.fixed_rows_mut::<3>(3).copy_from(&(u * self.half_span_s));
         for i in 0..3 {
-            jx[POS + i] = pv[i];
-            jx[VEL + i] = pv[3 + i];
+            jx[POS + i] = -u[i];
+            jx[VEL + i] = u[i] * self.half_span_s;
         }
         (jx, u)
     }

@@ -353,10 +353,7 @@ impl NonlinearEstimator {
         w.optimize(self.config.iterations_at_start).ok()?;
         let fit = w.fit();
         let ap_ok = (0..w.aps().len()).filter(|&l| w.is_placed(l)).all(|l| {
-            let range = w
-                .keyframes()
-                .map(|x| (w.aps()[l] - x.p_b_in_w).norm())
-                .fold(f64::INFINITY, f64::min);
+            let range = w.ap_nearest_range_m(l).unwrap_or(f64::INFINITY);
             // An AP the relocation placed (after a hole) is judged by the relocation's σ, whose
             // velocity and tilt corrections hold the heading the window's own start lacks for
             // seconds; the window's χ² still has to pass.
