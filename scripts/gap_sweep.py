@@ -2,6 +2,7 @@
 """Measures the estimator across IMU gaps over many simulated flights.
 
     python3 scripts/gap_sweep.py WINS WORKDIR [--scenario S] [--seeds A..B] [--at S] [--gaps 2,5]
+                                 [--config FILE]
 
 For every seed: simulates the scenario (`wins simulate`), cuts each gap out of imu.csv at --at
 seconds (scripts/cut_flight.py), runs the undamaged and every damaged copy (`wins run`), and
@@ -19,8 +20,9 @@ undamaged run's scored the same way: the shape after the restart, its placement 
 flight before set aside. When this line passes where the first does not, what is left is the
 heading and position carried across the gap, not the new window.
 
-WINS is the wins binary (target/release/wins); WORKDIR must not exist (it is created and
-kept). Needs only the Python standard library (3.11+).
+--config is passed to every `wins run` (to measure a setting). WINS is the wins binary
+(target/release/wins); WORKDIR must not exist (it is created and kept). Needs only the Python
+standard library (3.11+).
 """
 import argparse
 import bisect
@@ -129,7 +131,9 @@ def main():
     p.add_argument("--seeds", default="1..32")
     p.add_argument("--at", type=float, default=30.0)
     p.add_argument("--gaps", default="2,5")
+    p.add_argument("--config", help="a configuration for every `wins run`")
     a = p.parse_args()
+    config = ["--config", os.path.abspath(a.config)] if a.config else []
     lo, hi = (int(x) for x in a.seeds.split(".."))
     gaps = [float(g) for g in a.gaps.split(",")]
     from_s = a.at + 15.0
@@ -148,7 +152,7 @@ def main():
                 run([sys.executable, os.path.join(HERE, "cut_flight.py"), base, src,
                      str(a.at), str(gap), "imu"])
             out = f"{src}-run"
-            run([a.wins, "run", src, "--out", out, "--no-plots"])
+            run([a.wins, "run", src, "--out", out, "--no-plots"] + config)
             est = os.path.join(out, "trajectory.tum")
             row[gap] = (rms_from(a.wins, est, base, from_s),
                         height_error(est, truth, a.at, from_s),

@@ -111,6 +111,9 @@ pub struct WinsStats {
     /// Frames dropped because they fell inside an IMU gap (no pose for a time the IMU did not
     /// see).
     pub frames_in_imu_gap: u64,
+    /// Keyframes held at zero velocity: taken while the IMU was still, on the ground
+    /// ([`crate::fusion::nonlinear::still`]).
+    pub still_keyframes: u64,
 }
 
 /// Why an input was refused (the estimator's state is unchanged; the refusal is counted).

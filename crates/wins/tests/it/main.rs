@@ -32,6 +32,7 @@ mod sanitize;
 mod sim_dataset;
 mod sim_scenarios;
 mod streaming;
+mod zero_velocity;
 
 /// Property-test settings: a fixed seed, so a run is reproducible (set `PROPTEST_RNG_SEED` and edit
 /// here to explore further); failures found are kept in `tests/proptest-regressions/`.

@@ -204,7 +204,7 @@ impl NonlinearWindow {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use nalgebra::{Isometry3, Matrix3, Vector3};
 
     use super::super::config::NonlinearConfig;
@@ -215,7 +215,8 @@ mod tests {
     use crate::rig::ImuNoise;
     use crate::time::Timestamp;
 
-    fn window(aps: Vec<Option<Vector3<f64>>>) -> NonlinearWindow {
+    /// A window at rest at (0, 0, 1.5) m, level, with the APs `aps` and a unit prior.
+    pub(in crate::fusion::nonlinear) fn window(aps: Vec<Option<Vector3<f64>>>) -> NonlinearWindow {
         window_with_baro(aps, None)
     }
 

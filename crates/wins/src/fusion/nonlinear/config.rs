@@ -46,6 +46,20 @@ pub struct NonlinearConfig {
     pub rest_max_accel_deviation_m_s2: f64,
     /// At least this long at rest gives a static initialization, s.
     pub rest_min_s: f64,
+    /// Zero-velocity updates: a keyframe while the IMU is still (on the ground) holds its
+    /// velocity at zero ([`super::still`], [`super::zero_velocity`]).
+    pub zero_velocity: bool,
+    /// 1σ of that zero velocity, per axis, m/s.
+    pub zero_velocity_sigma_m_s: f64,
+    /// The IMU still for at least this long before the keyframe, s.
+    pub zero_velocity_min_still_s: f64,
+    /// … and the window's predicted speed at the keyframe below this, m/s, and agreeing with
+    /// zero (a χ² test at [`Self::chi2_significance`] against its covariance): an IMU reads the
+    /// same at rest and at a constant velocity.
+    pub zero_velocity_max_speed_m_s: f64,
+    /// Still: each axis's sample scatter over 0.1 s at most this many times the sensor's white
+    /// noise per sample (rotor vibration is far above it).
+    pub still_max_noise_ratio: f64,
     /// Motion (after a rest, or from the start) for at least this long before the first start
     /// attempt, s.
     pub start_after_motion_s: f64,
@@ -82,6 +96,11 @@ impl Default for NonlinearConfig {
             rest_max_gyro_rad_s: 0.05,
             rest_max_accel_deviation_m_s2: 0.3,
             rest_min_s: 1.0,
+            zero_velocity: true,
+            zero_velocity_sigma_m_s: 0.02,
+            zero_velocity_min_still_s: 0.5,
+            zero_velocity_max_speed_m_s: 0.5,
+            still_max_noise_ratio: 3.0,
             start_after_motion_s: 4.0,
             start_retry_s: 1.0,
             inertial_start_max_s: 25.0,
@@ -167,6 +186,34 @@ impl NonlinearConfig {
             5.0,
         );
         p.in_range(prefix, "rest_min_s", self.rest_min_s, 0.05, 60.0);
+        p.in_range(
+            prefix,
+            "zero_velocity_sigma_m_s",
+            self.zero_velocity_sigma_m_s,
+            1e-4,
+            10.0,
+        );
+        p.in_range(
+            prefix,
+            "zero_velocity_min_still_s",
+            self.zero_velocity_min_still_s,
+            0.1,
+            60.0,
+        );
+        p.in_range(
+            prefix,
+            "zero_velocity_max_speed_m_s",
+            self.zero_velocity_max_speed_m_s,
+            0.0,
+            10.0,
+        );
+        p.in_range(
+            prefix,
+            "still_max_noise_ratio",
+            self.still_max_noise_ratio,
+            1.0,
+            100.0,
+        );
         p.in_range(
             prefix,
             "start_after_motion_s",

@@ -30,6 +30,7 @@ use super::bridge::Before;
 use super::config::NonlinearConfig;
 use super::rest::{RestDetector, StaticInit};
 use super::state::{NavState, pose_at};
+use super::still::StillDetector;
 use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::estimator::{
@@ -69,6 +70,8 @@ pub struct NonlinearEstimator {
     pub(super) pre: Preintegrator,
     pending: VecDeque<PendingFrame>,
     rest: RestDetector,
+    /// Stillness for the zero-velocity updates ([`super::still`]).
+    pub(super) still: StillDetector,
     pub(super) static_init: Option<StaticInit>,
     pub(super) moving_since: Option<Timestamp>,
     pub(super) linear: Option<Wins>,
@@ -149,6 +152,7 @@ impl NonlinearEstimator {
             pre: Preintegrator::new(linear_config.imu_noise.clone(), ImuBiases::zero())
                 .with_gap(linear_config.imu_gap),
             rest: RestDetector::new(config.clone(), STANDARD_GRAVITY_M_S2),
+            still: StillDetector::new(&config, &linear_config.imu_noise, STANDARD_GRAVITY_M_S2),
             config,
             linear_config,
             candidate_ap_sigma_m,
@@ -284,6 +288,7 @@ impl NonlinearEstimator {
             self.imu_gap_s += gap_s;
         }
         let mut step = Step::default();
+        self.still.push(s);
         if !self.rest.moved() {
             if let Some(init) = self.rest.push(s) {
                 self.static_init = Some(init);

@@ -24,6 +24,10 @@ pub struct FitStats {
     pub anchors: usize,
     /// See `anchors`.
     pub anchor_chi2: f64,
+    /// Zero-velocity residual components (3 per keyframe held still) and their Σ r².
+    pub zero_velocity: usize,
+    /// See `zero_velocity`.
+    pub zero_velocity_chi2: f64,
 }
 
 /// Cauchy loss `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight

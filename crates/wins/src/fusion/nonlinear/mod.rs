@@ -15,6 +15,8 @@
 //! - [`baro_factor`]: the barometer's altitude, `z + o`, with the offset `o` a state;
 //! - after a hole in the information, a range anchor (`range_anchor`): what the window lost to it
 //!   knew of an AP's horizontal range from the path across the hole;
+//! - [`zero_velocity`]: a keyframe taken while the IMU is still (on the ground, [`still`]) holds
+//!   its velocity at zero;
 //! - the marginalization prior ([`window`]), with first-estimate Jacobians.
 //!
 //! Measurements between keyframes are tied to the keyframe before them through the partial
@@ -41,9 +43,11 @@ pub mod rest;
 mod solve;
 mod start;
 pub mod state;
+pub mod still;
 mod track;
 pub mod triangulate;
 pub mod window;
+mod zero_velocity;
 
 pub use config::NonlinearConfig;
 pub use estimator::NonlinearEstimator;

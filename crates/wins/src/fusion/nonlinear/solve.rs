@@ -3,7 +3,7 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::state::{NavState, STATE_DIM};
 use super::window::{Keyframe, LAMBDA_FIRST, NonlinearWindow};
@@ -166,6 +166,55 @@ impl NonlinearWindow {
         Ok(report)
     }
 
+    /// `δ = x ⊟ x_lin` over `[first keyframe, border]` (border entries without a frozen point:
+    /// 0).
+    pub(super) fn prior_delta(&self) -> DVector<f64> {
+        let mut e = DVector::zeros(STATE_DIM + self.border_dim());
+        if let Some(k0) = self.keyframes.front() {
+            let lin = k0.lin.unwrap_or(k0.x);
+            e.rows_mut(0, STATE_DIM).copy_from(&k0.x.boxminus(&lin));
+        }
+        if let Some((o, Some(l))) = self.baro {
+            e[STATE_DIM] = o - l;
+        }
+        if let Some((b, Some(l))) = self.bias {
+            e[STATE_DIM + self.scalars() - 1] = b - l;
+        }
+        for (l, (c, lin)) in self.aps.iter().zip(&self.ap_lin).enumerate() {
+            if let Some(lin) = lin {
+                let o = STATE_DIM + self.ap_offset(l);
+                e.rows_mut(o, 3).copy_from(&(c - lin));
+            }
+        }
+        e
+    }
+
+    /// Adds the prior to `sys`; returns its cost `δᵀHδ + 2gᵀδ`.
+    pub(super) fn add_prior(&self, sys: &mut ArrowSystem<STATE_DIM>) -> f64 {
+        let dim = self.prior_h.nrows();
+        let full = STATE_DIM + self.border_dim();
+        let mut e = self.prior_delta();
+        e = e.rows(0, dim.min(full)).into_owned();
+        let he = &self.prior_h * &e;
+        let grad = &he + &self.prior_g;
+        let s = STATE_DIM;
+        let mb = dim - s;
+        if sys.frames() == 0 {
+            return 0.0;
+        }
+        sys.diag[0] += self.prior_h.fixed_view::<STATE_DIM, STATE_DIM>(0, 0);
+        if mb > 0 {
+            let mut fb = sys.frame_border[0].columns_mut(0, mb);
+            fb += self.prior_h.view((0, s), (s, mb));
+            let mut corner = sys.corner.view_mut((0, 0), (mb, mb));
+            corner += self.prior_h.view((s, s), (mb, mb));
+            let mut rb = sys.rhs_border.rows_mut(0, mb);
+            rb -= grad.rows(s, mb);
+        }
+        sys.rhs_frames[0] -= grad.fixed_rows::<STATE_DIM>(0);
+        e.dot(&he) + 2.0 * e.dot(&self.prior_g)
+    }
+
     /// Marginalizes the oldest keyframe into the prior on `[next keyframe, border]` (module doc
     /// of [`super::window`]): the Schur complement of only the factors that touch it, with the
     /// states it leaves in the prior frozen at their current estimate for every later Jacobian.
@@ -221,6 +270,7 @@ impl NonlinearWindow {
             k0,
             Keyframe {
                 frames: Vec::new(),
+                still: false,
                 ..k1
             },
         ]);

@@ -39,6 +39,16 @@ impl NonlinearEstimator {
             self.stats.frames_refused += 1;
             return self.pose_now(t);
         }
+        // On the ground: held at zero velocity ([`super::zero_velocity`]).
+        let c = &self.config;
+        if c.zero_velocity
+            && self.still.still_for_s(t) >= c.zero_velocity_min_still_s
+            && x.v_b_in_w.norm() <= c.zero_velocity_max_speed_m_s
+            && window.zero_velocity_fits(&x.v_b_in_w, c.chi2_significance)
+        {
+            window.hold_newest_still();
+            self.stats.still_keyframes += 1;
+        }
         // The pose goes out predicted by the IMU, as between keyframes; the solve follows
         // ([`Self::solve_pending`]).
         self.solve_due = Some(t);

@@ -64,6 +64,8 @@ pub(super) struct Keyframe {
     /// IMU interval from the previous keyframe and its information.
     pub(super) from_prev: Option<(Preintegrated, Mat15)>,
     pub(super) frames: Vec<SubFrame>,
+    /// Held at zero velocity ([`super::zero_velocity`]).
+    pub(super) still: bool,
 }
 
 impl Keyframe {
@@ -149,6 +151,7 @@ impl NonlinearWindow {
                 lin: Some(x0),
                 from_prev: None,
                 frames: frames0,
+                still: false,
             }]),
             ap_lin: vec![None; n_aps],
             placed: aps.iter().map(Option::is_some).collect(),
@@ -219,6 +222,7 @@ impl NonlinearWindow {
             lin: None,
             from_prev: Some((from_prev, info)),
             frames,
+            still: false,
         });
         Some(())
     }
@@ -321,6 +325,9 @@ impl NonlinearWindow {
             if k == 0 {
                 self.add_anchors(kf, &lin_k, &mut sys, &mut cost, &mut stats);
             }
+            if kf.still {
+                self.add_zero_velocity(k, kf, &mut sys, &mut cost, &mut stats);
+            }
         }
         if with_prior {
             cost += self.add_prior(&mut sys);
@@ -418,55 +425,6 @@ impl NonlinearWindow {
                 sys.rhs_border[0] -= jo * info * r;
             }
         }
-    }
-
-    /// `δ = x ⊟ x_lin` over `[first keyframe, border]` (border entries without a frozen point:
-    /// 0).
-    pub(super) fn prior_delta(&self) -> DVector<f64> {
-        let mut e = DVector::zeros(STATE_DIM + self.border_dim());
-        if let Some(k0) = self.keyframes.front() {
-            let lin = k0.lin.unwrap_or(k0.x);
-            e.rows_mut(0, STATE_DIM).copy_from(&k0.x.boxminus(&lin));
-        }
-        if let Some((o, Some(l))) = self.baro {
-            e[STATE_DIM] = o - l;
-        }
-        if let Some((b, Some(l))) = self.bias {
-            e[STATE_DIM + self.scalars() - 1] = b - l;
-        }
-        for (l, (c, lin)) in self.aps.iter().zip(&self.ap_lin).enumerate() {
-            if let Some(lin) = lin {
-                let o = STATE_DIM + self.ap_offset(l);
-                e.rows_mut(o, 3).copy_from(&(c - lin));
-            }
-        }
-        e
-    }
-
-    /// Adds the prior to `sys`; returns its cost `δᵀHδ + 2gᵀδ`.
-    fn add_prior(&self, sys: &mut ArrowSystem<STATE_DIM>) -> f64 {
-        let dim = self.prior_h.nrows();
-        let full = STATE_DIM + self.border_dim();
-        let mut e = self.prior_delta();
-        e = e.rows(0, dim.min(full)).into_owned();
-        let he = &self.prior_h * &e;
-        let grad = &he + &self.prior_g;
-        let s = STATE_DIM;
-        let mb = dim - s;
-        if sys.frames() == 0 {
-            return 0.0;
-        }
-        sys.diag[0] += self.prior_h.fixed_view::<STATE_DIM, STATE_DIM>(0, 0);
-        if mb > 0 {
-            let mut fb = sys.frame_border[0].columns_mut(0, mb);
-            fb += self.prior_h.view((0, s), (s, mb));
-            let mut corner = sys.corner.view_mut((0, 0), (mb, mb));
-            corner += self.prior_h.view((s, s), (mb, mb));
-            let mut rb = sys.rhs_border.rows_mut(0, mb);
-            rb -= grad.rows(s, mb);
-        }
-        sys.rhs_frames[0] -= grad.fixed_rows::<STATE_DIM>(0);
-        e.dot(&he) + 2.0 * e.dot(&self.prior_g)
     }
 
     /// Applies an increment (frames then border).
