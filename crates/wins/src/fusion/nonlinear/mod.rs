@@ -47,7 +47,7 @@ pub mod still;
 mod track;
 pub mod triangulate;
 pub mod window;
-mod zero_velocity;
+pub mod zero_velocity;
 
 pub use config::NonlinearConfig;
 pub use estimator::NonlinearEstimator;
