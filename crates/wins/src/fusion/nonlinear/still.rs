@@ -262,25 +262,27 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn a_quiet_imu_is_still_from_its_first_tenth_of_a_second() {
-        let mut rng = ChaCha8Rng::seed_from_u64(5);
+    /// A detector that has seen `seconds` of samples with `shake` from t = 0, and its RNG.
+    fn after(seed: u64, seconds: f64, shake: f64) -> (StillDetector, ChaCha8Rng) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut d = StillDetector::new(&NonlinearConfig::default(), &noise(), G);
-        for s in samples(0.0, 2.0, 0.0, &mut rng) {
+        for s in samples(0.0, seconds, shake, &mut rng) {
             d.push(&s);
         }
+        (d, rng)
+    }
+
+    #[test]
+    fn a_quiet_imu_is_still_from_its_first_tenth_of_a_second() {
+        let (d, _) = after(5, 2.0, 0.0);
         let held = d.still_for_s(at(2.0));
         assert!((1.85..=2.0).contains(&held), "{held}");
     }
 
     #[test]
     fn rotor_vibration_and_motion_are_not_still() {
-        let mut rng = ChaCha8Rng::seed_from_u64(6);
-        let mut d = StillDetector::new(&NonlinearConfig::default(), &noise(), G);
         // A hover's vibration averages out of the 0.1 s mean, not out of the scatter.
-        for s in samples(0.0, 1.0, 0.5, &mut rng) {
-            d.push(&s);
-        }
+        let (mut d, mut rng) = after(6, 1.0, 0.5);
         assert_eq!(d.still_for_s(at(1.0)), 0.0);
         // Quiet, then a turn.
         for s in samples(1.0, 1.0, 0.0, &mut rng) {
@@ -299,11 +301,7 @@ mod tests {
     /// stillness ends within 0.25 s (the descent then at 1 cm/s).
     #[test]
     fn a_smooth_descent_from_a_hover_ends_the_stillness_at_once() {
-        let mut rng = ChaCha8Rng::seed_from_u64(8);
-        let mut d = StillDetector::new(&NonlinearConfig::default(), &noise(), G);
-        for s in samples(0.0, 1.0, 0.0, &mut rng) {
-            d.push(&s);
-        }
+        let (mut d, mut rng) = after(8, 1.0, 0.0);
         assert!(d.still_for_s(at(1.0)) > 0.8);
         for mut s in samples(1.0, 1.0, 0.0, &mut rng) {
             let tau = s.t.secs_since(at(1.0));
@@ -318,11 +316,7 @@ mod tests {
 
     #[test]
     fn a_gap_in_the_samples_starts_afresh() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let mut d = StillDetector::new(&NonlinearConfig::default(), &noise(), G);
-        for s in samples(0.0, 1.0, 0.0, &mut rng) {
-            d.push(&s);
-        }
+        let (mut d, mut rng) = after(7, 1.0, 0.0);
         for s in samples(3.0, 0.02, 0.0, &mut rng) {
             d.push(&s);
         }
