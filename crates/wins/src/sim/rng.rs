@@ -8,6 +8,8 @@ use rand_chacha::ChaCha8Rng;
 
 /// The stream of IMU noise and bias random walks.
 pub const IMU_STREAM: &str = "imu";
+/// The rotors' vibration on the IMU.
+pub const VIBRATION_STREAM: &str = "imu/vibration";
 /// The stream that draws the smooth random flight.
 pub const TRAJECTORY_STREAM: &str = "trajectory";
 /// The stream of the barometer's offset, drift and noise.

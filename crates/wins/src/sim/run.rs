@@ -5,7 +5,7 @@ use nalgebra::{Isometry3, Vector3};
 use super::ConfigError;
 use super::baro::BaroTruth;
 use super::csi::{CsiSynth, PacketTruth};
-use super::imu::{ImuBiases, ImuSimulator};
+use super::imu::{ImuBiases, ImuSimulator, normal3};
 use super::motion::{BodyState, sample};
 use super::packets::{self, PacketSlot};
 use super::rng;
@@ -86,11 +86,22 @@ pub fn simulate(
     let mut states = Vec::with_capacity(n_imu);
     let mut imu = Vec::with_capacity(n_imu);
     let mut imu_biases = Vec::with_capacity(n_imu);
+    // The rotors spin from the take-off's start to the landing's end (drawn only when there is
+    // a vibration, so that a flight without one is what it was).
+    let mut vibration_rng = rng::stream(seed, rng::VIBRATION_STREAM);
+    let rotors = scenario.phases.as_ref().map_or((0.0, f64::INFINITY), |p| {
+        (p.rest_s, scenario.duration_s - p.final_rest_s)
+    });
     for k in 0..n_imu {
         let t = Timestamp(k as i64 * period_ns);
         let s = motion_at(t);
         imu_biases.push(imu_sim.biases());
-        imu.push(imu_sim.measure(t, &s, gravity));
+        let mut sample = imu_sim.measure(t, &s, gravity);
+        let t_s = t.as_secs_f64();
+        if scenario.imu.vibration_m_s2 > 0.0 && t_s >= rotors.0 && t_s <= rotors.1 {
+            sample.accel_m_s2 += normal3(&mut vibration_rng) * scenario.imu.vibration_m_s2;
+        }
+        imu.push(sample);
         states.push((t, s));
     }
     let total_packets: f64 = scenario

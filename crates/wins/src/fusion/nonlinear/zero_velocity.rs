@@ -12,7 +12,8 @@
 //! IMU factor between them, then also hold the position.
 //!
 //! The factor touches one keyframe: marginalizing it folds it into the prior like the keyframe's
-//! other measurements. It counts in the χ² tests ([`crate::fusion::nonlinear::passes_chi2`]).
+//! other measurements. Its cost counts in the χ² tests, its residuals not among their degrees
+//! of freedom ([`crate::fusion::nonlinear::passes_chi2`]).
 
 use super::fit::FitStats;
 use super::state::{NavState, STATE_DIM, VEL};
