@@ -53,9 +53,8 @@ pub struct NonlinearConfig {
     pub zero_velocity_sigma_m_s: f64,
     /// The IMU still for at least this long before the keyframe, s.
     pub zero_velocity_min_still_s: f64,
-    /// … and the window's predicted speed at the keyframe below this, m/s, and agreeing with
-    /// zero (a χ² test at [`Self::chi2_significance`] against its covariance): an IMU reads the
-    /// same at rest and at a constant velocity.
+    /// … and the window's predicted speed at the keyframe below this, m/s (a last bound: an IMU
+    /// reads the same at rest and at a constant velocity).
     pub zero_velocity_max_speed_m_s: f64,
     /// Still: each axis's sample scatter over 0.1 s at most this many times the sensor's white
     /// noise per sample (rotor vibration is far above it).

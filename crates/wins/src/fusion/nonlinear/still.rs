@@ -19,9 +19,8 @@
 //!
 //! The simulated IMU has no vibration: there the third test is what keeps a hover's descent, a
 //! straight leg's slow start or a ramp from being held (`tests/it/zero_velocity.rs` checks every
-//! built-in flight). The window adds a last one: its own velocity estimate is small and agrees
-//! with zero ([`NonlinearConfig::zero_velocity_max_speed_m_s`],
-//! [`super::NonlinearWindow::zero_velocity_fits`]).
+//! built-in flight). The window adds a last bound: its own speed estimate is small
+//! ([`NonlinearConfig::zero_velocity_max_speed_m_s`]).
 
 use std::collections::VecDeque;
 

@@ -44,7 +44,6 @@ impl NonlinearEstimator {
         if c.zero_velocity
             && self.still.still_for_s(t) >= c.zero_velocity_min_still_s
             && x.v_b_in_w.norm() <= c.zero_velocity_max_speed_m_s
-            && window.zero_velocity_fits(&x.v_b_in_w, c.chi2_significance)
         {
             window.hold_newest_still();
             self.stats.still_keyframes += 1;

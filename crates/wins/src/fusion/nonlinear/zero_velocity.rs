@@ -18,7 +18,6 @@
 use super::fit::FitStats;
 use super::state::{NavState, STATE_DIM, VEL};
 use super::window::{Keyframe, NonlinearWindow};
-use crate::chi2::chi2_upper;
 use crate::fusion::window::arrow::ArrowSystem;
 
 /// The residual `r = v` (module doc), m/s.
@@ -40,19 +39,6 @@ impl NonlinearWindow {
         if let Some(k) = self.keyframes.back_mut() {
             k.still = true;
         }
-    }
-
-    /// Whether a zero velocity agrees with the velocity `v` predicted for a new keyframe: the χ²
-    /// test at significance `alpha` (3 degrees of freedom) of `v` against the newest solved
-    /// keyframe's velocity covariance plus the hold's own σ². A window sure of a slow, steady
-    /// motion (what an IMU without vibration cannot tell from a rest) is not held; one whose
-    /// velocity is as uncertain as its drift is.
-    pub fn zero_velocity_fits(&self, v: &nalgebra::Vector3<f64>, alpha: f64) -> bool {
-        let sigma2 = self.config.zero_velocity_sigma_m_s.powi(2);
-        let p = self.last_covariance.fixed_view::<3, 3>(VEL, VEL)
-            + nalgebra::Matrix3::identity() * sigma2;
-        p.cholesky()
-            .is_some_and(|c| v.dot(&c.solve(v)) <= chi2_upper(3.0, alpha))
     }
 
     /// Keyframes held at zero velocity.
@@ -155,15 +141,10 @@ mod tests {
         for x in w.keyframes().skip(1) {
             assert!(x.v_b_in_w.norm() < 1e-3, "{:?}", x.v_b_in_w);
         }
-        // Sure of its rest, the window refuses a hold at a steady 0.3 m/s and takes one at 2 cm/s.
-        assert!(!w.zero_velocity_fits(&Vector3::new(0.3, 0.0, 0.0), 1e-3));
-        assert!(w.zero_velocity_fits(&Vector3::new(0.02, 0.0, 0.0), 1e-3));
         let drifting = biased_rest(4, false);
         assert_eq!(drifting.fit().zero_velocity, 0);
         let v = drifting.keyframes().last().unwrap().v_b_in_w;
         assert!(v.x > 0.05, "{v:?}");
-        // Unsure of its velocity (its tilt is free), it would take the hold at 0.3 m/s.
-        assert!(drifting.zero_velocity_fits(&Vector3::new(0.3, 0.0, 0.0), 1e-3));
     }
 
     /// When a held keyframe leaves the window its hold goes into the prior on the next one's
