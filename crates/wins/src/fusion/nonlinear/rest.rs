@@ -22,6 +22,19 @@ pub const SMOOTHING_S: f64 = 0.1;
 /// Samples this close before the detected motion are left out of the rest's averages, s.
 pub const ONSET_MARGIN_S: f64 = 0.3;
 
+/// Whether [`SMOOTHING_S`] means of the rate `w` and the specific force `f` look like rest: the
+/// rate's norm below [`NonlinearConfig::rest_max_gyro_rad_s`], the specific force's within
+/// [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity.
+pub fn means_at_rest(
+    config: &NonlinearConfig,
+    gravity_m_s2: f64,
+    w: &Vector3<f64>,
+    f: &Vector3<f64>,
+) -> bool {
+    w.norm() < config.rest_max_gyro_rad_s
+        && (f.norm() - gravity_m_s2).abs() < config.rest_max_accel_deviation_m_s2
+}
+
 /// What a rest gave.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StaticInit {
@@ -102,9 +115,7 @@ impl RestDetector {
             .map(|r| r.accel_m_s2)
             .sum::<Vector3<f64>>()
             / n;
-        let still = w.norm() < self.config.rest_max_gyro_rad_s
-            && (f.norm() - self.gravity_m_s2).abs() < self.config.rest_max_accel_deviation_m_s2;
-        if still {
+        if means_at_rest(&self.config, self.gravity_m_s2, &w, &f) {
             self.rest.push_back(*s);
             let keep = self.config.max_start_window_s;
             while self

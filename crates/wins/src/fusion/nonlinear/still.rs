@@ -27,7 +27,7 @@ use std::collections::VecDeque;
 use nalgebra::Vector3;
 
 use super::config::NonlinearConfig;
-use super::rest::SMOOTHING_S;
+use super::rest::{SMOOTHING_S, means_at_rest};
 use crate::imu::ImuSample;
 use crate::rig::ImuNoise;
 use crate::time::Timestamp;
@@ -85,9 +85,7 @@ impl Sums {
 /// Watches the IMU for stillness (module doc).
 #[derive(Clone, Debug)]
 pub struct StillDetector {
-    max_gyro_rad_s: f64,
-    max_accel_deviation_m_s2: f64,
-    noise_ratio: f64,
+    config: NonlinearConfig,
     gravity_m_s2: f64,
     accel_density: f64,
     gyro_density: f64,
@@ -121,9 +119,7 @@ impl StillDetector {
     /// A detector with the thresholds of `config` and the sensor's noise `noise`.
     pub fn new(config: &NonlinearConfig, noise: &ImuNoise, gravity_m_s2: f64) -> Self {
         Self {
-            max_gyro_rad_s: config.rest_max_gyro_rad_s,
-            max_accel_deviation_m_s2: config.rest_max_accel_deviation_m_s2,
-            noise_ratio: config.still_max_noise_ratio,
+            config: config.clone(),
             gravity_m_s2,
             accel_density: noise.accel_noise_density_m_s2_sqrt_hz,
             gyro_density: noise.gyro_noise_density_rad_s_sqrt_hz,
@@ -189,10 +185,10 @@ impl StillDetector {
             per_sample(self.accel_density),
             per_sample(self.gyro_density),
         );
-        let accel_bound = (self.noise_ratio * sa).max(MIN_ACCEL_SCATTER_M_S2);
-        let gyro_bound = (self.noise_ratio * sg).max(MIN_GYRO_SCATTER_RAD_S);
-        let still = mean_w.norm() < self.max_gyro_rad_s
-            && (mean_f.norm() - self.gravity_m_s2).abs() < self.max_accel_deviation_m_s2
+        let ratio = self.config.still_max_noise_ratio;
+        let accel_bound = (ratio * sa).max(MIN_ACCEL_SCATTER_M_S2);
+        let gyro_bound = (ratio * sg).max(MIN_GYRO_SCATTER_RAD_S);
+        let still = means_at_rest(&self.config, self.gravity_m_s2, &mean_w, &mean_f)
             && var_f <= accel_bound * accel_bound
             && var_w <= gyro_bound * gyro_bound;
         let change = |sigma: f64, floor: f64| {
