@@ -288,7 +288,9 @@ impl NonlinearEstimator {
             self.imu_gap_s += gap_s;
         }
         let mut step = Step::default();
-        self.still.push(s);
+        if self.config.zero_velocity {
+            self.still.push(s);
+        }
         if !self.rest.moved() {
             if let Some(init) = self.rest.push(s) {
                 self.static_init = Some(init);
