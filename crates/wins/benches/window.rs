@@ -19,7 +19,7 @@ use divan::Bencher;
 use nalgebra::Vector3;
 use wins::aoa::steering::aoa_rad;
 use wins::fusion::bearing::{Bearing, side_of};
-use wins::fusion::window::{SlidingWindow, WindowConfig};
+use wins::fusion::paper::window::{SlidingWindow, WindowConfig};
 use wins::imu::{ImuBiases, ImuSample, Preintegrator};
 use wins::sim::motion::{sample, specific_force_in_b};
 use wins::sim::run::world_from_array;

@@ -63,6 +63,16 @@ pub fn project_to_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     Some(Rotation3::from_matrix_unchecked(r))
 }
 
+/// The rotation about z with the heading of `r` (its x axis projected on the horizontal plane);
+/// identity when that axis is vertical.
+pub fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let x = r * Vector3::x();
+    if x.xy().norm() < 1e-6 {
+        return UnitQuaternion::identity();
+    }
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,14 +1,18 @@
 //! The estimator a run uses (`estimator` in the configuration): the nonlinear one
 //! ([`super::nonlinear`], the default) or the paper's linear window
-//! ([`super::estimator::Wins`]), behind one push API so that a sweep can compare them side by
+//! ([`super::paper::estimator::LinearEstimator`]), behind one push API so that a sweep can compare them side by
 //! side.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::bearing::Bearing;
-use super::estimator::{Step, Wins, WinsConfig, WinsError, WinsStats};
-use super::nonlinear::{NonlinearConfig, NonlinearEstimator};
+use super::error::EstimatorError;
+use super::nonlinear::{NonlinearConfig, NonlinearEstimator, Sensors};
+use super::paper::estimator::{LinearConfig, LinearEstimator};
+use super::paper::start_solver::linear_start_solver;
+use super::pose::Step;
+use super::stats::EstimatorStats;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
@@ -28,7 +32,7 @@ pub enum EstimatorKind {
 #[derive(Clone, Debug)]
 pub enum Estimator {
     /// The paper's.
-    Paper(Box<Wins>),
+    Paper(Box<LinearEstimator>),
     /// The nonlinear window.
     Nonlinear(Box<NonlinearEstimator>),
 }
@@ -38,20 +42,32 @@ impl Estimator {
     /// estimator ignores them).
     pub fn new(
         kind: EstimatorKind,
-        linear: WinsConfig,
+        linear: LinearConfig,
         nonlinear: NonlinearConfig,
         has_baro: bool,
     ) -> Self {
         match kind {
-            EstimatorKind::Paper => Self::Paper(Box::new(Wins::new(linear))),
-            EstimatorKind::Nonlinear => Self::Nonlinear(Box::new(NonlinearEstimator::new(
-                nonlinear, linear, has_baro,
-            ))),
+            EstimatorKind::Paper => Self::Paper(Box::new(LinearEstimator::new(linear))),
+            EstimatorKind::Nonlinear => {
+                let sensors = Sensors {
+                    imu_noise: linear.imu_noise.clone(),
+                    imu_gap: linear.imu_gap,
+                    body_from_array: linear.window.body_from_array,
+                };
+                // The paper's window proposes the start when no state is known (airborne).
+                let start_solver = linear_start_solver(linear);
+                Self::Nonlinear(Box::new(NonlinearEstimator::new(
+                    nonlinear,
+                    sensors,
+                    has_baro,
+                    start_solver,
+                )))
+            }
         }
     }
 
-    /// Integrates one IMU sample (see [`Wins::push_imu`]).
-    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, WinsError> {
+    /// Integrates one IMU sample (see [`LinearEstimator::push_imu`]).
+    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, EstimatorError> {
         match self {
             Self::Paper(w) => w.push_imu(s),
             Self::Nonlinear(n) => n.push_imu(s),
@@ -67,7 +83,11 @@ impl Estimator {
     }
 
     /// Queues a frame of bearings at `t`.
-    pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
+    pub fn push_bearings(
+        &mut self,
+        t: Timestamp,
+        bearings: Vec<Bearing>,
+    ) -> Result<(), EstimatorError> {
         match self {
             Self::Paper(w) => w.push_bearings(t, bearings),
             Self::Nonlinear(n) => n.push_bearings(t, bearings),
@@ -75,7 +95,7 @@ impl Estimator {
     }
 
     /// Queues a barometer altitude (the paper's estimator has no barometer: ignored).
-    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), WinsError> {
+    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), EstimatorError> {
         match self {
             Self::Paper(_) => Ok(()),
             Self::Nonlinear(n) => n.push_baro(t, altitude_m),
@@ -83,7 +103,7 @@ impl Estimator {
     }
 
     /// Counters.
-    pub fn stats(&self) -> WinsStats {
+    pub fn stats(&self) -> EstimatorStats {
         match self {
             Self::Paper(w) => w.stats(),
             Self::Nonlinear(n) => n.stats(),

@@ -1,21 +1,27 @@
-//! WiFi-inertial fusion (paper Sections III, IV-A and V).
+//! WiFi-inertial fusion: two estimators behind one push API, and what they share.
 //!
-//! - [`attitude`]: drift-free attitude by relaxed rotation averaging (Sec. IV-A) with absolute
-//!   gravity and bearing rows, and the gyro bias from it.
-//! - [`bearing`]: the AoA measurement as the fusion stages take it (cone angle plus side).
-//! - [`window`]: the linear sliding-window estimator (Sec. V), initialization-free.
-//! - [`nonlinear`]: the 6-DoF nonlinear sliding window, the default estimator.
-//! - [`estimator`]: [`estimator::Wins`], the push API (IMU samples and bearings in, poses out).
-//! - [`choice`]: which of the two a run uses (`estimator = "nonlinear"` or `"paper"`).
-//! - [`ekf`]: the feasibility-study EKF baseline (Sec. III), needs an initial state.
-//! - [`observability`]: the observability matrix of the Sec. III model and its nullspace
-//!   (`eqn:nullspace`).
+//! - [`nonlinear`]: the 6-DoF nonlinear sliding window, the default (docs/ESTIMATOR.md).
+//! - [`paper`]: the paper's method, kept as the comparison: its linear sliding window (Sec. V),
+//!   the feasibility-study EKF (Sec. III) and the observability analysis (`eqn:nullspace`).
+//! - [`choice`]: which of the two a run uses (`estimator = "nonlinear"` or `"paper"`), and the
+//!   one place where the default estimator is handed the paper's window as its airborne start.
+//!
+//! Shared by both, and owned by neither:
+//! - [`bearing`]: the AoA measurement as the estimators take it (cone angle plus side);
+//! - [`pose`]: what comes out (a pose with its covariance, what one IMU push produced);
+//! - [`stats`], [`error`]: what was seen, skipped and refused;
+//! - [`frames`]: the rules on the inputs' order (late frames, frames inside an IMU gap);
+//! - [`arrow`]: the block-arrow normal equations and their solver;
+//! - [`proposal`]: the interface of a start solver: what proposes a first state when no state is
+//!   known (the paper's linear window implements it).
 
-pub mod attitude;
+pub mod arrow;
 pub mod bearing;
 pub mod choice;
-pub mod ekf;
-pub mod estimator;
+pub mod error;
+pub mod frames;
 pub mod nonlinear;
-pub mod observability;
-pub mod window;
+pub mod paper;
+pub mod pose;
+pub mod proposal;
+pub mod stats;

@@ -36,7 +36,7 @@ use crate::csi::intel5300::MacAddress;
 use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
 use crate::dataset::truth::{write_tum_header, write_tum_pose};
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 use crate::pipeline::Config;
 use crate::pipeline::output::pose_of;
 use crate::pipeline::replay::rig_of_manifest;

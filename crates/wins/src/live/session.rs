@@ -27,7 +27,7 @@ use super::merge::{Merged, Merger};
 use super::recorder::Recorder;
 use super::{ApBy, CsiEvent, FcEvent, LiveInput};
 use crate::csi::intel5300::MacAddress;
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 use crate::pipeline::{ChainResolver, Config, PipelineError, Released};
 use crate::rig::Rig;
 use crate::time::Timestamp;

@@ -165,7 +165,7 @@ impl ChainResolver {
 
     /// The kept pipeline's estimator statistics, once the offsets are decided (`None` before:
     /// nothing is released then).
-    pub fn decided_stats(&self) -> Option<crate::fusion::estimator::WinsStats> {
+    pub fn decided_stats(&self) -> Option<crate::fusion::stats::EstimatorStats> {
         match &self.stage {
             Stage::Decided(p) => Some(p.wins().stats()),
             _ => None,

@@ -17,7 +17,7 @@ use crate::check::{Problems, overlay};
 use crate::eval::EvalOptions;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::nonlinear::NonlinearConfig;
-use crate::fusion::window::WindowConfig;
+use crate::fusion::paper::window::WindowConfig;
 use crate::imu::ImuGap;
 
 /// Every setting of a run.

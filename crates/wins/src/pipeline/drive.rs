@@ -8,7 +8,7 @@ use super::coverage::CoverageCheck;
 use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
 use super::{ChainResolver, Config, PacketLog, Released};
 use crate::dataset::checks::InputReport;
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 use crate::rig::Rig;
 use crate::time::{NANOS_PER_SEC, Timestamp};
 

@@ -54,7 +54,9 @@ use crate::aoa::{AoaError, AoaEstimator};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::choice::{Estimator, EstimatorKind};
-use crate::fusion::estimator::{PoseEstimate, Step, WinsConfig, WinsError};
+use crate::fusion::error::EstimatorError;
+use crate::fusion::paper::estimator::LinearConfig;
+use crate::fusion::pose::{PoseEstimate, Step};
 use crate::imu::{ImuGap, ImuSample};
 use crate::rig::{ChainCalibration, Rig, RigError};
 use crate::so3::exp;
@@ -77,7 +79,7 @@ pub enum PipelineError {
     NoHypothesis,
     /// The estimator refused an input (counted; the state is unchanged).
     #[error(transparent)]
-    Wins(#[from] WinsError),
+    LinearEstimator(#[from] EstimatorError),
 }
 
 /// Wall time spent per stage, s.
@@ -145,9 +147,9 @@ impl Pipeline {
             rig.center_freq_hz,
             rig.calibration.clone(),
         )?;
-        let wins_config = WinsConfig {
+        let wins_config = LinearConfig {
             imu_gap: config.imu_gap,
-            ..WinsConfig::for_rig(
+            ..LinearConfig::for_rig(
                 config.window.clone(),
                 rig.imu_noise.clone(),
                 rig.body_from_array,

@@ -27,7 +27,8 @@ use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
 use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
 };
-use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::fusion::pose::PoseEstimate;
+use crate::fusion::stats::EstimatorStats;
 use crate::io_safety::write_atomically;
 use crate::time::NANOS_PER_SEC;
 
@@ -72,7 +73,7 @@ pub struct RunStats<'a> {
     /// Packets per AP and why they were dropped.
     pub packets: &'a PipelineStats,
     /// The estimator's counters.
-    pub estimator: WinsStats,
+    pub estimator: EstimatorStats,
     /// IMU samples refused.
     pub imu_refused: u64,
     /// How the receive chains' offsets were resolved from the flight.

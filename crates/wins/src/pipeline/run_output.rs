@@ -10,7 +10,8 @@ use crate::dataset::DatasetError;
 use crate::dataset::checks::InputReport;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalOptions, Metrics};
-use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::fusion::pose::PoseEstimate;
+use crate::fusion::stats::EstimatorStats;
 use crate::time::Timestamp;
 
 /// Why a dataset cannot be replayed.
@@ -58,7 +59,7 @@ pub struct RunOutput {
     /// Packet counters.
     pub stats: PipelineStats,
     /// The estimator's counters.
-    pub wins: WinsStats,
+    pub wins: EstimatorStats,
     /// Wall time per stage, s (over every chain-offset hypothesis run).
     pub timing: StageTiming,
     /// How the receive chains' offsets were resolved from the flight.

@@ -54,10 +54,10 @@ pub struct RunRow {
     /// Whether the estimator converged (the pipeline reported a convergence, or wrote
     /// converged poses); false for a run that failed before.
     pub converged: bool,
-    /// Times the converged estimate was lost and the window started over (`WinsStats`); `None`
+    /// Times the converged estimate was lost and the window started over (`EstimatorStats`); `None`
     /// when the pipeline did not run.
     pub restarts: Option<u64>,
-    /// Candidate convergences rejected as implausible (`WinsStats`); `None` when the pipeline
+    /// Candidate convergences rejected as implausible (`EstimatorStats`); `None` when the pipeline
     /// did not run.
     pub rejected_convergences: Option<u64>,
     /// The flattened metrics, `(column, cell)` in serialization order; empty when the run

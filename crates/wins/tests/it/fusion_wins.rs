@@ -8,9 +8,10 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use wins::fusion::arrow::Vec9;
 use wins::fusion::bearing::{Bearing, Side};
-use wins::fusion::estimator::{PoseEstimate, Wins, WinsConfig};
-use wins::fusion::window::arrow::Vec9;
+use wins::fusion::paper::estimator::{LinearConfig, LinearEstimator};
+use wins::fusion::pose::PoseEstimate;
 use wins::sim::motion::{BodyState, sample};
 use wins::sim::run::{SimOutput, simulate};
 use wins::sim::scenario::Scenario;
@@ -20,7 +21,7 @@ use wins::time::Timestamp;
 /// A flight and its packets' truth bearings with noise; `keep(t_s)` drops packets (outages).
 struct Run {
     poses: Vec<PoseEstimate>,
-    wins: Wins,
+    wins: LinearEstimator,
     truth_at: Box<dyn Fn(f64) -> BodyState>,
     b0: BodyState,
     aps_w: Vec<Vector3<f64>>,
@@ -92,14 +93,14 @@ fn run_with_offset(
         }
     }
     packets.sort_by_key(|(t, _)| *t);
-    let mut config = WinsConfig::new(scenario.imu.model.noise());
+    let mut config = LinearConfig::new(scenario.imu.model.noise());
     config.window.body_from_array = scenario.body_from_array();
     config.window.estimate_gyro_bias = estimate_gyro_bias;
     if let Some(start) = truth_start {
         config.window.max_frames = start.max_frames;
         config.window.lost_residual_rms = f64::INFINITY;
     }
-    let mut wins = Wins::new(config);
+    let mut wins = LinearEstimator::new(config);
     let traj = scenario.build_flight();
     let yaw = scenario.yaw.clone();
     let g = scenario.gravity_m_s2;
@@ -141,9 +142,9 @@ fn run_with_offset(
     }
 }
 
-/// [`Wins::converge_from`] the true state: `b0` is the body at the window's first frame `t0`.
+/// [`LinearEstimator::converge_from`] the true state: `b0` is the body at the window's first frame `t0`.
 fn start_at_truth(
-    wins: &mut Wins,
+    wins: &mut LinearEstimator,
     truth_at: &dyn Fn(f64) -> BodyState,
     t0: Timestamp,
     aps_w: &[Vector3<f64>],
@@ -303,7 +304,7 @@ fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
 
 /// Study: the aims (0.15 m with a 10 s convergence) against what the data hold. The estimate
 /// started at the TRUE state at 10 s
-/// (every frame, the AP; [`Wins::converge_from`]), re-linearized every frame, the window 10 s
+/// (every frame, the AP; [`LinearEstimator::converge_from`]), re-linearized every frame, the window 10 s
 /// long and never declared lost, is the best an estimator converging at 10 s can do on this
 /// flight. With the MicroStrain's turn-on gyro bias unknown its mean position error over
 /// 10–40 s is 0.23–0.33 m on seeds 11–13 (0.33–0.68 m over 10–15 s): the 0.15 m aim with a

@@ -11,8 +11,8 @@ use std::f64::consts::FRAC_PI_2;
 
 use wins::aoa::steering::aoa_rad;
 use wins::fusion::bearing::{Bearing, side_of};
-use wins::fusion::ekf::{Ekf, EkfConfig, EkfState};
-use wins::fusion::observability::{
+use wins::fusion::paper::ekf::{Ekf, EkfConfig, EkfState};
+use wins::fusion::paper::observability::{
     LinearizationPoint, Spectrum, gravity_rotation_nullspace, nullspace_residual,
     observability_matrix, propagate_states, translation_nullspace,
 };

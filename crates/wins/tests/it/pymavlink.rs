@@ -12,7 +12,7 @@ use mavlink::dialects::common::{MavMessage, ODOMETRY_DATA};
 use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
 use nalgebra::{Matrix3, Matrix6, UnitQuaternion, Vector3};
 use serde_json::Value;
-use wins::fusion::estimator::PoseEstimate;
+use wins::fusion::pose::PoseEstimate;
 use wins::live::mavlink::inbound::{
     InboundDecoder, STANDARD_GRAVITY_M_S2, STANDARD_SEA_LEVEL_PA, pressure_altitude_m,
 };

@@ -13,7 +13,7 @@ use super::range_anchor::RangeAnchor;
 use super::state::{NavState, STATE_DIM};
 use super::triangulate::{Sight, Triangulated, triangulate};
 use super::window::{Keyframe, NonlinearWindow, PLACEHOLDER_INFORMATION};
-use crate::fusion::window::arrow::ArrowSystem;
+use crate::fusion::arrow::ArrowSystem;
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
 pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {

@@ -7,7 +7,7 @@
 //!    carries the trajectory (dead reckoning), and the APs are triangulated against it
 //!    ([`super::triangulate`]): the inertial proposal, for up to
 //!    [`NonlinearConfig::inertial_start_max_s`]. Without such a state (a flight started in the
-//!    air) the paper's linear window ([`crate::fusion::estimator::Wins`]) solves positions,
+//!    air) the paper's linear window (a start solver, [`crate::fusion::proposal`]) solves positions,
 //!    velocities, gravity and APs from zeros and proposes its solution; its own convergence test
 //!    is off.
 //! 3. **Acceptance** (`start`): every [`NonlinearConfig::start_retry_s`] the proposal
@@ -33,13 +33,28 @@ use super::state::{NavState, pose_at};
 use super::still::StillDetector;
 use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
-use crate::fusion::estimator::{
-    PoseEstimate, Step, Wins, WinsConfig, WinsError, WinsStats, check_frame_order,
-    drop_frames_in_gap, heading,
-};
-use crate::fusion::window::StartPrior;
+use crate::fusion::error::EstimatorError;
+use crate::fusion::frames::{check_frame_order, drop_frames_in_gap};
+use crate::fusion::pose::{PoseEstimate, Step};
+use crate::fusion::proposal::StartPrior;
+use crate::fusion::proposal::{StartSolver, StartSolverFactory};
+use crate::fusion::stats::EstimatorStats;
+use crate::imu::ImuGap;
 use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
+use crate::rig::ImuNoise;
+use crate::so3::heading;
 use crate::time::Timestamp;
+
+/// What the estimator knows of its sensors (from the rig).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sensors {
+    /// IMU noise densities.
+    pub imu_noise: ImuNoise,
+    /// How a gap in the IMU stream is integrated.
+    pub imu_gap: ImuGap,
+    /// The antenna array's mounting.
+    pub body_from_array: Isometry3<f64>,
+}
 
 /// A frame waiting for the IMU to pass it.
 #[derive(Clone, Debug)]
@@ -63,9 +78,9 @@ pub(super) struct StartKeyframe {
 #[derive(Clone, Debug)]
 pub struct NonlinearEstimator {
     pub(super) config: NonlinearConfig,
-    pub(super) linear_config: WinsConfig,
-    /// The linear solution is tried when its APs' largest σ is below this, m.
-    pub(super) candidate_ap_sigma_m: f64,
+    pub(super) sensors: Sensors,
+    /// Makes the start solver of a start with no known state.
+    start_solver: StartSolverFactory,
     pub(super) has_baro: bool,
     pub(super) pre: Preintegrator,
     pending: VecDeque<PendingFrame>,
@@ -74,7 +89,7 @@ pub struct NonlinearEstimator {
     pub(super) still: StillDetector,
     pub(super) static_init: Option<StaticInit>,
     pub(super) moving_since: Option<Timestamp>,
-    pub(super) linear: Option<Wins>,
+    pub(super) linear: Option<Box<dyn StartSolver>>,
     pub(super) start: VecDeque<StartKeyframe>,
     /// The known state the start leaves from (the end of a rest, or a lost window's last good
     /// state), in the window's frame; `None` when there is none or it is too old.
@@ -97,7 +112,7 @@ pub struct NonlinearEstimator {
     pub(super) failing_since: Option<Timestamp>,
     /// The newest keyframe that passed the loss test.
     pub(super) last_good: Option<NavState>,
-    pub(super) stats: WinsStats,
+    pub(super) stats: EstimatorStats,
     pub(super) converged_at: Option<Timestamp>,
     /// Changes of the frame poses are given in (a start or a restart).
     pub(super) epoch: u64,
@@ -141,21 +156,23 @@ pub(super) struct LostAp {
 }
 
 impl NonlinearEstimator {
-    /// A fresh estimator; `has_baro`: barometer samples will come.
-    pub fn new(config: NonlinearConfig, linear: WinsConfig, has_baro: bool) -> Self {
-        let mut linear_config = linear;
-        // The linear window only proposes (when its APs' σ is below its own convergence
-        // threshold): its own convergence test is off.
-        let candidate_ap_sigma_m = linear_config.window.converged_ap_sigma_m;
-        linear_config.window.converged_ap_sigma_m = 0.0;
+    /// A fresh estimator; `has_baro`: barometer samples will come; `start_solver`: what
+    /// proposes a start when no state is known (the paper's linear window,
+    /// [`crate::fusion::choice`]).
+    pub fn new(
+        config: NonlinearConfig,
+        sensors: Sensors,
+        has_baro: bool,
+        start_solver: StartSolverFactory,
+    ) -> Self {
         Self {
-            pre: Preintegrator::new(linear_config.imu_noise.clone(), ImuBiases::zero())
-                .with_gap(linear_config.imu_gap),
+            pre: Preintegrator::new(sensors.imu_noise.clone(), ImuBiases::zero())
+                .with_gap(sensors.imu_gap),
             rest: RestDetector::new(config.clone(), STANDARD_GRAVITY_M_S2),
-            still: StillDetector::new(&config, &linear_config.imu_noise, STANDARD_GRAVITY_M_S2),
+            still: StillDetector::new(&config, &sensors.imu_noise, STANDARD_GRAVITY_M_S2),
             config,
-            linear_config,
-            candidate_ap_sigma_m,
+            sensors,
+            start_solver,
             has_baro,
             pending: VecDeque::new(),
             static_init: None,
@@ -173,7 +190,7 @@ impl NonlinearEstimator {
             last_try: None,
             failing_since: None,
             last_good: None,
-            stats: WinsStats::default(),
+            stats: EstimatorStats::default(),
             converged_at: None,
             epoch: 0,
             imu_gap_s: 0.0,
@@ -182,8 +199,13 @@ impl NonlinearEstimator {
         }
     }
 
+    /// A start solver from zeros.
+    pub(super) fn new_start_solver(&self) -> Box<dyn StartSolver> {
+        self.start_solver.make(None)
+    }
+
     /// Counters.
-    pub fn stats(&self) -> WinsStats {
+    pub fn stats(&self) -> EstimatorStats {
         self.stats
     }
 
@@ -216,7 +238,7 @@ impl NonlinearEstimator {
     pub fn gyro_bias_rad_s(&self) -> Vector3<f64> {
         match (&self.window, &self.linear) {
             (Some(w), _) => w.newest().map_or(Vector3::zeros(), |x| x.gyro_bias_rad_s),
-            (None, Some(l)) => l.window().gyro_bias_rad_s(),
+            (None, Some(l)) => l.gyro_bias_rad_s(),
             _ => self
                 .static_init
                 .map_or(Vector3::zeros(), |s| s.gyro_bias_rad_s),
@@ -237,7 +259,11 @@ impl NonlinearEstimator {
     }
 
     /// Queues a frame of bearings at `t`.
-    pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
+    pub fn push_bearings(
+        &mut self,
+        t: Timestamp,
+        bearings: Vec<Bearing>,
+    ) -> Result<(), EstimatorError> {
         self.solve_pending();
         self.check_order(t)?;
         if let Some(l) = &mut self.linear {
@@ -252,7 +278,7 @@ impl NonlinearEstimator {
     }
 
     /// Queues a barometer altitude at `t`, m.
-    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), WinsError> {
+    pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<(), EstimatorError> {
         self.solve_pending();
         self.check_order(t)?;
         if !altitude_m.is_finite() {
@@ -270,13 +296,13 @@ impl NonlinearEstimator {
         Ok(())
     }
 
-    fn check_order(&mut self, t: Timestamp) -> Result<(), WinsError> {
+    fn check_order(&mut self, t: Timestamp) -> Result<(), EstimatorError> {
         let newest = self.pending.back().map(|p| p.t);
         check_frame_order(t, newest, &self.pre, &mut self.stats)
     }
 
     /// Integrates one IMU sample, processing every queued frame it passes.
-    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, WinsError> {
+    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, EstimatorError> {
         self.solve_pending();
         if let Err(e) = self.pre.check(s) {
             self.stats.imu_refused += 1;
@@ -310,7 +336,7 @@ impl NonlinearEstimator {
                     p
                 })),
                 Err(e) => step.refused.extend(match e {
-                    WinsError::Window(w) => Some(w),
+                    EstimatorError::Frame(w) => Some(w),
                     _ => None,
                 }),
             }
@@ -401,10 +427,7 @@ impl NonlinearEstimator {
             self.anchor =
                 Isometry3::from_parts(Translation3::from(x.p_b_in_w), heading(&x.world_from_body));
         }
-        self.linear = Some(match prior {
-            Some(p) => Wins::with_start(self.linear_config.clone(), p),
-            None => Wins::new(self.linear_config.clone()),
-        });
+        self.linear = Some(self.start_solver.make(prior));
     }
 
     /// One frame: into the start window or the nonlinear window; the pose when tracking.

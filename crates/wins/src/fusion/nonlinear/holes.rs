@@ -27,7 +27,6 @@ use super::estimator::{HoleFix, LostAp, NonlinearEstimator};
 use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use super::state::{NavState, pose_at};
 use super::window::NonlinearWindow;
-use crate::fusion::estimator::Wins;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 
@@ -77,7 +76,7 @@ impl NonlinearEstimator {
         self.epoch += 1;
         self.begin_start(t, Some(from));
         // The carried velocity and attitude are guesses: the linear window starts from zeros.
-        self.linear = Some(Wins::new(self.linear_config.clone()));
+        self.linear = Some(self.new_start_solver());
         self.ap_fix = fix;
     }
 
@@ -169,7 +168,7 @@ impl NonlinearEstimator {
         self.reference = None;
         self.reference_is_rest = false;
         self.dead_reckoned = None;
-        self.linear = Some(Wins::new(self.linear_config.clone()));
+        self.linear = Some(self.new_start_solver());
     }
 
     /// Where a window `w` started after a hole goes, at its acceptance: the move of the output

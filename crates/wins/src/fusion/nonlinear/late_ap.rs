@@ -39,7 +39,7 @@ impl NonlinearEstimator {
         let Some(kf) = w.keyframes.front() else {
             return;
         };
-        let body_from_array = self.linear_config.window.body_from_array;
+        let body_from_array = self.sensors.body_from_array;
         for f in &kf.frames {
             let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
             if unplaced.peek().is_none() {

@@ -50,7 +50,7 @@ pub mod window;
 pub mod zero_velocity;
 
 pub use config::NonlinearConfig;
-pub use estimator::NonlinearEstimator;
+pub use estimator::{NonlinearEstimator, Sensors};
 pub use solve::{SolveError, SolveReport};
 pub use start::passes_chi2;
 pub use window::{FitStats, NonlinearWindow, SubFrame};

@@ -5,7 +5,7 @@ use nalgebra::{Matrix3, Matrix6};
 
 use super::estimator::NonlinearEstimator;
 use super::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 

@@ -7,7 +7,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::state::{NavState, STATE_DIM};
 use super::window::{Keyframe, LAMBDA_FIRST, NonlinearWindow};
-use crate::fusion::window::arrow::ArrowSystem;
+use crate::fusion::arrow::ArrowSystem;
 
 /// Why a solve failed (the estimate is left as it was).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]

@@ -11,7 +11,7 @@ use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use super::triangulate::Sight;
 use super::window::{FitStats, NonlinearWindow};
 use crate::chi2::chi2_upper;
-use crate::fusion::window::FrameEstimate;
+use crate::fusion::proposal::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 use crate::time::Timestamp;
 
@@ -228,7 +228,7 @@ impl NonlinearEstimator {
     /// time of its frame.
     pub(super) fn sights_along(&self, states: &[NavState]) -> Vec<Vec<(Timestamp, Sight)>> {
         let g = STANDARD_GRAVITY_M_S2;
-        let body_from_array = self.linear_config.window.body_from_array;
+        let body_from_array = self.sensors.body_from_array;
         let mut sights: Vec<Vec<(Timestamp, Sight)>> = Vec::new();
         for (k, x) in self.start.iter().zip(states) {
             for f in &k.frames {
@@ -249,15 +249,14 @@ impl NonlinearEstimator {
 
     /// The linear proposal: the linear window's frames, levelled (its mean gravity to −z).
     fn propose_linear(&self) -> Option<Proposal> {
-        let linear = self.linear.as_ref()?.window();
-        if linear.num_aps() == 0 || linear.max_ap_sigma_m() >= self.candidate_ap_sigma_m {
-            return None;
-        }
-        let frames: HashMap<i64, FrameEstimate> = linear.frames().map(|f| (f.t.0, f)).collect();
+        let linear = self.linear.as_ref()?.proposal()?;
+        let frames: HashMap<i64, FrameEstimate> =
+            linear.frames.iter().map(|f| (f.t.0, *f)).collect();
         // Level: the mean upward gravity in b0 to +z (summed in the frames' order: the result
         // must not depend on a hash order).
         let up: Vector3<f64> = linear
-            .frames()
+            .frames
+            .iter()
             .map(|f| f.b0_from_bk * f.g_in_bk)
             .sum::<Vector3<f64>>();
         let n = frames.len().max(1) as f64;
@@ -266,8 +265,8 @@ impl NonlinearEstimator {
             return None;
         }
         let w_from_b0 = UnitQuaternion::rotation_between(&up, &Vector3::z())?;
-        let bg = linear.gyro_bias_rad_s();
-        let ba = linear.accel_bias_m_s2();
+        let bg = linear.gyro_bias_rad_s;
+        let ba = linear.accel_bias_m_s2;
         // The longest run of start keyframes the linear window still has.
         let first = self
             .start
@@ -291,8 +290,10 @@ impl NonlinearEstimator {
                 })
             })
             .collect::<Option<Vec<_>>>()?;
-        let aps = (0..linear.num_aps())
-            .map(|l| linear.ap_in_b0(l).map(|c| w_from_b0 * c))
+        let aps = linear
+            .aps_in_b0
+            .iter()
+            .map(|c| c.map(|c| w_from_b0 * c))
             .collect();
         Some(Proposal {
             first,
@@ -339,8 +340,8 @@ impl NonlinearEstimator {
         let mut w = NonlinearWindow::new(
             self.config.clone(),
             g,
-            self.linear_config.imu_noise.clone(),
-            self.linear_config.window.body_from_array,
+            self.sensors.imu_noise.clone(),
+            self.sensors.body_from_array,
             x0,
             k0.frames.clone(),
             &self.start_prior(&x0, tilt_sigma_rad, velocity_sigma_m_s, rest.as_ref()),
@@ -394,7 +395,7 @@ impl NonlinearEstimator {
         ));
         h.fixed_view_mut::<3, 3>(THETA, THETA)
             .copy_from(&(r.transpose() * lw * r));
-        let noise = &self.linear_config.imu_noise;
+        let noise = &self.sensors.imu_noise;
         let gyro_sigma = match self.static_init {
             Some(s) => (3.0 * noise.gyro_noise_density_rad_s_sqrt_hz
                 / s.duration_s.max(0.1).sqrt())

@@ -4,7 +4,7 @@
 use super::estimator::NonlinearEstimator;
 use super::state::{NavState, pose_at};
 use super::window::SubFrame;
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 

@@ -1,6 +1,6 @@
 //! The nonlinear sliding window: keyframes, APs, the barometer offset and the marginalization
 //! prior, solved (`solve`) on the block-arrow normal equations
-//! ([`crate::fusion::window::arrow`] with 15-state frames).
+//! ([`crate::fusion::arrow`] with 15-state frames).
 //!
 //! **Border**: `[o (when there is a barometer), β (when estimated), c_0, c_1, …]`, so an AP seen
 //! later appends. `β` is a common offset of every bearing's `sin θ`: what an error `Δφ` in the
@@ -29,8 +29,8 @@ pub use super::fit::{FitStats, cauchy};
 use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
 use super::range_anchor::RangeAnchor;
 use super::state::{Mat15, NavState, STATE_DIM, Vec15};
+use crate::fusion::arrow::ArrowSystem;
 use crate::fusion::bearing::Bearing;
-use crate::fusion::window::arrow::ArrowSystem;
 use crate::imu::Preintegrated;
 use crate::rig::ImuNoise;
 

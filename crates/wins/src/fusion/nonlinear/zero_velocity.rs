@@ -18,7 +18,7 @@
 use super::fit::FitStats;
 use super::state::{NavState, STATE_DIM, VEL};
 use super::window::{Keyframe, NonlinearWindow};
-use crate::fusion::window::arrow::ArrowSystem;
+use crate::fusion::arrow::ArrowSystem;
 
 /// The residual `r = v` (module doc), m/s.
 pub fn zero_velocity_residual(x: &NavState) -> nalgebra::Vector3<f64> {

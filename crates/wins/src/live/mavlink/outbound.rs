@@ -56,7 +56,7 @@ use ::mavlink::dialects::common::{
 };
 use nalgebra::{Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector3};
 
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 
 /// Number of values in a row-major upper triangle of a 6×6 matrix.
 pub const UPPER_TRIANGLE_LEN: usize = 21;

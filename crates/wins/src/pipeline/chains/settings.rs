@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use super::super::{Config, PacketLog, Pipeline, StageTiming};
 use crate::check::Problems;
 use crate::fusion::choice::EstimatorKind;
-use crate::fusion::estimator::PoseEstimate;
+use crate::fusion::pose::PoseEstimate;
 use crate::rig::ArrayGeometry;
 
 /// Settings of the in-flight resolution of the chain offsets (`[pipeline.chains]`).

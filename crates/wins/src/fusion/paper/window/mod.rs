@@ -24,7 +24,6 @@
 //! linearization point has moved by more than a small fraction of its noise (`assemble`): the 3-AP
 //! replay's estimator time fell from 0.64 to 0.55 s with it, and its ATE mean moved by 0.7 mm.
 
-pub mod arrow;
 mod assemble;
 mod config;
 pub mod factors;
@@ -36,57 +35,16 @@ use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Matrix3, UnitQuaternion, Vector3};
 
-use self::arrow::{ArrowSystem, FRAME_DIM, Vec9};
 use self::assemble::{ImuLinearization, ap_offset};
 pub use self::config::{MAX_STARTUP_FRAMES, WindowConfig};
 use self::factors::{BIAS_DIM, ImuInfo};
+use crate::fusion::arrow::{ArrowSystem, FRAME_DIM, Vec9};
 use crate::fusion::bearing::Bearing;
+use crate::fusion::error::FrameError;
+pub use crate::fusion::proposal::{FrameEstimate, StartPrior};
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::so3::exp;
 use crate::time::Timestamp;
-
-/// Why the window refused an input or could not solve.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum WindowError {
-    /// A frame after the first came without the IMU interval from the previous frame.
-    #[error("frame at {t_ns} ns has no IMU interval from the previous frame")]
-    MissingImu {
-        /// Frame time, ns.
-        t_ns: i64,
-    },
-    /// The IMU interval does not join the previous frame to this one.
-    #[error(
-        "IMU interval {start_ns}…{end_ns} ns does not join the frames at {prev_ns} and {t_ns} ns"
-    )]
-    ImuMismatch {
-        /// Interval start, ns.
-        start_ns: i64,
-        /// Interval end, ns.
-        end_ns: i64,
-        /// Previous frame, ns.
-        prev_ns: i64,
-        /// This frame, ns.
-        t_ns: i64,
-    },
-    /// The normal equations were not positive definite (degenerate input).
-    #[error("the normal equations are not positive definite")]
-    NotPositiveDefinite,
-}
-
-/// One frame's estimate.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameEstimate {
-    /// Frame time.
-    pub t: Timestamp,
-    /// `p_k` in `b0`, m.
-    pub p_in_b0: Vector3<f64>,
-    /// `v_k` in `b_k`, m/s.
-    pub v_in_bk: Vector3<f64>,
-    /// Upward gravity `g_k` in `b_k`, m/s².
-    pub g_in_bk: Vector3<f64>,
-    /// `R_{b_k}^{b_0}`.
-    pub b0_from_bk: UnitQuaternion<f64>,
-}
 
 #[derive(Clone, Debug)]
 struct Frame {
@@ -125,23 +83,6 @@ impl Frame {
             self.up_hint
         }
     }
-}
-
-/// What is known at the start of a window (a static initialization, or the state a lost
-/// estimate last had): the first frame's gravity and velocity (in `b0`, the first frame) and the
-/// gyro bias, each with its 1σ.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StartPrior {
-    /// Upward gravity in `b0`, m/s².
-    pub gravity_in_b0: Vector3<f64>,
-    /// 1σ per axis, m/s².
-    pub gravity_sigma_m_s2: f64,
-    /// Velocity in `b0`, m/s.
-    pub velocity_in_b0: Vector3<f64>,
-    /// 1σ per axis, m/s.
-    pub velocity_sigma_m_s: f64,
-    /// Gyro bias, rad/s (its 1σ stays the window's prior).
-    pub gyro_bias_rad_s: Vector3<f64>,
 }
 
 /// The sliding window (module doc).
@@ -214,11 +155,11 @@ impl SlidingWindow {
         b0_from_bk: UnitQuaternion<f64>,
         from_prev: Option<Preintegrated>,
         bearings: Vec<Bearing>,
-    ) -> Result<(), WindowError> {
+    ) -> Result<(), FrameError> {
         match (self.frames.back(), &from_prev) {
-            (Some(_), None) => return Err(WindowError::MissingImu { t_ns: t.0 }),
+            (Some(_), None) => return Err(FrameError::MissingImu { t_ns: t.0 }),
             (Some(prev), Some(pre)) if pre.start != prev.t || pre.end != t => {
-                return Err(WindowError::ImuMismatch {
+                return Err(FrameError::ImuMismatch {
                     start_ns: pre.start.0,
                     end_ns: pre.end.0,
                     prev_ns: prev.t.0,
@@ -309,7 +250,7 @@ impl SlidingWindow {
     /// Solves the window (at the cadence of [`WindowConfig::startup_solve_every`] before
     /// convergence and [`WindowConfig::converged_solve_every`] after), then marginalizes frames
     /// beyond [`WindowConfig::max_frames`].
-    pub fn solve(&mut self) -> Result<(), WindowError> {
+    pub fn solve(&mut self) -> Result<(), FrameError> {
         let was_converged = self.converged_at.is_some();
         // Every `startup_solve_every` frames, and at most once per 2 % of the window's length
         // (a long startup would otherwise cost O(n²)).
@@ -364,12 +305,10 @@ impl SlidingWindow {
         }
     }
 
-    fn iterate(&mut self, iterations: usize) -> Result<(), WindowError> {
+    fn iterate(&mut self, iterations: usize) -> Result<(), FrameError> {
         for _ in 0..iterations {
             let sys = self.build();
-            let sol = sys
-                .into_solution()
-                .ok_or(WindowError::NotPositiveDefinite)?;
+            let sol = sys.into_solution().ok_or(FrameError::NotPositiveDefinite)?;
             for (f, x) in self.frames.iter_mut().zip(sol.frames) {
                 f.x = x;
             }

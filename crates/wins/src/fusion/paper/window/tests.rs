@@ -225,12 +225,12 @@ fn bad_frame_sequences_are_refused() {
     let (t1, r1, p1, b1) = f.frames[1].clone();
     assert_eq!(
         w.add_frame(t1, r1, None, b1.clone()),
-        Err(WindowError::MissingImu { t_ns: t1.0 })
+        Err(FrameError::MissingImu { t_ns: t1.0 })
     );
     let (_, _, p2, _) = f.frames[2].clone();
     assert!(matches!(
         w.add_frame(t1, r1, p2, b1.clone()),
-        Err(WindowError::ImuMismatch { .. })
+        Err(FrameError::ImuMismatch { .. })
     ));
     w.add_frame(t1, r1, p1, b1).unwrap();
     w.solve().unwrap();

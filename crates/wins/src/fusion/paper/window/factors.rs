@@ -29,7 +29,7 @@ use nalgebra::{Isometry3, Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use std::ops::AddAssign;
 
-use super::arrow::{Block, FRAME_DIM, Vec9, forward_substitute};
+use crate::fusion::arrow::{Block, FRAME_DIM, Vec9, forward_substitute};
 use crate::fusion::bearing::{Bearing, Side};
 use crate::imu::{ImuBiases, Preintegrated};
 

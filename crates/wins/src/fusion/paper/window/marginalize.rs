@@ -5,7 +5,7 @@
 use nalgebra::DMatrix;
 
 use super::SlidingWindow;
-use super::arrow::FRAME_DIM;
+use crate::fusion::arrow::FRAME_DIM;
 
 impl SlidingWindow {
     /// Replaces the prior by the one on `[x_1, border]` and drops frame 0.

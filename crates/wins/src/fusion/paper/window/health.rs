@@ -4,10 +4,11 @@
 
 use nalgebra::Vector3;
 
-use super::arrow::Vec9;
+use super::SlidingWindow;
 use super::assemble::ap_offset;
 use super::factors::{AoaFactorInput, AoaPoint, aoa_residuals};
-use super::{SlidingWindow, WindowError};
+use crate::fusion::arrow::Vec9;
+use crate::fusion::error::FrameError;
 use crate::time::Timestamp;
 
 impl SlidingWindow {
@@ -23,7 +24,7 @@ impl SlidingWindow {
         state_of: &dyn Fn(Timestamp) -> Vec9,
         aps_in_b0: &[Vector3<f64>],
         iterations: usize,
-    ) -> Result<(), WindowError> {
+    ) -> Result<(), FrameError> {
         for f in self.frames.iter_mut() {
             f.x = state_of(f.t);
         }
@@ -40,7 +41,7 @@ impl SlidingWindow {
     /// ([`Self::plausible`]); else restores the startup solution and retries after
     /// [`super::WindowConfig::convergence_retry_s`] (doubling, see
     /// [`super::WindowConfig::convergence_retry_max_s`]).
-    pub(super) fn try_converge(&mut self) -> Result<(), WindowError> {
+    pub(super) fn try_converge(&mut self) -> Result<(), FrameError> {
         let saved = (
             self.frames.iter().map(|f| f.x).collect::<Vec<_>>(),
             self.border.clone(),

@@ -1,6 +1,6 @@
 //! Observability of the feasibility-study model (paper Sec. III, `eqn:nullspace`).
 //!
-//! For the error state `[δθ, δv, δp, δc_1, …, δc_m]` of [`crate::fusion::ekf`] (body-side
+//! For the error state `[δθ, δv, δp, δc_1, …, δc_m]` of [`crate::fusion::paper::ekf`] (body-side
 //! attitude error, `R = R̂·Exp(δθ)`), the observability matrix along linearization points
 //! `x*_1 … x*_k` is
 //!

@@ -1,4 +1,4 @@
-//! WINS as one object with a push API (paper Fig. 1, Algorithm 1's estimator side): feed IMU
+//! The paper's estimator as one object with a push API (paper Fig. 1, Algorithm 1's estimator side): feed IMU
 //! samples and per-frame bearings in time order, get the pose at every frame and, between
 //! frames, propagated at IMU rate. A replay of a dataset and a live stream are two drivers of it.
 //!
@@ -6,8 +6,7 @@
 //! the frame's attitude is chained from the previous one with ΔR corrected to the window's gyro
 //! bias, and the [`super::window::SlidingWindow`] is solved; once it has converged the window
 //! estimates the gyro bias jointly, which is what removes the gyro drift from the attitude (the
-//! paper's relaxed rotation averaging, [`super::attitude`], fed back in the loop made it worse:
-//! see docs/RESULTS.md). Poses come out in the world frame `w`: origin and heading of `b0`, z along
+//! paper's relaxed rotation averaging, fed back in the loop, made it worse: see docs/RESULTS.md). Poses come out in the world frame `w`: origin and heading of `b0`, z along
 //! the solved upward gravity. When a converged estimate is lost, the window starts over with a
 //! new `b0`; `w` stays the same: the new window is placed at the position and heading of the
 //! lost one's last pose whose bearings still fitted, so the output trajectory does not jump back
@@ -15,18 +14,24 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-use super::bearing::Bearing;
-use super::window::arrow::Vec9;
-use super::window::{FrameEstimate, SlidingWindow, StartPrior, WindowConfig, WindowError};
-use crate::imu::{ImuBiases, ImuGap, ImuSample, PreintegrationError, Preintegrator};
+use super::window::{SlidingWindow, WindowConfig};
+use crate::fusion::arrow::Vec9;
+use crate::fusion::bearing::Bearing;
+use crate::fusion::error::{EstimatorError, FrameError};
+use crate::fusion::frames::{check_frame_order, drop_frames_in_gap};
+use crate::fusion::pose::{PoseEstimate, Step};
+use crate::fusion::proposal::{FrameEstimate, StartPrior};
+use crate::fusion::stats::EstimatorStats;
+use crate::imu::{ImuBiases, ImuGap, ImuSample, Preintegrator};
 use crate::rig::ImuNoise;
+use crate::so3::heading;
 use crate::time::Timestamp;
 
 /// Settings of the estimator.
 #[derive(Clone, Debug, PartialEq)]
-pub struct WinsConfig {
+pub struct LinearConfig {
     /// The sliding window.
     pub window: WindowConfig,
     /// IMU noise densities.
@@ -35,7 +40,7 @@ pub struct WinsConfig {
     pub imu_gap: ImuGap,
 }
 
-impl WinsConfig {
+impl LinearConfig {
     /// Default window settings with the given IMU noise and the array on the body's origin.
     pub fn new(imu_noise: ImuNoise) -> Self {
         Self::for_rig(WindowConfig::default(), imu_noise, Isometry3::identity())
@@ -62,98 +67,14 @@ impl WinsConfig {
     }
 }
 
-/// One pose estimate.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PoseEstimate {
-    /// Time.
-    pub t: Timestamp,
-    /// Body position in `w`, m.
-    pub p_b_in_w: Vector3<f64>,
-    /// Body velocity in `w`, m/s.
-    pub v_b_in_w: Vector3<f64>,
-    /// Attitude.
-    pub world_from_body: UnitQuaternion<f64>,
-    /// Body position in `b0` (the current window's own frame; a restart starts a new one), m.
-    pub p_b_in_b0: Vector3<f64>,
-    /// `R_{b}^{b_0}`.
-    pub b0_from_body: UnitQuaternion<f64>,
-    /// Whether the window had converged.
-    pub converged: bool,
-    /// Covariance of `[δθ, δp]`: attitude error on the body side (`R = R̂ Exp(δθ)`), rad², and
-    /// position in `w`, m² (`None`: the estimator gives none).
-    pub covariance: Option<Matrix6<f64>>,
-}
-
-/// What the estimator has seen and skipped.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct WinsStats {
-    /// IMU samples integrated.
-    pub imu_samples: u64,
-    /// IMU samples refused (non-finite, out of order).
-    pub imu_refused: u64,
-    /// Frames solved.
-    pub frames: u64,
-    /// Bearings fed to the window.
-    pub bearings: u64,
-    /// Frames dropped because they were older than the IMU stream or came before any IMU.
-    pub frames_late: u64,
-    /// Frames the window refused (their IMU interval did not join the previous frame); each is
-    /// also in [`Step::refused`] with the reason.
-    pub frames_refused: u64,
-    /// Window solves that failed (the frame stays, the previous estimate is kept).
-    pub solve_failures: u64,
-    /// Times the converged estimate was lost and the window started over (a new `b0`).
-    pub restarts: u64,
-    /// Candidate convergences rejected as implausible.
-    pub rejected_convergences: u64,
-    /// Gaps in the IMU stream ([`crate::imu::ImuGap`]).
-    pub imu_gaps: u64,
-    /// Frames dropped because they fell inside an IMU gap (no pose for a time the IMU did not
-    /// see).
-    pub frames_in_imu_gap: u64,
-    /// Keyframes held at zero velocity: taken while the IMU was still, on the ground
-    /// ([`crate::fusion::nonlinear::still`]).
-    pub still_keyframes: u64,
-}
-
-/// Why an input was refused (the estimator's state is unchanged; the refusal is counted).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum WinsError {
-    /// The IMU sample was refused.
-    #[error(transparent)]
-    Imu(#[from] PreintegrationError),
-    /// The window refused the frame.
-    #[error(transparent)]
-    Window(#[from] WindowError),
-    /// A frame older than the last IMU sample (cannot be cut any more).
-    #[error("frame at {t_ns} ns is older than the last IMU sample at {last_ns} ns")]
-    LateFrame {
-        /// Frame time, ns.
-        t_ns: i64,
-        /// Last IMU sample, ns.
-        last_ns: i64,
-    },
-}
-
-/// Output of one IMU push.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Step {
-    /// Poses of the frames solved by this push (usually zero or one).
-    pub frames: Vec<PoseEstimate>,
-    /// The pose propagated to this IMU sample (once a frame exists).
-    pub imu_pose: Option<PoseEstimate>,
-    /// Frames the window refused in this push, and why (counted in `frames_refused`).
-    pub refused: Vec<WindowError>,
-}
-
 /// The estimator (module doc).
 #[derive(Clone, Debug)]
-pub struct Wins {
-    config: WinsConfig,
+pub struct LinearEstimator {
+    config: LinearConfig,
     pre: Preintegrator,
     window: SlidingWindow,
     pending: VecDeque<(Timestamp, Vec<Bearing>)>,
-    stats: WinsStats,
+    stats: EstimatorStats,
     /// `w` from the current window's gravity-aligned `b0` frame: identity until a restart.
     anchor: Isometry3<f64>,
     first_converged_at: Option<Timestamp>,
@@ -161,15 +82,15 @@ pub struct Wins {
     last_good: Option<PoseEstimate>,
 }
 
-impl Wins {
+impl LinearEstimator {
     /// A fresh estimator (initialization-free: no state is needed).
-    pub fn new(config: WinsConfig) -> Self {
+    pub fn new(config: LinearConfig) -> Self {
         Self {
             pre: Preintegrator::new(config.imu_noise.clone(), ImuBiases::zero())
                 .with_gap(config.imu_gap),
             window: SlidingWindow::new(config.window.clone()),
             pending: VecDeque::new(),
-            stats: WinsStats::default(),
+            stats: EstimatorStats::default(),
             anchor: Isometry3::identity(),
             first_converged_at: None,
             last_good: None,
@@ -179,7 +100,7 @@ impl Wins {
 
     /// A fresh estimator whose first frame starts from what is known (a static initialization
     /// or a lost estimate's last state): the IMU is integrated with that gyro bias.
-    pub fn with_start(config: WinsConfig, start: StartPrior) -> Self {
+    pub fn with_start(config: LinearConfig, start: StartPrior) -> Self {
         let mut w = Self::new(config);
         w.pre = Preintegrator::new(
             w.config.imu_noise.clone(),
@@ -194,13 +115,13 @@ impl Wins {
     }
 
     /// The settings.
-    pub fn config(&self) -> &WinsConfig {
+    pub fn config(&self) -> &LinearConfig {
         &self.config
     }
 
     /// Counters.
-    pub fn stats(&self) -> WinsStats {
-        WinsStats {
+    pub fn stats(&self) -> EstimatorStats {
+        EstimatorStats {
             rejected_convergences: self.stats.rejected_convergences
                 + self.window.rejected_candidates(),
             ..self.stats
@@ -219,7 +140,7 @@ impl Wins {
         state_of: &dyn Fn(Timestamp) -> Vec9,
         aps_in_b0: &[Vector3<f64>],
         iterations: usize,
-    ) -> Result<(), WindowError> {
+    ) -> Result<(), FrameError> {
         self.window.converge_from(state_of, aps_in_b0, iterations)
     }
 
@@ -229,7 +150,11 @@ impl Wins {
     }
 
     /// Queues a frame at `t` with its bearings; it is solved when the IMU stream passes `t`.
-    pub fn push_bearings(&mut self, t: Timestamp, bearings: Vec<Bearing>) -> Result<(), WinsError> {
+    pub fn push_bearings(
+        &mut self,
+        t: Timestamp,
+        bearings: Vec<Bearing>,
+    ) -> Result<(), EstimatorError> {
         let newest = self.pending.back().map(|(p, _)| *p);
         check_frame_order(t, newest, &self.pre, &mut self.stats)?;
         self.pending.push_back((t, bearings));
@@ -237,7 +162,7 @@ impl Wins {
     }
 
     /// Integrates one IMU sample, solving every queued frame it passes.
-    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, WinsError> {
+    pub fn push_imu(&mut self, s: &ImuSample) -> Result<Step, EstimatorError> {
         // Checked before any queued frame is cut with it.
         if let Err(e) = self.pre.check(s) {
             self.stats.imu_refused += 1;
@@ -280,7 +205,7 @@ impl Wins {
         t: Timestamp,
         interval: crate::imu::Preintegrated,
         bearings: Vec<Bearing>,
-    ) -> Result<Option<PoseEstimate>, WindowError> {
+    ) -> Result<Option<PoseEstimate>, FrameError> {
         let n_bearings = bearings.len() as u64;
         let result = match self.window.latest() {
             None => self
@@ -385,53 +310,4 @@ impl Wins {
         };
         Some(self.to_world(&moved))
     }
-}
-
-/// Refuses (and counts in `frames_late`) a frame at `t` older than the newest queued frame or,
-/// with none queued, than the last IMU sample `pre` integrated.
-pub(crate) fn check_frame_order(
-    t: Timestamp,
-    newest_queued: Option<Timestamp>,
-    pre: &Preintegrator,
-    stats: &mut WinsStats,
-) -> Result<(), WinsError> {
-    let newest = newest_queued.or(pre.last_sample().map(|s| s.t));
-    match newest.filter(|l| t < *l) {
-        Some(l) => {
-            stats.frames_late += 1;
-            Err(WinsError::LateFrame {
-                t_ns: t.0,
-                last_ns: l.0,
-            })
-        }
-        None => Ok(()),
-    }
-}
-
-/// When `s` comes after an IMU gap ([`crate::imu::ImuGap`]): counts it, drops the queued frames
-/// strictly inside it (no pose for a time the IMU did not see; `time` gives a frame's time) and
-/// returns its length, s.
-pub(crate) fn drop_frames_in_gap<F>(
-    pending: &mut VecDeque<F>,
-    time: impl Fn(&F) -> Timestamp,
-    pre: &Preintegrator,
-    s: &ImuSample,
-    stats: &mut WinsStats,
-) -> Option<f64> {
-    let from = pre.gap_before(s)?;
-    stats.imu_gaps += 1;
-    let before = pending.len();
-    pending.retain(|f| !(time(f) > from && time(f) < s.t));
-    stats.frames_in_imu_gap += (before - pending.len()) as u64;
-    Some(s.t.secs_since(from))
-}
-
-/// The rotation about z with the heading of `r` (its x axis projected on the horizontal plane);
-/// identity when that axis is vertical.
-pub(crate) fn heading(r: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
-    let x = r * Vector3::x();
-    if x.xy().norm() < 1e-6 {
-        return UnitQuaternion::identity();
-    }
-    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x))
 }

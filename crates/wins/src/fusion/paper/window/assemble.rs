@@ -6,12 +6,12 @@ use std::ops::AddAssign;
 
 use nalgebra::Vector3;
 
-use super::arrow::{ArrowSystem, FRAME_DIM};
 use super::factors::{
     AoaFactorInput, AoaInfo, AoaPoint, AoaSigmas, BIAS_DIM, ImuFactorInput, ImuInfo, aoa_info,
     imu_info,
 };
 use super::{Frame, SlidingWindow, nominal_gravity};
+use crate::fusion::arrow::{ArrowSystem, FRAME_DIM};
 
 /// Where an IMU factor was linearized: the previous solution's `v_k+1`, `g_k+1`, `p_k+1 − p_k`
 /// and gyro bias (they enter the noise mapping and the gyro-bias columns).

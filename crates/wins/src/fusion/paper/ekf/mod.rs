@@ -3,7 +3,7 @@
 //! State: attitude `world_from_body` (Hamilton), velocity `v_b_in_w`, position `p_b_in_w` and one
 //! position `c_in_w` per AP; error state `[δθ, δv, δp, δc_1, …, δc_m]`, `9 + 3·m` entries
 //! ([`state`]). **Perturbation side: body-side, `R = R̂·Exp(δθ)`**, used by every Jacobian here
-//! and in [`crate::fusion::observability`]. World `w` is z up with gravity `−g·e_z`; IMU biases are
+//! and in [`crate::fusion::paper::observability`]. World `w` is z up with gravity `−g·e_z`; IMU biases are
 //! not estimated (the paper's Sec. III model, and its observability analysis, have none).
 //!
 //! - [`propagation`]: mid-point IMU integration, its Jacobian `F` and noise `Q`.

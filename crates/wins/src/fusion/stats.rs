@@ -1,0 +1,34 @@
+//! What an estimator has seen and skipped: the counters `stats.json` reports for either
+//! estimator.
+
+/// What the estimator has seen and skipped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct EstimatorStats {
+    /// IMU samples integrated.
+    pub imu_samples: u64,
+    /// IMU samples refused (non-finite, out of order).
+    pub imu_refused: u64,
+    /// Frames solved.
+    pub frames: u64,
+    /// Bearings fed to the window.
+    pub bearings: u64,
+    /// Frames dropped because they were older than the IMU stream or came before any IMU.
+    pub frames_late: u64,
+    /// Frames the window refused (their IMU interval did not join the previous frame); each is
+    /// also in [`Step::refused`](super::pose::Step::refused) with the reason.
+    pub frames_refused: u64,
+    /// Window solves that failed (the frame stays, the previous estimate is kept).
+    pub solve_failures: u64,
+    /// Times the converged estimate was lost and the window started over (a new `b0`).
+    pub restarts: u64,
+    /// Candidate convergences rejected as implausible.
+    pub rejected_convergences: u64,
+    /// Gaps in the IMU stream ([`crate::imu::ImuGap`]).
+    pub imu_gaps: u64,
+    /// Frames dropped because they fell inside an IMU gap (no pose for a time the IMU did not
+    /// see).
+    pub frames_in_imu_gap: u64,
+    /// Keyframes held at zero velocity: taken while the IMU was still, on the ground
+    /// ([`crate::fusion::nonlinear::still`]).
+    pub still_keyframes: u64,
+}
