@@ -5,7 +5,7 @@
 //! prior at that point. What is known of them from outside the window (a window lost to a hole:
 //! where it had them, their ranges) is held here too.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector1, Vector3};
 
 use super::config::NonlinearConfig;
 use super::fit::FitStats;
@@ -13,7 +13,7 @@ use super::range_anchor::RangeAnchor;
 use super::state::{NavState, STATE_DIM};
 use super::triangulate::{Sight, Triangulated, triangulate};
 use super::window::{Keyframe, NonlinearWindow, PLACEHOLDER_INFORMATION};
-use crate::fusion::arrow::ArrowSystem;
+use crate::fusion::arrow::{ArrowSystem, BorderBlock, Linearized, Weight};
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
 pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {
@@ -190,15 +190,10 @@ impl NonlinearWindow {
             *cost += r * r;
             stats.anchors += 1;
             stats.anchor_chi2 += r * r;
-            sys.diag[0] += jx.transpose() * jx;
-            sys.rhs_frames[0] -= jx.transpose() * r;
-            let o = self.ap_offset(a.l);
-            let mut fb = sys.frame_border[0].columns_mut(o, 3);
-            fb += jx.transpose() * jc.transpose();
-            let mut corner = sys.corner.view_mut((o, o), (3, 3));
-            corner += jc * jc.transpose();
-            let mut rb = sys.rhs_border.rows_mut(o, 3);
-            rb -= jc * r;
+            sys.add(
+                &Linearized::on_frame(0, jx, Vector1::new(r), Weight::Scalar(1.0))
+                    .with_border(BorderBlock::three(self.ap_offset(a.l), jc.transpose())),
+            );
         }
     }
 }

@@ -197,21 +197,10 @@ impl NonlinearWindow {
         e = e.rows(0, dim.min(full)).into_owned();
         let he = &self.prior_h * &e;
         let grad = &he + &self.prior_g;
-        let s = STATE_DIM;
-        let mb = dim - s;
         if sys.frames() == 0 {
             return 0.0;
         }
-        sys.diag[0] += self.prior_h.fixed_view::<STATE_DIM, STATE_DIM>(0, 0);
-        if mb > 0 {
-            let mut fb = sys.frame_border[0].columns_mut(0, mb);
-            fb += self.prior_h.view((0, s), (s, mb));
-            let mut corner = sys.corner.view_mut((0, 0), (mb, mb));
-            corner += self.prior_h.view((s, s), (mb, mb));
-            let mut rb = sys.rhs_border.rows_mut(0, mb);
-            rb -= grad.rows(s, mb);
-        }
-        sys.rhs_frames[0] -= grad.fixed_rows::<STATE_DIM>(0);
+        sys.add_prior(&self.prior_h, &-grad);
         e.dot(&he) + 2.0 * e.dot(&self.prior_g)
     }
 
@@ -324,15 +313,5 @@ impl NonlinearWindow {
 /// `sys` with `λ · diag` added (at least a tiny absolute floor, for directions nothing
 /// constrains).
 fn damped(sys: &ArrowSystem<STATE_DIM>, lambda: f64) -> ArrowSystem<STATE_DIM> {
-    let mut d = sys.clone();
-    for b in &mut d.diag {
-        for i in 0..STATE_DIM {
-            b[(i, i)] += lambda * b[(i, i)] + 1e-12;
-        }
-    }
-    for i in 0..d.corner.nrows() {
-        let v = d.corner[(i, i)];
-        d.corner[(i, i)] += lambda * v + 1e-12;
-    }
-    d
+    sys.damped(lambda, 1e-12)
 }

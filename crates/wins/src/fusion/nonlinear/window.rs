@@ -20,7 +20,7 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Vector1, Vector3};
 
 use super::baro_factor::{baro_jacobian, baro_residual};
 use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
@@ -29,7 +29,7 @@ pub use super::fit::{FitStats, cauchy};
 use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
 use super::range_anchor::RangeAnchor;
 use super::state::{Mat15, NavState, STATE_DIM, Vec15};
-use crate::fusion::arrow::ArrowSystem;
+use crate::fusion::arrow::{ArrowSystem, BorderBlock, Linearized, Weight};
 use crate::fusion::bearing::Bearing;
 use crate::imu::Preintegrated;
 use crate::rig::ImuNoise;
@@ -309,13 +309,12 @@ impl NonlinearWindow {
                 let p = &self.keyframes[prev];
                 let r = imu_residual(pre, g, &p.x, &kf.x);
                 let (ji, jj) = imu_jacobians(pre, g, &p.lin_or_current(self.fej), &lin_k);
-                let ji_t_info = ji.transpose() * info;
-                let jj_t_info = jj.transpose() * info;
-                sys.diag[prev] += ji_t_info * ji;
-                sys.diag[k] += jj_t_info * jj;
-                sys.lower[prev] += jj_t_info * ji;
-                sys.rhs_frames[prev] -= ji_t_info * r;
-                sys.rhs_frames[k] -= jj_t_info * r;
+                sys.add(&Linearized::between(
+                    (prev, ji),
+                    (k, jj),
+                    r,
+                    Weight::Matrix(*info),
+                ));
                 let c = (r.transpose() * info * r)[0];
                 cost += c;
                 stats.imu_chi2 += c;
@@ -380,30 +379,15 @@ impl NonlinearWindow {
                 stats.bearing_robust += rho;
                 stats.bearing_outliers += usize::from(e2 > 9.0);
                 let info = w / (sigma * sigma);
-                let jx = j.d_state;
-                let jc = j.d_ap;
-                sys.diag[k] += jx.transpose() * jx * info;
-                sys.rhs_frames[k] -= jx.transpose() * (info * r);
-                let o = self.ap_offset(b.ap);
-                let xc = jx.transpose() * jc * info;
-                let mut fb = sys.frame_border[k].columns_mut(o, 3);
-                fb += xc;
-                let mut corner = sys.corner.view_mut((o, o), (3, 3));
-                corner += jc.transpose() * jc * info;
-                let mut rb = sys.rhs_border.rows_mut(o, 3);
-                rb -= jc.transpose() * (info * r);
+                let mut factor =
+                    Linearized::on_frame(k, j.d_state, Vector1::new(r), Weight::Scalar(info))
+                        .with_border(BorderBlock::three(self.ap_offset(b.ap), j.d_ap));
                 if self.bias.is_some() {
                     // ∂r/∂β = 1.
-                    let ob = self.scalars() - 1;
-                    let mut fb = sys.frame_border[k].column_mut(ob);
-                    fb += jx.transpose() * info;
-                    sys.corner[(ob, ob)] += info;
-                    for a in 0..3 {
-                        sys.corner[(ob, o + a)] += jc[a] * info;
-                        sys.corner[(o + a, ob)] += jc[a] * info;
-                    }
-                    sys.rhs_border[ob] -= info * r;
+                    factor =
+                        factor.with_border(BorderBlock::one(self.scalars() - 1, Vector1::new(1.0)));
                 }
+                sys.add(&factor);
             }
             if let (Some(h), Some((o, o_lin))) = (f.altitude_m, self.baro) {
                 let r = baro_residual(&kf.x, &f.partial, g, o, h);
@@ -417,12 +401,10 @@ impl NonlinearWindow {
                 *cost += e2;
                 stats.baro += 1;
                 stats.baro_chi2 += e2;
-                sys.diag[k] += jx.transpose() * jx * info;
-                sys.rhs_frames[k] -= jx.transpose() * (info * r);
-                let mut fb = sys.frame_border[k].column_mut(0);
-                fb += jx.transpose() * (jo * info);
-                sys.corner[(0, 0)] += jo * jo * info;
-                sys.rhs_border[0] -= jo * info * r;
+                sys.add(
+                    &Linearized::on_frame(k, jx, Vector1::new(r), Weight::Scalar(info))
+                        .with_border(BorderBlock::one(0, Vector1::new(jo))),
+                );
             }
         }
     }

@@ -18,7 +18,7 @@
 use super::fit::FitStats;
 use super::state::{NavState, STATE_DIM, VEL};
 use super::window::{Keyframe, NonlinearWindow};
-use crate::fusion::arrow::ArrowSystem;
+use crate::fusion::arrow::{ArrowSystem, Linearized, Weight};
 
 /// The residual `r = v` (module doc), m/s.
 pub fn zero_velocity_residual(x: &NavState) -> nalgebra::Vector3<f64> {
@@ -63,8 +63,7 @@ impl NonlinearWindow {
         *cost += e2;
         stats.zero_velocity += 3;
         stats.zero_velocity_chi2 += e2;
-        sys.diag[k] += j.transpose() * j * info;
-        sys.rhs_frames[k] -= j.transpose() * (r * info);
+        sys.add(&Linearized::on_frame(k, j, r, Weight::Scalar(info)));
     }
 }
 

@@ -2,7 +2,6 @@
 //! once (restricted to the oldest frame's factors) for marginalization.
 
 use std::cell::Ref;
-use std::ops::AddAssign;
 
 use nalgebra::Vector3;
 
@@ -11,7 +10,7 @@ use super::factors::{
     imu_info,
 };
 use super::{Frame, SlidingWindow, nominal_gravity};
-use crate::fusion::arrow::{ArrowSystem, FRAME_DIM};
+use crate::fusion::arrow::{ArrowSystem, At};
 
 /// Where an IMU factor was linearized: the previous solution's `v_k+1`, `g_k+1`, `p_k+1 − p_k`
 /// and gyro bias (they enter the noise mapping and the gyro-bias columns).
@@ -161,18 +160,7 @@ impl SlidingWindow {
         if n == 0 {
             return sys;
         }
-        let pb = self.prior_h.nrows() - FRAME_DIM;
-        sys.diag[0] += self.prior_h.fixed_view::<FRAME_DIM, FRAME_DIM>(0, 0);
-        sys.frame_border[0]
-            .view_mut((0, 0), (FRAME_DIM, pb))
-            .add_assign(&self.prior_h.view((0, FRAME_DIM), (FRAME_DIM, pb)));
-        sys.corner
-            .view_mut((0, 0), (pb, pb))
-            .add_assign(&self.prior_h.view((FRAME_DIM, FRAME_DIM), (pb, pb)));
-        sys.rhs_frames[0] += self.prior_b.fixed_rows::<FRAME_DIM>(0);
-        sys.rhs_border
-            .rows_mut(0, pb)
-            .add_assign(&self.prior_b.rows(FRAME_DIM, pb));
+        sys.add_prior(&self.prior_h, &self.prior_b);
         let last = if only_first { 1 } else { n };
         for k in 0..last {
             if k + 1 < n
@@ -188,48 +176,31 @@ impl SlidingWindow {
     }
 }
 
+/// The IMU factor between frames `k` and `k + 1`, in information form.
 fn add_imu(sys: &mut ArrowSystem, k: usize, info: &ImuInfo) {
-    sys.diag[k] += info.h_kk;
-    sys.diag[k + 1] += info.h_ll;
-    sys.lower[k] += info.h_lk;
-    sys.frame_border[k]
-        .fixed_view_mut::<FRAME_DIM, BIAS_DIM>(0, 0)
-        .add_assign(&info.h_kb);
-    sys.frame_border[k + 1]
-        .fixed_view_mut::<FRAME_DIM, BIAS_DIM>(0, 0)
-        .add_assign(&info.h_lb);
-    sys.corner
-        .view_mut((0, 0), (BIAS_DIM, BIAS_DIM))
-        .add_assign(&info.h_bb);
-    sys.rhs_frames[k] += info.b_k;
-    sys.rhs_frames[k + 1] += info.b_l;
-    sys.rhs_border.rows_mut(0, BIAS_DIM).add_assign(&info.b_b);
+    let (f_k, f_l, bias) = (At::Frame(k, 0), At::Frame(k + 1, 0), At::Border(0));
+    sys.add_information(f_k, f_k, &info.h_kk);
+    sys.add_information(f_l, f_l, &info.h_ll);
+    sys.add_information(f_l, f_k, &info.h_lk);
+    sys.add_information(f_k, bias, &info.h_kb);
+    sys.add_information(f_l, bias, &info.h_lb);
+    sys.add_information(bias, bias, &info.h_bb);
+    sys.add_rhs(f_k, &info.b_k);
+    sys.add_rhs(f_l, &info.b_l);
+    sys.add_rhs(bias, &info.b_b);
 }
 
+/// An AoA factor of frame `k` on the AP at border offset `o`, in information form: its
+/// position rows `[p_k, c]`, and the gyro-bias coupling (zero unless the bias is estimated).
 fn add_aoa(sys: &mut ArrowSystem, k: usize, o: usize, info: &AoaInfo) {
-    sys.diag[k].fixed_view_mut::<3, 3>(0, 0).add_assign(&info.n);
-    sys.corner.fixed_view_mut::<3, 3>(o, o).add_assign(&info.n);
-    sys.frame_border[k]
-        .fixed_view_mut::<3, 3>(0, o)
-        .add_assign(&(-info.n.transpose()));
-    sys.rhs_frames[k]
-        .fixed_rows_mut::<3>(0)
-        .add_assign(&(-info.b_c));
-    sys.rhs_border.fixed_rows_mut::<3>(o).add_assign(&info.b_c);
-    // The gyro-bias coupling (zero unless the bias is estimated).
-    sys.frame_border[k]
-        .fixed_view_mut::<3, 3>(0, GYRO)
-        .add_assign(&(-info.n_cg));
-    sys.corner
-        .fixed_view_mut::<3, 3>(o, GYRO)
-        .add_assign(&info.n_cg);
-    sys.corner
-        .fixed_view_mut::<3, 3>(GYRO, o)
-        .add_assign(&info.n_cg.transpose());
-    sys.corner
-        .fixed_view_mut::<3, 3>(GYRO, GYRO)
-        .add_assign(&info.n_gg);
-    sys.rhs_border
-        .fixed_rows_mut::<3>(GYRO)
-        .add_assign(&info.b_g);
+    let (p_k, c, gyro) = (At::Frame(k, 0), At::Border(o), At::Border(GYRO));
+    sys.add_information(p_k, p_k, &info.n);
+    sys.add_information(c, c, &info.n);
+    sys.add_information(p_k, c, &(-info.n.transpose()));
+    sys.add_rhs(p_k, &(-info.b_c));
+    sys.add_rhs(c, &info.b_c);
+    sys.add_information(p_k, gyro, &(-info.n_cg));
+    sys.add_information(c, gyro, &info.n_cg);
+    sys.add_information(gyro, gyro, &info.n_gg);
+    sys.add_rhs(gyro, &info.b_g);
 }
