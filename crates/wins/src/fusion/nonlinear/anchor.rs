@@ -19,9 +19,9 @@
 
 use super::bridge::{bridge_sigma_m, end_motion};
 use super::estimator::NonlinearEstimator;
-use super::holes::{FIRST_KEYFRAME_WITHIN_S, Placement};
+use super::fit::passes_chi2;
+use super::holes::{FIRST_KEYFRAME_WITHIN_S, HoleFix, Placement};
 use super::range_anchor::RangeAnchor;
-use super::start::passes_chi2;
 use super::window::NonlinearWindow;
 
 /// The largest whitened residual of an anchor in an accepted window.
@@ -44,8 +44,7 @@ impl NonlinearEstimator {
     /// placed within the σ bounds by `w` itself (the relocation's σ may have accepted it), no
     /// lost AP is in `w`, or the anchored window misses an anchor, fails the χ² test or
     /// disagrees with the lost window's ranges.
-    pub(super) fn anchored(&self, w: &NonlinearWindow) -> Option<Anchored> {
-        let fix = self.ap_fix.as_ref()?;
+    pub(super) fn anchored(&self, fix: &HoleFix, w: &NonlinearWindow) -> Option<Anchored> {
         let first = *w.keyframes().next()?;
         if first.t.secs_since(fix.t).abs() > FIRST_KEYFRAME_WITHIN_S {
             return None;
@@ -101,7 +100,7 @@ impl NonlinearEstimator {
         {
             return None;
         }
-        let placement = self.placement(&anchored).filter(|p| p.agrees)?;
+        let placement = self.placement(fix, &anchored).filter(|p| p.agrees)?;
         Some(Anchored {
             window: anchored,
             placement,

@@ -1,5 +1,7 @@
 //! The window's residual statistics and the Cauchy loss its bearings are weighed by.
 
+use crate::chi2::chi2_upper;
+
 /// Residual statistics of the window at its estimate (whitened: in units of each σ).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FitStats {
@@ -35,4 +37,20 @@ pub struct FitStats {
 pub fn cauchy(s: f64, c: f64) -> (f64, f64) {
     let c2 = c * c;
     (c2 * (s / c2).ln_1p(), 1.0 / (1.0 + s / c2))
+}
+
+/// Whether residual statistics pass the χ² test at significance `alpha`: the whole cost (IMU,
+/// the AoA factors' robust cost, barometer, range anchors, zero-velocity holds) against χ² with
+/// as many degrees of freedom as measurements beyond the IMU chain's own (the IMU factors alone
+/// are met exactly by any trajectory: each adds as many residuals as states), less the border's
+/// `border_dim` unknowns. The zero-velocity holds add no degrees of freedom either: their σ is a
+/// tolerance, not a noise, and their near-zero residuals would let a wrong window pass.
+pub fn passes_chi2(fit: &FitStats, border_dim: usize, alpha: f64) -> bool {
+    let dof = (fit.bearings + fit.baro + fit.anchors).saturating_sub(border_dim);
+    let cost = fit.imu_chi2
+        + fit.bearing_robust
+        + fit.baro_chi2
+        + fit.anchor_chi2
+        + fit.zero_velocity_chi2;
+    dof == 0 || cost <= chi2_upper(dof as f64, alpha)
 }

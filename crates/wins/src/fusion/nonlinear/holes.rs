@@ -23,18 +23,53 @@
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
 use super::bridge::{Before, bridge_sigma_m, end_motion};
-use super::estimator::{HoleFix, LostAp, NonlinearEstimator};
+use std::collections::VecDeque;
+
+use super::estimator::NonlinearEstimator;
+use super::phase::{Phase, Reason};
 use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
+use super::start::Start;
 use super::state::{NavState, pose_at};
 use super::window::NonlinearWindow;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 
+/// What a window lost to a hole (an IMU gap, a CSI outage) leaves for the next one.
+#[derive(Clone, Debug)]
+pub(super) struct HoleFix {
+    /// Every AP the lost window had placed, in the output frame.
+    pub(super) aps_in_w: Vec<LostAp>,
+    /// The lost window's barometer offset in the output frame (`h = z + o`), m, when it had a
+    /// barometer: the barometer runs on through an IMU gap, so the next window's height is
+    /// placed by it.
+    pub(super) baro_offset_m: Option<f64>,
+    /// The first frame after the hole (where the new start leaves from).
+    pub(super) t: Timestamp,
+    /// 1σ of the carried position there, horizontal, m.
+    pub(super) carried_sigma_m: f64,
+    /// The lost window's newest keyframe, before the hole.
+    pub(super) before: Before,
+}
+
+/// An AP a window lost to a hole had placed, in the output frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LostAp {
+    /// Its index.
+    pub(super) l: usize,
+    /// Its position, m.
+    pub(super) c_in_w: Vector3<f64>,
+    /// Its horizontal σ, m.
+    pub(super) sigma_m: f64,
+    /// The variance of its height, m² (weakly seen: an AP near the drone's height is seen at
+    /// an elevation near zero).
+    pub(super) var_z_m2: f64,
+}
+
 impl NonlinearEstimator {
     /// Whether a frame at `t` comes after a hole in the tracking window's information: an IMU
     /// gap since the last frame, or no keyframe for longer than the dead-reckoning limit.
     pub(super) fn after_hole(&self, t: Timestamp, imu_gap: bool) -> bool {
-        let Some(newest) = self.window.as_ref().and_then(|w| w.newest()) else {
+        let Some(newest) = self.phase.window().and_then(|w| w.newest()) else {
             return false;
         };
         imu_gap || t.secs_since(newest.t) > self.config.max_dead_reckoning_s
@@ -49,7 +84,7 @@ impl NonlinearEstimator {
         interval: &Preintegrated,
         imu_gap_s: f64,
     ) {
-        let Some(w) = self.window.as_ref() else {
+        let Some(w) = self.phase.window() else {
             return;
         };
         let Some(newest) = w.newest().copied() else {
@@ -72,12 +107,18 @@ impl NonlinearEstimator {
             ..newest
         };
         let fix = self.hole_fix(t, carried.dt_s(), imu_gap_s);
-        self.stats.restarts += 1;
-        self.epoch += 1;
-        self.begin_start(t, Some(from));
-        // The carried velocity and attitude are guesses: the linear window starts from zeros.
-        self.linear = Some(self.new_start_solver());
-        self.ap_fix = fix;
+        self.record.stats.restarts += 1;
+        self.record.epoch += 1;
+        let mut start = self.new_start(t, Some(from), VecDeque::new());
+        // The carried velocity and attitude are guesses: the start solver starts from zeros.
+        start.solver = self.start_solver.make(None);
+        start.hole = fix;
+        let reason = if imu_gap_s > 0.0 {
+            Reason::ImuGap
+        } else {
+            Reason::CsiOutage
+        };
+        self.enter(Phase::Recovering(Box::new(start)), Some(t), reason);
     }
 
     /// What the tracking window leaves for the next one when it ends at `t`, its newest state
@@ -85,7 +126,7 @@ impl NonlinearEstimator {
     /// that newest state in the output frame, and how far the carried position may be off.
     /// `None` without a window, a keyframe or a placed AP.
     pub(super) fn hole_fix(&self, t: Timestamp, carried_s: f64, imu_gap_s: f64) -> Option<HoleFix> {
-        let w = self.window.as_ref()?;
+        let w = self.phase.window()?;
         let newest = w.newest()?;
         let a = self.anchor;
         let aps_in_w: Vec<_> = (0..w.aps().len())
@@ -124,12 +165,13 @@ impl NonlinearEstimator {
     /// velocity and tilt corrections of the dead reckoning at `states` ([`super::relocate`]).
     pub(super) fn relocate_after_hole(
         &self,
+        start: &Start,
         states: &[NavState],
     ) -> Option<(usize, Relocated, ApFromDrone)> {
-        let fix = self.ap_fix.as_ref()?;
-        let reference = self.reference.as_ref()?;
+        let fix = start.hole.as_ref()?;
+        let reference = start.reference.as_ref()?;
         let sights: Vec<Vec<TimedSight>> = self
-            .sights_along(states)
+            .sights_along(start, states)
             .into_iter()
             .map(|s| {
                 s.into_iter()
@@ -162,15 +204,6 @@ impl NonlinearEstimator {
         Some((l, found, ap))
     }
 
-    /// After a hole the start cannot leave from a known state: the dead reckoning is dropped
-    /// and the linear window starts from zeros, as in a start in the air.
-    pub(super) fn forget_reference(&mut self) {
-        self.reference = None;
-        self.reference_is_rest = false;
-        self.dead_reckoned = None;
-        self.linear = Some(self.new_start_solver());
-    }
-
     /// Where a window `w` started after a hole goes, at its acceptance: the move of the output
     /// frame that puts the window's APs where the lost window had them and its first keyframe,
     /// when it is the first frame after the hole, where the IMU carried it and where the bridge
@@ -181,8 +214,7 @@ impl NonlinearEstimator {
     /// moves the whole trajectory by range × angle. The height goes mostly by the barometer
     /// (a pair on the height alone: the two windows' offsets). `w` is untrimmed (its first
     /// keyframe is the start's). `None` without a lost window's AP in `w`.
-    pub(super) fn placement(&self, w: &NonlinearWindow) -> Option<Placement> {
-        let fix = self.ap_fix.as_ref()?;
+    pub(super) fn placement(&self, fix: &HoleFix, w: &NonlinearWindow) -> Option<Placement> {
         let mut pairs: Vec<Weighted> = fix
             .aps_in_w
             .iter()
@@ -258,10 +290,7 @@ impl NonlinearEstimator {
     /// At the acceptance of a window started after a hole, its [`placement`](Self::placement):
     /// moves the output frame by it and holds the window's APs where the lost window had them.
     /// Called before the window is trimmed.
-    pub(super) fn place_by_aps(&mut self, placement: Option<Placement>) {
-        let Some(fix) = self.ap_fix.take() else {
-            return;
-        };
+    pub(super) fn place_by_aps(&mut self, fix: HoleFix, placement: Option<Placement>) {
         if let Some(p) = placement {
             self.anchor = p.correction * self.anchor;
         }
@@ -270,10 +299,10 @@ impl NonlinearEstimator {
         // against the one before the hole.
         let anchor = self.anchor;
         let baro_var = self
-            .window
-            .as_ref()
+            .phase
+            .window()
             .map_or(MIN_BARO_VAR_M2, |w| self.baro_offset_variance_m2(&fix, w));
-        if let Some(w) = self.window.as_mut() {
+        if let Some(w) = self.phase.tracking_mut().map(|t| &mut t.window) {
             // The barometer ran on through the hole: its offset is the lost window's, give or
             // take its walk since.
             if let Some(o_old) = fix.baro_offset_m {

@@ -4,7 +4,10 @@
 //! bounds as a start's APs.
 
 use super::aps::triangulate_within_bounds;
+use nalgebra::Isometry3;
+
 use super::estimator::NonlinearEstimator;
+use super::phase::Tracking;
 use super::state::pose_at;
 use super::triangulate::{LateSights, Sight};
 use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -18,28 +21,47 @@ impl NonlinearEstimator {
     /// Marginalizes the window down to [`super::NonlinearConfig::max_keyframes`], keeping the
     /// bearings of APs it does not hold from each keyframe that leaves.
     pub(super) fn trim_window(&mut self) {
-        while self
-            .window
-            .as_ref()
-            .is_some_and(|w| w.len() > self.config.max_keyframes)
-        {
-            self.keep_late_sights();
-            if let Some(w) = &mut self.window {
-                w.marginalize_oldest();
-            }
+        let body_from_array = self.sensors.body_from_array;
+        let Some(tracking) = self.phase.tracking_mut() else {
+            return;
+        };
+        while tracking.window.len() > self.config.max_keyframes {
+            tracking.keep_late_sights(&body_from_array);
+            tracking.window.marginalize_oldest();
         }
     }
 
-    /// Keeps the bearings of APs the window does not hold yet from its oldest keyframe (about to
-    /// leave it), at that keyframe's estimate.
-    pub(super) fn keep_late_sights(&mut self) {
-        let Some(w) = &self.window else {
+    /// Places every AP the window lacks whose sights allow it.
+    pub(super) fn place_late_aps(&mut self) {
+        let config = &self.config;
+        let Some(tracking) = self.phase.tracking_mut() else {
             return;
         };
+        let w = &mut tracking.window;
+        for (l, late) in tracking.late_sights.iter_mut().enumerate() {
+            if w.is_placed(l) || late.seen == 0 || late.seen % TRY_EVERY != 0 {
+                continue;
+            }
+            let sights = late.sights.make_contiguous();
+            let Some(t) = triangulate_within_bounds(sights, config) else {
+                continue;
+            };
+            if let Some(info) = t.covariance.try_inverse() {
+                w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
+                late.sights.clear();
+            }
+        }
+    }
+}
+
+impl Tracking {
+    /// Keeps the bearings of APs the window does not hold yet from its oldest keyframe (about to
+    /// leave it), at that keyframe's estimate.
+    fn keep_late_sights(&mut self, body_from_array: &Isometry3<f64>) {
+        let w = &self.window;
         let Some(kf) = w.keyframes.front() else {
             return;
         };
-        let body_from_array = self.sensors.body_from_array;
         for f in &kf.frames {
             let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
             if unplaced.peek().is_none() {
@@ -54,28 +76,8 @@ impl NonlinearEstimator {
                 if late.sights.len() >= MAX_SIGHTS {
                     late.sights.pop_front();
                 }
-                late.sights.push_back(Sight::of(&pose, &body_from_array, b));
+                late.sights.push_back(Sight::of(&pose, body_from_array, b));
                 late.seen += 1;
-            }
-        }
-    }
-
-    /// Places every AP the window lacks whose sights allow it.
-    pub(super) fn place_late_aps(&mut self) {
-        let Some(w) = &mut self.window else {
-            return;
-        };
-        for (l, late) in self.late_sights.iter_mut().enumerate() {
-            if w.is_placed(l) || late.seen == 0 || late.seen % TRY_EVERY != 0 {
-                continue;
-            }
-            let sights = late.sights.make_contiguous();
-            let Some(t) = triangulate_within_bounds(sights, &self.config) else {
-                continue;
-            };
-            if let Some(info) = t.covariance.try_inverse() {
-                w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
-                late.sights.clear();
             }
         }
     }

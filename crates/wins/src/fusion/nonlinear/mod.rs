@@ -37,6 +37,8 @@ pub mod imu_factor;
 mod late_ap;
 mod nullspace;
 mod output;
+mod phase;
+mod proposal;
 mod range_anchor;
 mod relocate;
 pub mod rest;
@@ -51,6 +53,7 @@ pub mod zero_velocity;
 
 pub use config::NonlinearConfig;
 pub use estimator::{NonlinearEstimator, Sensors};
+pub use fit::passes_chi2;
+pub use phase::{PhaseChange, PhaseKind, Reason};
 pub use solve::{SolveError, SolveReport};
-pub use start::passes_chi2;
 pub use window::{FitStats, NonlinearWindow, SubFrame};

@@ -12,7 +12,8 @@ use crate::time::Timestamp;
 impl NonlinearEstimator {
     /// The newest keyframe (and the frames since) as the pose at `t`, with its covariance.
     pub(super) fn pose_now(&self, t: Timestamp) -> Option<PoseEstimate> {
-        let w = self.window.as_ref()?;
+        let tracking = self.phase.tracking()?;
+        let w = &tracking.window;
         let x = w.newest()?;
         let partial = self.since_keyframe.as_ref()?;
         if partial.end != t {
@@ -20,7 +21,7 @@ impl NonlinearEstimator {
         }
         // A keyframe not solved yet: its predicted state is the one before it carried by the
         // IMU between them, and so is its covariance, with the IMU's noise over that interval.
-        if self.solve_due == Some(t) {
+        if tracking.solve_due == Some(t) {
             let n = w.keyframes.len();
             if let (Some(prev), Some(Some((between, _)))) = (
                 n.checked_sub(2).and_then(|i| w.keyframes.get(i)),
@@ -74,10 +75,10 @@ impl NonlinearEstimator {
 
     /// The newest pose propagated to the last IMU sample.
     pub(super) fn propagated(&self) -> Option<PoseEstimate> {
-        let w = self.window.as_ref()?;
+        let w = self.phase.window()?;
         let x = w.newest()?;
         let mut partial = self.since_keyframe.clone()?;
-        let run = self.pre.running();
+        let run = self.inputs.pre.running();
         if run.start != partial.end {
             return None;
         }

@@ -1,474 +1,276 @@
-//! The start from the linear solution, its χ² acceptance, and the loss test (module doc of
-//! [`super::estimator`]).
+//! A start (module doc of [`super::estimator`], step 2), from the rest, from nothing (airborne),
+//! or after a loss or a hole: the state it owns, how it begins, its keyframes, and its
+//! acceptance into tracking. The proposals it tries are in `proposal`.
 
-use std::collections::HashMap;
+use std::collections::VecDeque;
 
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, Vector3};
 
-use super::aps::triangulate_within_bounds;
+use super::config::NonlinearConfig;
 use super::estimator::NonlinearEstimator;
-use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
-use super::triangulate::Sight;
-use super::window::{FitStats, NonlinearWindow};
-use crate::chi2::chi2_upper;
-use crate::fusion::proposal::FrameEstimate;
-use crate::imu::STANDARD_GRAVITY_M_S2;
+use super::holes::HoleFix;
+use super::phase::{Phase, PhaseKind, Reason, Tracking};
+use super::state::{NavState, pose_at};
+use super::window::{NonlinearWindow, SubFrame};
+use crate::fusion::proposal::{StartPrior, StartSolver};
+use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
+use crate::so3::heading;
 use crate::time::Timestamp;
 
-/// 1σ of the gauge: the first keyframe's position, m …
-const GAUGE_POSITION_SIGMA_M: f64 = 1e-3;
-/// … and its yaw, rad.
-const GAUGE_YAW_SIGMA_RAD: f64 = 1e-3;
-/// 1σ of the start's roll and pitch from the linear solution's gravity, rad (loose: the IMU
-/// factors level the window).
-const LINEAR_TILT_SIGMA_RAD: f64 = 0.05;
-/// 1σ of the rest's mean specific force, m/s² (beyond its white noise: vibration, the bias's
-/// wander, a not quite still body).
-const REST_FORCE_SIGMA_M_S2: f64 = 2e-3;
-/// 1σ floor of the gyro bias after a static initialization, rad/s.
-const REST_GYRO_BIAS_SIGMA_RAD_S: f64 = 2e-4;
-/// 1σ of the roll and pitch carried across a hole, rad.
-const HOLE_TILT_SIGMA_RAD: f64 = 0.05;
-/// 1σ of the velocity carried across a hole, once corrected, m/s.
-const HOLE_VELOCITY_SIGMA_M_S: f64 = 0.5;
-/// A start whose APs come closer than this to a keyframe is refused, m (a collapsed AP fits its
-/// bearings trivially).
-const MIN_AP_RANGE_M: f64 = 0.3;
+/// A keyframe of the start window (its state comes from a proposal).
+#[derive(Clone, Debug)]
+pub(super) struct StartKeyframe {
+    pub(super) t: Timestamp,
+    pub(super) from_prev: Option<Preintegrated>,
+    pub(super) frames: Vec<SubFrame>,
+    /// The state the IMU alone gives here, from the start's reference state.
+    pub(super) dead_reckoned: Option<NavState>,
+}
 
-/// 1σ of a dead-reckoned state's roll/pitch (rad) and velocity (m/s), `elapsed_s` after the
-/// state it left from: a rest (at zero velocity; its tilt is left to the rest's specific force,
-/// [`RestForce`], which ties it to the accelerometer bias) or a lost window's last good state;
-/// then what the IMU adds (a tilt error of a few mrad integrates to ~0.03 m/s per second).
-fn dead_reckoned_sigmas(from_rest: bool, elapsed_s: f64) -> (f64, f64) {
-    if from_rest {
-        (LINEAR_TILT_SIGMA_RAD, 0.01 + 0.03 * elapsed_s)
-    } else {
-        (0.01 + 1e-3 * elapsed_s, 0.1 + 0.03 * elapsed_s)
+/// A start's own state.
+#[derive(Clone, Debug)]
+pub(super) struct Start {
+    /// When it began (the motion, or the restart).
+    pub(super) since: Timestamp,
+    /// The start solver, fed the same inputs, for a proposal when no state is known.
+    pub(super) solver: Box<dyn StartSolver>,
+    pub(super) keyframes: VecDeque<StartKeyframe>,
+    /// The known state the start leaves from (the end of a rest, or a lost window's last good
+    /// state), in the window's frame; `None` when there is none or it is too old.
+    pub(super) reference: Option<NavState>,
+    /// Whether `reference` is the end of the rest (its accelerometer bias then is the rest's).
+    pub(super) reference_is_rest: bool,
+    /// The IMU's dead reckoning from `reference` to the newest frame.
+    pub(super) dead_reckoned: Option<NavState>,
+    /// When a window was last tried.
+    pub(super) last_try: Option<Timestamp>,
+    /// What a window lost to a hole left to place the new one by (`holes`).
+    pub(super) hole: Option<HoleFix>,
+}
+
+impl Start {
+    /// Carries the dead reckoning to `t` over `interval`; past
+    /// [`NonlinearConfig::inertial_start_max_s`] from the reference it is dropped (the start
+    /// solver's proposal remains).
+    pub(super) fn dead_reckon(
+        &mut self,
+        t: Timestamp,
+        interval: &Preintegrated,
+        config: &NonlinearConfig,
+    ) {
+        let Some(x) = self.dead_reckoned else {
+            return;
+        };
+        if self
+            .reference
+            .is_none_or(|r| t.secs_since(r.t) > config.inertial_start_max_s)
+        {
+            self.reference = None;
+            self.dead_reckoned = None;
+            return;
+        }
+        let p = pose_at(&x, interval, STANDARD_GRAVITY_M_S2);
+        self.dead_reckoned = Some(NavState {
+            t,
+            world_from_body: p.world_from_body,
+            p_b_in_w: p.p_b_in_w,
+            v_b_in_w: p.v_b_in_w,
+            ..x
+        });
+    }
+
+    /// Appends a keyframe, dropping those older than `max_window_s`.
+    pub(super) fn push_keyframe(&mut self, k: StartKeyframe, max_window_s: f64) {
+        let t = k.t;
+        self.keyframes.push_back(k);
+        while self
+            .keyframes
+            .front()
+            .is_some_and(|k| t.secs_since(k.t) > max_window_s)
+        {
+            self.keyframes.pop_front();
+            if let Some(f) = self.keyframes.front_mut() {
+                f.from_prev = None;
+            }
+        }
     }
 }
 
-/// A starting point for the nonlinear window over the start keyframes from `first` on.
-struct Proposal {
-    first: usize,
-    states: Vec<NavState>,
-    /// The APs, `None` where not placed yet.
-    aps: Vec<Option<Vector3<f64>>>,
-    /// Priors on APs, in their information (what a window lost to a hole knew of them: range
-    /// and height from the carried position), with the horizontal σ the relocation found them
-    /// with ([`super::relocate`]).
-    ap_priors: Vec<(usize, Matrix3<f64>, f64)>,
-    /// σ of the first state's roll and pitch, rad.
-    tilt_sigma_rad: f64,
-    /// σ of the first state's velocity, m/s (infinite: unknown).
-    velocity_sigma_m_s: f64,
-    /// The rest the states leave from, when they do.
-    rest: Option<RestForce>,
-}
-
-/// What a rest measured, seen from the first start keyframe: the mean specific force
-/// `f = R_restᵀ g_w + b_a` (its attitude and the accelerometer bias along gravity together; the
-/// bias across gravity and the tilt are one unknown), and the body's turn since.
-#[derive(Clone, Copy, Debug)]
-struct RestForce {
-    /// `R_restᵀ R_k0`: the first keyframe's body axes in the rest's body.
-    rest_from_body: Matrix3<f64>,
-    /// Its duration, s.
-    duration_s: f64,
-}
-
-/// Whether residual statistics pass the χ² test at significance `alpha`: the whole cost (IMU,
-/// the AoA factors' robust cost, barometer, range anchors, zero-velocity holds) against χ² with
-/// as many degrees of freedom as measurements beyond the IMU chain's own (the IMU factors alone
-/// are met exactly by any trajectory: each adds as many residuals as states), less the border's
-/// `border_dim` unknowns. The zero-velocity holds add no degrees of freedom either: their σ is a
-/// tolerance, not a noise, and their near-zero residuals would let a wrong window pass.
-pub fn passes_chi2(fit: &FitStats, border_dim: usize, alpha: f64) -> bool {
-    let dof = (fit.bearings + fit.baro + fit.anchors).saturating_sub(border_dim);
-    let cost = fit.imu_chi2
-        + fit.bearing_robust
-        + fit.baro_chi2
-        + fit.anchor_chi2
-        + fit.zero_velocity_chi2;
-    dof == 0 || cost <= chi2_upper(dof as f64, alpha)
-}
-
 impl NonlinearEstimator {
-    /// Tries the start when it is time (module doc, step 3).
+    /// A start at `t` from `from` (the state to restart from, in the output frame), or else the
+    /// static initialization, carried by the IMU of the rest's last frames `rest_intervals`.
+    /// Leaving from `from` places the output frame there and takes its biases.
+    pub(super) fn new_start(
+        &mut self,
+        t: Timestamp,
+        from: Option<NavState>,
+        rest_intervals: VecDeque<Preintegrated>,
+    ) -> Start {
+        self.since_keyframe = None;
+        let g = STANDARD_GRAVITY_M_S2;
+        let prior = match (from, self.static_init) {
+            (Some(x), _) => Some(StartPrior {
+                gravity_in_b0: x.world_from_body.inverse() * Vector3::new(0.0, 0.0, g),
+                gravity_sigma_m_s2: 0.2,
+                velocity_in_b0: x.world_from_body.inverse() * x.v_b_in_w,
+                velocity_sigma_m_s: 0.5,
+                gyro_bias_rad_s: x.gyro_bias_rad_s,
+            }),
+            (None, Some(init)) => Some(StartPrior {
+                gravity_in_b0: init.specific_force_m_s2.normalize() * g,
+                gravity_sigma_m_s2: 0.2,
+                velocity_in_b0: Vector3::zeros(),
+                velocity_sigma_m_s: 0.3,
+                gyro_bias_rad_s: init.gyro_bias_rad_s,
+            }),
+            (None, None) => None,
+        };
+        let reference = match (from, self.static_init) {
+            (Some(x), _) => {
+                // In the new window's frame: level, placed at x, heading removed (module doc).
+                let h = heading(&x.world_from_body).inverse();
+                Some(NavState {
+                    t,
+                    world_from_body: h * x.world_from_body,
+                    p_b_in_w: Vector3::zeros(),
+                    v_b_in_w: h * x.v_b_in_w,
+                    ..x
+                })
+            }
+            (None, Some(init)) => Some(NavState {
+                t: init.rest_end,
+                world_from_body: init.world_from_body,
+                p_b_in_w: Vector3::zeros(),
+                v_b_in_w: Vector3::zeros(),
+                gyro_bias_rad_s: init.gyro_bias_rad_s,
+                accel_bias_m_s2: init.accel_bias_m_s2,
+            }),
+            (None, None) => None,
+        };
+        let reference_is_rest = from.is_none() && reference.is_some();
+        let mut start = Start {
+            since: t,
+            solver: self.start_solver.make(prior),
+            keyframes: VecDeque::new(),
+            reference,
+            reference_is_rest,
+            dead_reckoned: reference,
+            last_try: None,
+            hole: None,
+        };
+        if reference_is_rest {
+            // From the rest's end through the frames the detector needed to see the motion.
+            for i in rest_intervals {
+                if start.reference.is_some_and(|r| i.start >= r.t) {
+                    start.dead_reckon(i.end, &i, &self.config);
+                }
+            }
+        }
+        if let Some(x) = from {
+            self.inputs.pre.set_bias(x.biases());
+            // The new window's level `b0` frame is placed at this state (module doc).
+            self.anchor =
+                Isometry3::from_parts(Translation3::from(x.p_b_in_w), heading(&x.world_from_body));
+        }
+        start
+    }
+
+    /// A gap in the IMU stream during a start: the start begins again at `t` from nothing (the
+    /// state it left from is too old to carry), keeping what a hole before it left.
+    pub(super) fn restart_start(&mut self, t: Timestamp) {
+        let kind = self.phase.kind();
+        let hole = self.phase.start_mut().and_then(|s| s.hole.take());
+        let mut start = self.new_start(t, None, VecDeque::new());
+        start.reference = None;
+        start.reference_is_rest = false;
+        start.dead_reckoned = None;
+        start.solver = self.start_solver.make(None);
+        start.hole = hole;
+        let phase = match kind {
+            PhaseKind::Recovering => Phase::Recovering(Box::new(start)),
+            _ => Phase::Starting(Box::new(start)),
+        };
+        self.enter(phase, Some(t), Reason::ImuGapWhileStarting);
+    }
+
+    /// Tries the start when it is time (module doc of [`super::estimator`], step 2); an
+    /// accepted window starts tracking.
     pub(super) fn maybe_start(&mut self, t: Timestamp) {
-        let Some(since) = self.moving_since else {
+        let Some(start) = self.phase.start() else {
             return;
         };
-        if t.secs_since(since) < self.config.start_after_motion_s
-            || self
+        if t.secs_since(start.since) < self.config.start_after_motion_s
+            || start
                 .last_try
                 .is_some_and(|l| t.secs_since(l) < self.config.start_retry_s)
         {
             return;
         }
-        self.last_try = Some(t);
-        let started = self.start_window().and_then(|w| {
-            let placement = self.placement(&w);
+        let started = self.start_window(start).and_then(|w| {
+            let Some(hole) = &start.hole else {
+                return Some((w, None));
+            };
+            let placement = self.placement(hole, &w);
             // After a hole, a window whose APs disagree with the lost window's is a wrong one.
             if !placement.is_none_or(|p| p.agrees) {
                 return None;
             }
             // After a hole, the lost window's APs also anchor the new window's ranges
-            // ([`super::anchor`]).
-            Some(match self.anchored(&w) {
+            // (`anchor`).
+            Some(match self.anchored(hole, &w) {
                 Some(a) => (a.window, Some(a.placement)),
                 None => (w, placement),
             })
         });
-        match started {
-            Some((w, placement)) => {
-                self.window = Some(w);
-                self.place_by_aps(placement);
-                self.trim_window();
-                self.last_good = self.window.as_ref().and_then(|w| w.newest().copied());
-                self.linear = None;
-                self.start.clear();
-                self.epoch += 1;
-                self.converged_at.get_or_insert(t);
-            }
-            None => self.stats.rejected_convergences += 1,
+        let Some(start) = self.phase.start_mut() else {
+            return;
+        };
+        start.last_try = Some(t);
+        let Some((window, placement)) = started else {
+            self.record.stats.rejected_convergences += 1;
+            return;
+        };
+        let hole = start.hole.take();
+        let tracking = Tracking {
+            window,
+            failing_since: None,
+            last_good: None,
+            late_sights: Vec::new(),
+            solve_due: None,
+        };
+        self.enter(
+            Phase::Tracking(Box::new(tracking)),
+            Some(t),
+            Reason::Accepted,
+        );
+        if let Some(hole) = hole {
+            self.place_by_aps(hole, placement);
         }
+        self.trim_window();
+        if let Some(tr) = self.phase.tracking_mut() {
+            tr.last_good = tr.window.newest().copied();
+        }
+        self.record.epoch += 1;
+        self.record.converged_at.get_or_insert(t);
     }
 
     /// The nonlinear window over the start, initialized from a proposal (the inertial one when
-    /// the start has a known state to leave from, else the linear window's) and iterated; `None`
+    /// the start has a known state to leave from, else the start solver's) and iterated; `None`
     /// when it is not accepted.
-    fn start_window(&self) -> Option<NonlinearWindow> {
-        if self.ap_fix.is_some() {
+    fn start_window(&self, start: &Start) -> Option<NonlinearWindow> {
+        if start.hole.is_some() {
             // After a hole the carried state is a guess: each proposal gets its chance.
-            return (self.propose_inertial().and_then(|p| self.refine(p)))
-                .or_else(|| self.propose_linear().and_then(|p| self.refine(p)));
+            return (self
+                .propose_inertial(start)
+                .and_then(|p| self.refine(start, p)))
+            .or_else(|| {
+                self.propose_linear(start)
+                    .and_then(|p| self.refine(start, p))
+            });
         }
-        let proposal = self.propose_inertial().or_else(|| self.propose_linear())?;
-        self.refine(proposal)
-    }
-
-    /// The inertial proposal: every start keyframe's dead-reckoned state, and every AP
-    /// triangulated against those poses ([`super::triangulate`]). After a hole the dead
-    /// reckoning is first corrected by the AP the lost window had placed
-    /// ([`super::relocate`]).
-    fn propose_inertial(&self) -> Option<Proposal> {
-        let reference = self.reference.as_ref()?;
-        let mut states: Vec<NavState> = self
-            .start
-            .iter()
-            .map(|k| k.dead_reckoned)
-            .collect::<Option<_>>()?;
-        let after_hole = self.ap_fix.is_some();
-        let mut relocated = None;
-        let mut ap_priors = Vec::new();
-        if after_hole {
-            let (l, found, ap) = self.relocate_after_hole(&states)?;
-            for x in &mut states {
-                let t = x.t.secs_since(reference.t);
-                x.p_b_in_w += found.dp(t);
-                x.v_b_in_w += found.dvel(t);
-            }
-            relocated = Some((l, found, ap));
-        }
-        let mut aps = self.triangulate_along(&states);
-        if let Some((l, found, ap)) = relocated {
-            let range = states
-                .iter()
-                .map(|x| (found.c - x.p_b_in_w).norm())
-                .fold(f64::INFINITY, f64::min);
-            if self.config.ap_sigma_ok(found.ap_sigma_m, range) {
-                if aps.len() <= l {
-                    aps.resize(l + 1, None);
-                }
-                aps[l] = Some(found.c);
-                ap_priors.push((l, ap.information(&found.c), found.ap_sigma_m));
-            }
-        }
-        if aps.iter().all(Option::is_none) {
-            return None;
-        }
-        let elapsed = states.first()?.t.secs_since(reference.t).max(0.0);
-        let x0_rotation = states.first()?.world_from_body;
-        let (tilt_sigma_rad, velocity_sigma_m_s) = match after_hole {
-            true => (HOLE_TILT_SIGMA_RAD, HOLE_VELOCITY_SIGMA_M_S),
-            false => dead_reckoned_sigmas(self.reference_is_rest, elapsed),
-        };
-        Some(Proposal {
-            first: 0,
-            states,
-            aps,
-            ap_priors,
-            tilt_sigma_rad,
-            velocity_sigma_m_s,
-            rest: self
-                .static_init
-                .filter(|_| self.reference_is_rest)
-                .map(|s| RestForce {
-                    rest_from_body: (reference.world_from_body.inverse() * x0_rotation)
-                        .to_rotation_matrix()
-                        .into_inner(),
-                    duration_s: s.duration_s,
-                }),
-        })
-    }
-
-    /// Every AP triangulated against the start keyframes at `states`, `None` where its sights
-    /// do not place it well enough (it waits as a placeholder).
-    fn triangulate_along(&self, states: &[NavState]) -> Vec<Option<Vector3<f64>>> {
-        self.sights_along(states)
-            .iter()
-            .map(|s| {
-                let sights: Vec<Sight> = s.iter().map(|(_, sight)| *sight).collect();
-                triangulate_within_bounds(&sights, &self.config).map(|t| t.c_in_w)
-            })
-            .collect()
-    }
-
-    /// Every bearing of the start seen from the start keyframes at `states`, per AP, with the
-    /// time of its frame.
-    pub(super) fn sights_along(&self, states: &[NavState]) -> Vec<Vec<(Timestamp, Sight)>> {
-        let g = STANDARD_GRAVITY_M_S2;
-        let body_from_array = self.sensors.body_from_array;
-        let mut sights: Vec<Vec<(Timestamp, Sight)>> = Vec::new();
-        for (k, x) in self.start.iter().zip(states) {
-            for f in &k.frames {
-                if f.bearings.is_empty() {
-                    continue;
-                }
-                let pose = pose_at(x, &f.partial, g);
-                for b in &f.bearings {
-                    if sights.len() <= b.ap {
-                        sights.resize(b.ap + 1, Vec::new());
-                    }
-                    sights[b.ap].push((f.partial.end, Sight::of(&pose, &body_from_array, b)));
-                }
-            }
-        }
-        sights
-    }
-
-    /// The linear proposal: the linear window's frames, levelled (its mean gravity to −z).
-    fn propose_linear(&self) -> Option<Proposal> {
-        let linear = self.linear.as_ref()?.proposal()?;
-        let frames: HashMap<i64, FrameEstimate> =
-            linear.frames.iter().map(|f| (f.t.0, *f)).collect();
-        // Level: the mean upward gravity in b0 to +z (summed in the frames' order: the result
-        // must not depend on a hash order).
-        let up: Vector3<f64> = linear
-            .frames
-            .iter()
-            .map(|f| f.b0_from_bk * f.g_in_bk)
-            .sum::<Vector3<f64>>();
-        let n = frames.len().max(1) as f64;
-        let g_norm = up.norm() / n;
-        if !(0.8 * STANDARD_GRAVITY_M_S2..1.2 * STANDARD_GRAVITY_M_S2).contains(&g_norm) {
-            return None;
-        }
-        let w_from_b0 = UnitQuaternion::rotation_between(&up, &Vector3::z())?;
-        let bg = linear.gyro_bias_rad_s;
-        let ba = linear.accel_bias_m_s2;
-        // The longest run of start keyframes the linear window still has.
-        let first = self
-            .start
-            .iter()
-            .rposition(|k| !frames.contains_key(&k.t.0))
-            .map_or(0, |i| i + 1);
-        let states = self
-            .start
-            .iter()
-            .skip(first)
-            .map(|k| {
-                let f = frames.get(&k.t.0)?;
-                let r = w_from_b0 * f.b0_from_bk;
-                Some(NavState {
-                    t: f.t,
-                    world_from_body: r,
-                    p_b_in_w: w_from_b0 * f.p_in_b0,
-                    v_b_in_w: r * f.v_in_bk,
-                    gyro_bias_rad_s: bg,
-                    accel_bias_m_s2: ba,
-                })
-            })
-            .collect::<Option<Vec<_>>>()?;
-        let aps = linear
-            .aps_in_b0
-            .iter()
-            .map(|c| c.map(|c| w_from_b0 * c))
-            .collect();
-        Some(Proposal {
-            first,
-            states,
-            aps,
-            ap_priors: Vec::new(),
-            tilt_sigma_rad: LINEAR_TILT_SIGMA_RAD,
-            velocity_sigma_m_s: f64::INFINITY,
-            rest: None,
-        })
-    }
-
-    /// The nonlinear window over a proposal, iterated; `None` when it is not accepted.
-    fn refine(&self, proposal: Proposal) -> Option<NonlinearWindow> {
-        let Proposal {
-            first,
-            states,
-            aps,
-            ap_priors,
-            tilt_sigma_rad,
-            velocity_sigma_m_s,
-            rest,
-        } = proposal;
-        let keys: Vec<_> = self.start.iter().skip(first).collect();
-        let (k0, x0) = (keys.first()?, *states.first()?);
-        let g = STANDARD_GRAVITY_M_S2;
-        let baro = self.has_baro.then(|| {
-            let d: Vec<f64> = keys
-                .iter()
-                .zip(&states)
-                .flat_map(|(k, x)| {
-                    k.frames.iter().filter_map(|f| {
-                        f.altitude_m
-                            .map(|h| h - pose_at(x, &f.partial, g).p_b_in_w.z)
-                    })
-                })
-                .collect();
-            if d.is_empty() {
-                0.0
-            } else {
-                d.iter().sum::<f64>() / d.len() as f64
-            }
-        });
-        let mut w = NonlinearWindow::new(
-            self.config.clone(),
-            g,
-            self.sensors.imu_noise.clone(),
-            self.sensors.body_from_array,
-            x0,
-            k0.frames.clone(),
-            &self.start_prior(&x0, tilt_sigma_rad, velocity_sigma_m_s, rest.as_ref()),
-            aps,
-            baro,
-            (self.config.sin_bias_sigma > 0.0).then_some((0.0, self.config.sin_bias_sigma)),
-        );
-        for (l, info, _) in &ap_priors {
-            if let Some(c) = w.ap(*l) {
-                w.place_ap(*l, c, info);
-            }
-        }
-        for (k, x) in keys.iter().zip(&states).skip(1) {
-            w.push_keyframe(*x, k.from_prev.clone()?, k.frames.clone())?;
-        }
-        w.optimize(self.config.iterations_at_start).ok()?;
-        let fit = w.fit();
-        let ap_ok = (0..w.aps().len()).filter(|&l| w.is_placed(l)).all(|l| {
-            let range = w.ap_nearest_range_m(l).unwrap_or(f64::INFINITY);
-            // An AP the relocation placed (after a hole) is judged by the relocation's σ, whose
-            // velocity and tilt corrections hold the heading the window's own start lacks for
-            // seconds; the window's χ² still has to pass.
-            let relocated_sigma = ap_priors.iter().find(|p| p.0 == l).map(|p| p.2);
-            relocated_sigma
-                .or(w.ap_horizontal_sigma_m(l))
-                .is_some_and(|s| self.config.ap_sigma_ok(s, range))
-                && range > MIN_AP_RANGE_M
-        });
-        (ap_ok && passes_chi2(&fit, w.border_dim(), self.config.chi2_significance)).then_some(w)
-    }
-
-    /// The prior on the start's first keyframe: the gauge (position, yaw), the roll and pitch
-    /// (σ `tilt_sigma_rad`), the velocity (σ `velocity_sigma_m_s`; at most 100 m/s), the biases'
-    /// spreads (the gyro's from the rest when there was one), and the rest's specific force when
-    /// `x0` leaves from a rest: `r = ΔR R̂ᵀ g_w + b_a − f`, with
-    /// `∂r/∂δθ = ΔR [R̂ᵀ g_w]×` and `∂r/∂δb_a = I` (zero at `x0`, which was levelled on it).
-    fn start_prior(
-        &self,
-        x0: &NavState,
-        tilt_sigma_rad: f64,
-        velocity_sigma_m_s: f64,
-        rest: Option<&RestForce>,
-    ) -> Mat15 {
-        let mut h = Mat15::zeros();
-        let r: Matrix3<f64> = x0.world_from_body.to_rotation_matrix().into_inner();
-        // δθ is body-side: a world-frame tilt/yaw information Λ_w becomes Rᵀ Λ_w R.
-        let lw = Matrix3::from_diagonal(&Vector3::new(
-            tilt_sigma_rad.powi(-2),
-            tilt_sigma_rad.powi(-2),
-            GAUGE_YAW_SIGMA_RAD.powi(-2),
-        ));
-        h.fixed_view_mut::<3, 3>(THETA, THETA)
-            .copy_from(&(r.transpose() * lw * r));
-        let noise = &self.sensors.imu_noise;
-        let gyro_sigma = match self.static_init {
-            Some(s) => (3.0 * noise.gyro_noise_density_rad_s_sqrt_hz
-                / s.duration_s.max(0.1).sqrt())
-            .max(REST_GYRO_BIAS_SIGMA_RAD_S),
-            None => noise.gyro_turn_on_bias_rad_s.max(1e-4),
-        };
-        for i in 0..3 {
-            h[(POS + i, POS + i)] = GAUGE_POSITION_SIGMA_M.powi(-2);
-            h[(VEL + i, VEL + i)] = velocity_sigma_m_s.max(1e-3).powi(-2).max(1e-4);
-            h[(BG + i, BG + i)] = gyro_sigma.powi(-2);
-        }
-        let ba_info = Matrix3::identity() * noise.accel_turn_on_bias_m_s2.max(1e-3).powi(-2);
-        h.fixed_view_mut::<3, 3>(BA, BA).copy_from(&ba_info);
-        if let Some(rest) = rest {
-            let white = noise.accel_noise_density_m_s2_sqrt_hz / rest.duration_s.max(0.1).sqrt();
-            let info = (white.powi(2) + REST_FORCE_SIGMA_M_S2.powi(2)).recip();
-            let g_in_b = r.transpose() * Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2);
-            let mut j = nalgebra::SMatrix::<f64, 3, 15>::zeros();
-            j.fixed_view_mut::<3, 3>(0, THETA)
-                .copy_from(&(rest.rest_from_body * g_in_b.cross_matrix()));
-            j.fixed_view_mut::<3, 3>(0, BA)
-                .copy_from(&Matrix3::identity());
-            h += j.transpose() * j * info;
-        }
-        h
-    }
-
-    /// The loss test after a keyframe's solve (module doc, step 4).
-    pub(super) fn check_health(&mut self, t: Timestamp) {
-        let Some(w) = &self.window else {
-            return;
-        };
-        if passes_chi2(&w.fit(), w.border_dim(), self.config.chi2_significance) {
-            self.failing_since = None;
-            self.last_good = w.newest().copied();
-            return;
-        }
-        let since = *self.failing_since.get_or_insert(t);
-        if t.secs_since(since) >= self.config.loss_window_s {
-            self.lose(t);
-        }
-    }
-
-    /// The estimate is lost: start over from the last good keyframe, propagated to now.
-    pub(super) fn lose(&mut self, t: Timestamp) {
-        self.stats.restarts += 1;
-        let from = self.window.as_ref().and_then(|w| {
-            let good = self.last_good?;
-            let mut x = good;
-            let mut after = false;
-            for kf in &w.keyframes {
-                if after && let Some((pre, _)) = &kf.from_prev {
-                    let p = pose_at(&x, pre, STANDARD_GRAVITY_M_S2);
-                    x = NavState {
-                        t: kf.x.t,
-                        world_from_body: p.world_from_body,
-                        p_b_in_w: p.p_b_in_w,
-                        v_b_in_w: p.v_b_in_w,
-                        ..x
-                    };
-                }
-                after |= kf.x.t == good.t;
-            }
-            // Into the output frame.
-            let a = self.anchor;
-            Some(NavState {
-                world_from_body: a.rotation * x.world_from_body,
-                p_b_in_w: a.transform_point(&x.p_b_in_w.into()).coords,
-                v_b_in_w: a.rotation * x.v_b_in_w,
-                ..x
-            })
-        });
-        self.epoch += 1;
-        self.begin_start(t, from);
+        let proposal = self
+            .propose_inertial(start)
+            .or_else(|| self.propose_linear(start))?;
+        self.refine(start, proposal)
     }
 }

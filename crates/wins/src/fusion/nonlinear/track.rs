@@ -1,7 +1,11 @@
-//! Tracking (module doc of [`super::estimator`], step 4): a frame while the nonlinear window
-//! runs, and the solve of a keyframe after its pose has gone out.
+//! Tracking (module doc of [`super::estimator`], step 3): a frame while the nonlinear window
+//! runs, the solve of a keyframe after its pose has gone out, and the loss test.
+
+use std::collections::VecDeque;
 
 use super::estimator::NonlinearEstimator;
+use super::fit::passes_chi2;
+use super::phase::{Phase, Reason};
 use super::state::{NavState, pose_at};
 use super::window::SubFrame;
 use crate::fusion::pose::PoseEstimate;
@@ -17,7 +21,7 @@ impl NonlinearEstimator {
         from_prev: Option<Preintegrated>,
         sub: SubFrame,
     ) -> Option<PoseEstimate> {
-        let window = self.window.as_mut()?;
+        let window = &mut self.phase.tracking_mut()?.window;
         if !is_keyframe {
             window.push_frame(sub);
             return self.pose_now(t);
@@ -36,7 +40,7 @@ impl NonlinearEstimator {
             ..newest
         };
         if window.push_keyframe(x, from_prev, vec![sub]).is_none() {
-            self.stats.frames_refused += 1;
+            self.record.stats.frames_refused += 1;
             return self.pose_now(t);
         }
         // On the ground: held at zero velocity ([`super::zero_velocity`]).
@@ -46,11 +50,13 @@ impl NonlinearEstimator {
             && x.v_b_in_w.norm() <= c.zero_velocity_max_speed_m_s
         {
             window.hold_newest_still();
-            self.stats.still_keyframes += 1;
+            self.record.stats.still_keyframes += 1;
         }
         // The pose goes out predicted by the IMU, as between keyframes; the solve follows
         // ([`Self::solve_pending`]).
-        self.solve_due = Some(t);
+        if let Some(tr) = self.phase.tracking_mut() {
+            tr.solve_due = Some(t);
+        }
         self.pose_now(t)
     }
 
@@ -60,21 +66,75 @@ impl NonlinearEstimator {
     /// caller sending poses can send it first and solve after (`wins live`); otherwise the next
     /// input runs it, before anything else: the estimate is the same either way.
     pub fn solve_pending(&mut self) {
-        let Some(t) = self.solve_due.take() else {
+        let Some(tracking) = self.phase.tracking_mut() else {
             return;
         };
-        let Some(window) = self.window.as_mut() else {
+        let Some(t) = tracking.solve_due.take() else {
             return;
         };
-        let solved = window.optimize(self.config.iterations);
+        let solved = tracking.window.optimize(self.config.iterations);
         self.trim_window();
         self.place_late_aps();
         match solved {
             Ok(_) => self.check_health(t),
             Err(_) => {
-                self.stats.solve_failures += 1;
-                self.lose(t);
+                self.record.stats.solve_failures += 1;
+                self.lose(t, Reason::SolveFailed);
             }
         }
+    }
+
+    /// The loss test after a keyframe's solve (module doc of [`super::estimator`], step 3).
+    pub(super) fn check_health(&mut self, t: Timestamp) {
+        let alpha = self.config.chi2_significance;
+        let Some(tr) = self.phase.tracking_mut() else {
+            return;
+        };
+        let w = &tr.window;
+        if passes_chi2(&w.fit(), w.border_dim(), alpha) {
+            tr.failing_since = None;
+            tr.last_good = w.newest().copied();
+            return;
+        }
+        let since = *tr.failing_since.get_or_insert(t);
+        if t.secs_since(since) >= self.config.loss_window_s {
+            self.lose(t, Reason::ResidualsFailed);
+        }
+    }
+
+    /// The estimate is lost (for `reason`): start over from the last good keyframe, propagated
+    /// to now.
+    pub(super) fn lose(&mut self, t: Timestamp, reason: Reason) {
+        self.record.stats.restarts += 1;
+        let from = self.phase.tracking().and_then(|tr| {
+            let w = &tr.window;
+            let good = tr.last_good?;
+            let mut x = good;
+            let mut after = false;
+            for kf in &w.keyframes {
+                if after && let Some((pre, _)) = &kf.from_prev {
+                    let p = pose_at(&x, pre, STANDARD_GRAVITY_M_S2);
+                    x = NavState {
+                        t: kf.x.t,
+                        world_from_body: p.world_from_body,
+                        p_b_in_w: p.p_b_in_w,
+                        v_b_in_w: p.v_b_in_w,
+                        ..x
+                    };
+                }
+                after |= kf.x.t == good.t;
+            }
+            // Into the output frame.
+            let a = self.anchor;
+            Some(NavState {
+                world_from_body: a.rotation * x.world_from_body,
+                p_b_in_w: a.transform_point(&x.p_b_in_w.into()).coords,
+                v_b_in_w: a.rotation * x.v_b_in_w,
+                ..x
+            })
+        });
+        self.record.epoch += 1;
+        let start = self.new_start(t, from, VecDeque::new());
+        self.enter(Phase::Recovering(Box::new(start)), Some(t), reason);
     }
 }
