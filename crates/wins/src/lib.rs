@@ -84,6 +84,7 @@
 pub mod aoa;
 pub mod check;
 pub mod chi2;
+pub mod config;
 pub mod csi;
 pub mod dataset;
 pub mod eval;
@@ -98,17 +99,17 @@ pub mod so3;
 pub mod sweep;
 pub mod time;
 
-pub use pipeline::config::{Config, ConfigError};
+pub use config::{Config, ConfigError};
 pub use pipeline::replay::RunOutput;
 pub use pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_into, run_dataset_with};
 pub use pipeline::{Pipeline, PipelineError};
 
 /// The names most programs need: `use wins::prelude::*;`.
 pub mod prelude {
+    pub use crate::config::Config;
     pub use crate::dataset::Dataset;
     pub use crate::eval::Metrics;
     pub use crate::pipeline::Pipeline;
-    pub use crate::pipeline::config::Config;
     pub use crate::pipeline::replay::RunOutput;
     pub use crate::pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_with};
     pub use crate::rig::Rig;

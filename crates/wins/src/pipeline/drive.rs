@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use super::coverage::CoverageCheck;
 use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
-use super::{ChainResolver, Config, PacketLog, Released};
+use super::{ChainResolver, PacketLog, Released};
+use crate::config::Config;
 use crate::dataset::checks::InputReport;
 use crate::fusion::estimator::PoseEstimate;
 use crate::rig::Rig;

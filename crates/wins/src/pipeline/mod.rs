@@ -20,12 +20,10 @@
 
 pub mod aoa_log;
 pub mod chains;
-pub mod config;
 pub mod coverage;
 pub mod drive;
 mod figure_data;
 pub mod figures;
-pub mod live_config;
 pub mod output;
 pub mod replay;
 pub mod run;
@@ -45,12 +43,13 @@ use std::time::Instant;
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-pub use self::chains::{ChainOffsetsConfig, ChainReport, ChainResolver, Finished, Released};
-pub use self::config::{Config, ConfigError, PipelineConfig};
+pub use self::chains::{ChainReport, ChainResolver, Finished, Released};
 use self::slot::{FrameSlot, PendingBearing, grid_time, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
 use self::track::{ArrayPose, Track, TrackGains, TrackState};
 use crate::aoa::{AoaError, AoaEstimator};
+pub use crate::config::{ChainOffsetsConfig, PipelineConfig};
+use crate::config::{Config, ConfigError};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::choice::{Estimator, EstimatorKind};

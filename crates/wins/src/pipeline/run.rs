@@ -3,13 +3,13 @@
 
 use std::path::Path;
 
-use super::Config;
 use super::chains::resolves;
 use super::drive::{Collected, RunSink};
 use super::replay::{replay_stream, rig_of_manifest};
 use super::run_output::{Evaluation, ReplayError, RunOutput};
 use super::scoring_truth::ScoringTruth;
 use super::spool::{ScoringSpool, Spool};
+use crate::config::Config;
 use crate::dataset::DatasetError;
 use crate::dataset::stream::DatasetStream;
 use crate::dataset::truth::{TRUTH_DIR, Truth};
@@ -34,7 +34,7 @@ pub struct RunOptions {
 pub enum RunError {
     /// The settings cannot be used (every problem listed).
     #[error(transparent)]
-    Config(#[from] super::ConfigError),
+    Config(#[from] crate::config::ConfigError),
     /// The dataset cannot be loaded.
     #[error("loading {path}: {source}")]
     Dataset {
