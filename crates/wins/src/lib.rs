@@ -94,15 +94,16 @@ pub mod io_safety;
 pub mod live;
 pub mod pipeline;
 pub mod rig;
+pub mod run;
 pub mod sim;
 pub mod so3;
 pub mod sweep;
 pub mod time;
 
 pub use config::{Config, ConfigError};
-pub use pipeline::replay::RunOutput;
-pub use pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_into, run_dataset_with};
 pub use pipeline::{Pipeline, PipelineError};
+pub use run::replay::RunOutput;
+pub use run::{RunError, RunOptions, run_dataset, run_dataset_into, run_dataset_with};
 
 /// The names most programs need: `use wins::prelude::*;`.
 pub mod prelude {
@@ -110,8 +111,8 @@ pub mod prelude {
     pub use crate::dataset::Dataset;
     pub use crate::eval::Metrics;
     pub use crate::pipeline::Pipeline;
-    pub use crate::pipeline::replay::RunOutput;
-    pub use crate::pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_with};
     pub use crate::rig::Rig;
+    pub use crate::run::replay::RunOutput;
+    pub use crate::run::{RunError, RunOptions, run_dataset, run_dataset_with};
     pub use crate::sim::{Scenario, simulate, write_dataset};
 }

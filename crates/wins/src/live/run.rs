@@ -38,9 +38,9 @@ use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
 use crate::dataset::truth::{write_tum_header, write_tum_pose};
 use crate::fusion::estimator::PoseEstimate;
-use crate::pipeline::output::pose_of;
-use crate::pipeline::replay::rig_of_manifest;
 use crate::rig::{ChainCalibration, Rig};
+use crate::run::output::pose_of;
+use crate::run::replay::rig_of_manifest;
 
 /// Capacity of the inputs' channel (about 10 s of a 200 Hz IMU and two 100 packet/s APs):
 /// beyond it the links wait, and the TCP stream backs up to the logger.

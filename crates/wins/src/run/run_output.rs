@@ -5,12 +5,12 @@
 use nalgebra::Vector3;
 
 use super::figure_data::RunFigures;
-use super::{ChainReport, PacketLog, PipelineError, PipelineStats, StageTiming};
 use crate::dataset::DatasetError;
 use crate::dataset::checks::InputReport;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalOptions, Metrics};
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
+use crate::pipeline::{ChainReport, PacketLog, PipelineError, PipelineStats, StageTiming};
 use crate::time::Timestamp;
 
 /// Why a dataset cannot be replayed.

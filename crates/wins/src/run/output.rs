@@ -6,7 +6,7 @@
 //! | `trajectory_all.tum` | the same from the first frame (before convergence `w` is not yet fixed) |
 //! | `covariance.csv` | the covariance reported with each pose of `trajectory.tum` ([`write_covariance`]) |
 //! | `aps.csv` | estimated AP positions in `w` (`crate::eval::aps` format) |
-//! | `aoa.csv` | one row per packet ([`super::PacketLog`]) |
+//! | `aoa.csv` | one row per packet ([`crate::pipeline::PacketLog`]) |
 //! | `stats.json` | packets used/dropped per AP and why, estimator counters, per-stage wall time |
 //! | `metrics.json`, `report.txt` | with a truth only: [`crate::eval::Metrics`] and its text |
 //!
@@ -21,7 +21,6 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::run_output::RunOutput;
-use super::{ChainReport, PacketStatus, PipelineStats, StageTiming};
 use crate::dataset::checks::InputReport;
 use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
 use crate::eval::{
@@ -29,6 +28,7 @@ use crate::eval::{
 };
 use crate::fusion::estimator::{PoseEstimate, WinsStats};
 use crate::io_safety::write_atomically;
+use crate::pipeline::{ChainReport, PacketStatus, PipelineStats, StageTiming};
 use crate::time::NANOS_PER_SEC;
 
 /// Converged trajectory file.
@@ -159,7 +159,7 @@ impl RunOutput {
 
     /// The run scored against `truth`: [`evaluate`] on the converged trajectory, plus the
     /// run-only fields (AoA median error, packets, real-time factor). A spooled run holds no
-    /// frames: [`super::run::run_dataset_into`] scores it from its files.
+    /// frames: [`super::run_dataset_into`] scores it from its files.
     pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
         let poses = self.converged_poses();
         let mut m = evaluate(

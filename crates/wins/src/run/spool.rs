@@ -18,11 +18,11 @@ use super::output::{
 };
 use super::spooled::SpoolFiles;
 pub use super::spooled::Spooled;
-use super::{PacketLog, PacketStatus};
 use crate::dataset::truth::{Pose, write_tum_header, write_tum_pose};
 use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
 use crate::eval::scan::TrajectoryScan;
 use crate::fusion::estimator::PoseEstimate;
+use crate::pipeline::{PacketLog, PacketStatus};
 
 /// Prefix of a spool file in the output folder.
 pub const SPOOL_PREFIX: &str = ".wins-spool-";
