@@ -4,7 +4,8 @@
 //!
 //! - [`replay`]: a dataset (in memory or read as it is consumed) pushed through a
 //!   [`crate::pipeline::ChainResolver`] by one loop ([`drive`]); [`RunOutput`] is what it gives;
-//! - [`output`], [`run_dir`]: the run folder's files and its manifest `run.json`;
+//! - [`output`], [`run_dir`]: the run folder's files and its manifest `run.json`; the one writer
+//!   of `trajectory.tum` is [`trajectory`] (`wins live` writes through it too);
 //! - [`spool`]: the per-frame and per-packet files written as they come, for a run whose memory
 //!   does not grow with the flight ([`run_dataset_into`]), and its scoring from those files;
 //! - [`figures`], [`coverage`]: the figures' data against a truth, and how much of the flight
@@ -22,6 +23,7 @@ mod score_spooled;
 pub(crate) mod scoring_truth;
 pub mod spool;
 pub mod spooled;
+pub mod trajectory;
 
 use std::path::Path;
 

@@ -21,8 +21,9 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::run_output::RunOutput;
+use super::trajectory::{TrajectoryWriter, pose_of};
 use crate::dataset::checks::InputReport;
-use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
+use crate::dataset::truth::{Pose, Truth, write_csv};
 use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
 };
@@ -83,15 +84,6 @@ pub struct RunStats<'a> {
     pub coverage: &'a super::coverage::Coverage,
     /// What limits the result, in words.
     pub warnings: &'a [String],
-}
-
-/// A frame's pose.
-pub(crate) fn pose_of(p: &PoseEstimate) -> Pose {
-    Pose {
-        t: p.t,
-        p_b_in_w: p.p_b_in_w,
-        world_from_body: p.world_from_body,
-    }
 }
 
 impl RunOutput {
@@ -221,13 +213,18 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
     };
     if spooled.is_empty() {
         put(TRAJECTORY_FILE, &mut |w| {
-            write_tum(w, &run.converged_poses())
+            let mut tum = TrajectoryWriter::new(w)?;
+            tum.frames(run.converged_frames())?;
+            tum.finish().map(drop)
         })?;
         put(COVARIANCE_FILE, &mut |w| {
             write_covariance(w, run.converged_frames())
         })?;
-        let all: Vec<Pose> = run.frames.iter().map(pose_of).collect();
-        put(TRAJECTORY_ALL_FILE, &mut |w| write_tum(w, &all))?;
+        put(TRAJECTORY_ALL_FILE, &mut |w| {
+            let mut tum = TrajectoryWriter::new(w)?;
+            tum.frames(&run.frames)?;
+            tum.finish().map(drop)
+        })?;
     }
     put(APS_FILE, &mut |w| {
         write_estimated_aps(w, &run.estimated_aps())
