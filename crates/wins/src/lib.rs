@@ -53,7 +53,13 @@
 //! MUSIC over AoA and ToF, SpotFi, the IMU-guided PAoA; [`aoa::steering`] is the one steering
 //! vector), [`eval`] (trajectory and AP errors, evo-compatible); [`fusion`] (the sliding-window
 //! estimator, an EKF baseline); [`sim`] (flights, IMU and multipath CSI written as datasets);
-//! [`pipeline`] (WINS end to end, its configuration and the front door).
+//! [`config`] (the settings tree: every stage's section under one [`Config`], loaded and checked
+//! at once); [`pipeline`] (WINS end to end as a push API: per-AP tracks, frames, the receive
+//! chains' offsets resolved in flight); [`run`] (batch runs: a dataset replayed through the
+//! pipeline and its run folder written, the front door [`run_dataset`], the one writer of
+//! `trajectory.tum`); [`live`] (`wins live`: the NIC and flight controller around the pipeline);
+//! [`sweep`] (many runs over scenarios and seeds). The settings tree, the pipeline, batch runs
+//! and live runs import one another only in that order.
 //!
 //! ## Conventions (stated once, used everywhere)
 //!
