@@ -9,8 +9,8 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
+use wins::config::DEFAULT_TOML;
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
-use wins::pipeline::config::DEFAULT_TOML;
 use wins::sim::{self, Scenario};
 
 mod aoa_cmd;

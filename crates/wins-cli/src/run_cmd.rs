@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use wins::io_safety::replace_atomically;
-use wins::pipeline::figures::RunFigures;
-use wins::pipeline::replay::Evaluation;
-use wins::pipeline::run_dir::{
+use wins::rig::ChainCalibration;
+use wins::run::figures::RunFigures;
+use wins::run::replay::Evaluation;
+use wins::run::run_dir::{
     AOA_PNG, POSITION_ERROR_PNG, RunDir, RunInputs, RunManifest, TRAJECTORY_PNG,
 };
-use wins::rig::ChainCalibration;
 use wins::sim::{self, Scenario};
 use wins::{Config, RunOptions, RunOutput, run_dataset_into};
 use wins_plot::{Marker, MarkerStyle, Series, SeriesStyle, VerticalLine, XyPlot, xy_plot_png};
@@ -231,7 +231,7 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
     Ok(())
 }
 
-/// The three figures of `wins::pipeline::figures`: trajectory from above, position error over
+/// The three figures of `wins::run::figures`: trajectory from above, position error over
 /// time, AoA per packet.
 fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
     let marker = |label, style| move |&(x, y): &(f64, f64)| Marker { x, y, label, style };

@@ -24,7 +24,7 @@ use divan::counter::ItemsCount;
 use divan::{Bencher, black_box};
 use wins::Config;
 use wins::dataset::Dataset;
-use wins::pipeline::replay::{replay, rig_of};
+use wins::run::replay::{replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
 fn main() {

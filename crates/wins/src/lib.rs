@@ -53,7 +53,13 @@
 //! MUSIC over AoA and ToF, SpotFi, the IMU-guided PAoA; [`aoa::steering`] is the one steering
 //! vector), [`eval`] (trajectory and AP errors, evo-compatible); [`fusion`] (the sliding-window
 //! estimator, an EKF baseline); [`sim`] (flights, IMU and multipath CSI written as datasets);
-//! [`pipeline`] (WINS end to end, its configuration and the front door).
+//! [`config`] (the settings tree: every stage's section under one [`Config`], loaded and checked
+//! at once); [`pipeline`] (WINS end to end as a push API: per-AP tracks, frames, the receive
+//! chains' offsets resolved in flight); [`run`] (batch runs: a dataset replayed through the
+//! pipeline and its run folder written, the front door [`run_dataset`], the one writer of
+//! `trajectory.tum`); [`live`] (`wins live`: the NIC and flight controller around the pipeline);
+//! [`sweep`] (many runs over scenarios and seeds). The settings tree, the pipeline, batch runs
+//! and live runs import one another only in that order.
 //!
 //! ## Conventions (stated once, used everywhere)
 //!
@@ -84,6 +90,7 @@
 pub mod aoa;
 pub mod check;
 pub mod chi2;
+pub mod config;
 pub mod csi;
 pub mod dataset;
 pub mod eval;
@@ -93,24 +100,25 @@ pub mod io_safety;
 pub mod live;
 pub mod pipeline;
 pub mod rig;
+pub mod run;
 pub mod sim;
 pub mod so3;
 pub mod sweep;
 pub mod time;
 
-pub use pipeline::config::{Config, ConfigError};
-pub use pipeline::replay::RunOutput;
-pub use pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_into, run_dataset_with};
+pub use config::{Config, ConfigError};
 pub use pipeline::{Pipeline, PipelineError};
+pub use run::replay::RunOutput;
+pub use run::{RunError, RunOptions, run_dataset, run_dataset_into, run_dataset_with};
 
 /// The names most programs need: `use wins::prelude::*;`.
 pub mod prelude {
+    pub use crate::config::Config;
     pub use crate::dataset::Dataset;
     pub use crate::eval::Metrics;
     pub use crate::pipeline::Pipeline;
-    pub use crate::pipeline::config::Config;
-    pub use crate::pipeline::replay::RunOutput;
-    pub use crate::pipeline::run::{RunError, RunOptions, run_dataset, run_dataset_with};
     pub use crate::rig::Rig;
+    pub use crate::run::replay::RunOutput;
+    pub use crate::run::{RunError, RunOptions, run_dataset, run_dataset_with};
     pub use crate::sim::{Scenario, simulate, write_dataset};
 }

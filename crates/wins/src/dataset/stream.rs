@@ -6,7 +6,7 @@
 //! ([`super::incremental`]), keeping only counts: the [`InputReport`] and every error are
 //! those of `Dataset::load`, before anything is run. [`DatasetStream::events`] then reads the
 //! files again and yields the kept samples and records merged by time, as
-//! `crate::pipeline::replay` orders them (a packet before a barometer sample before an IMU
+//! `crate::run::replay` orders them (a packet before a barometer sample before an IMU
 //! sample at the same time, APs in manifest order, each AP's records by time then log order).
 //! Each AP's records wait in a buffer until no later record can come before them (the checks
 //! never keep a record more than [`JUMP_BACK_NS`] before the latest kept), at most

@@ -29,8 +29,8 @@ pub mod status;
 use std::time::Instant;
 
 pub use self::csi_server::CsiEvent;
+pub use crate::config::live::{ApBy, LiveConfig, PoseMessage};
 use crate::imu::ImuSample;
-pub use crate::pipeline::live_config::{ApBy, LiveConfig, PoseMessage};
 use crate::time::Timestamp;
 
 /// The host's monotonic clock, in ns since a fixed instant (copied to every thread).

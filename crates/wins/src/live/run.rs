@@ -11,7 +11,7 @@
 //! `live.idle_exit_s` without input).
 
 use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -32,15 +32,15 @@ use super::session::ClockReport;
 use super::session::{LiveFrame, LiveSession, LiveStats, SessionError};
 use super::status::{Histogram, LiveStatus, percentiles};
 use super::{FcEvent, HostClock, LiveInput, PoseMessage};
+use crate::config::Config;
 use crate::csi::intel5300::MacAddress;
 use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
-use crate::dataset::truth::{write_tum_header, write_tum_pose};
 use crate::fusion::pose::PoseEstimate;
-use crate::pipeline::Config;
-use crate::pipeline::output::pose_of;
-use crate::pipeline::replay::rig_of_manifest;
 use crate::rig::{ChainCalibration, Rig};
+use crate::run::output::TRAJECTORY_FILE;
+use crate::run::replay::rig_of_manifest;
+use crate::run::trajectory::TrajectoryWriter;
 
 /// Capacity of the inputs' channel (about 10 s of a 200 Hz IMU and two 100 packet/s APs):
 /// beyond it the links wait, and the TCP stream backs up to the logger.
@@ -140,11 +140,11 @@ pub fn run_live(
     let config_text = toml::to_string(config).map_err(|e| LiveError::Setup(e.to_string()))?;
     fs::write(options.out.join("config.toml"), config_text)
         .map_err(io_err("writing config.toml"))?;
-    let mut tum = BufWriter::new(
-        File::create(options.out.join("trajectory.tum"))
+    let tum = TrajectoryWriter::new(BufWriter::new(
+        File::create(options.out.join(TRAJECTORY_FILE))
             .map_err(io_err("creating trajectory.tum"))?,
-    );
-    write_tum_header(&mut tum).map_err(io_err("writing trajectory.tum"))?;
+    ))
+    .map_err(io_err("writing trajectory.tum"))?;
 
     let clock = HostClock::new();
     let (tx, rx) = mpsc::sync_channel(CHANNEL);
@@ -314,7 +314,7 @@ fn decode(inbound: &Mutex<InboundDecoder>, message: &MavMessage, arrival_ns: i64
 struct Outputs<'a> {
     link: &'a MavlinkLink,
     message: PoseMessage,
-    tum: BufWriter<File>,
+    tum: TrajectoryWriter<BufWriter<File>>,
     sent: u64,
     not_sent: u64,
     ages: Histogram,
@@ -329,7 +329,8 @@ impl Outputs<'_> {
         if !f.pose.converged {
             return Ok(());
         }
-        write_tum_pose(&mut self.tum, &pose_of(&f.pose))
+        self.tum
+            .frame(&f.pose)
             .map_err(io_err("writing trajectory.tum"))?;
         let Some(age) = age_ms.filter(|_| f.fresh) else {
             return Ok(());

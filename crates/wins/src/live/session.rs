@@ -26,9 +26,10 @@ pub use super::counts::{ClockReport, LiveStats};
 use super::merge::{Merged, Merger};
 use super::recorder::Recorder;
 use super::{ApBy, CsiEvent, FcEvent, LiveInput};
+use crate::config::Config;
 use crate::csi::intel5300::MacAddress;
 use crate::fusion::pose::PoseEstimate;
-use crate::pipeline::{ChainResolver, Config, PipelineError, Released};
+use crate::pipeline::{ChainResolver, PipelineError, Released};
 use crate::rig::Rig;
 use crate::time::Timestamp;
 

@@ -48,9 +48,12 @@ mod settings;
 use self::inputs::{Input, append, feed};
 use self::second_pass::{History, fly_again, with_curvature, with_step};
 
-pub use self::settings::{ChainOffsetsConfig, ChainReport, Finished, Released, resolves};
-use super::{Config, Pipeline, PipelineError, StageTiming};
+pub use self::settings::{ChainReport, Finished, Released, resolves};
+use super::{Pipeline, PipelineError, StageTiming};
 use crate::aoa::{AoaEstimator, ChainCurvature, Correction, raw_csi, restart_step_rad};
+#[cfg(doc)]
+use crate::config::ChainOffsetsConfig;
+use crate::config::Config;
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::wrap;
 #[cfg(doc)]

@@ -1,5 +1,5 @@
 //! WINS end to end (paper Fig. 1 and Algorithm 1 with the estimator in the loop), as a push API:
-//! feed IMU samples and CSI packets in time order, get poses. A dataset replay ([`replay`]) and a
+//! feed IMU samples and CSI packets in time order, get poses. A dataset replay ([`crate::run::replay`]) and a
 //! live stream are two drivers of the same [`Pipeline`].
 //!
 //! Per packet of AP `l` (`track`): the first angle from SpotFi over the AP's first
@@ -20,22 +20,7 @@
 
 pub mod aoa_log;
 pub mod chains;
-pub mod config;
-pub mod coverage;
-pub mod drive;
-mod figure_data;
-pub mod figures;
-pub mod live_config;
-pub mod output;
-pub mod replay;
-pub mod run;
-pub mod run_dir;
-pub mod run_output;
-mod score_spooled;
-pub(crate) mod scoring_truth;
 pub(crate) mod slot;
-pub mod spool;
-pub mod spooled;
 pub mod stats;
 pub(crate) mod track;
 
@@ -45,12 +30,13 @@ use std::time::Instant;
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-pub use self::chains::{ChainOffsetsConfig, ChainReport, ChainResolver, Finished, Released};
-pub use self::config::{Config, ConfigError, PipelineConfig};
+pub use self::chains::{ChainReport, ChainResolver, Finished, Released};
 use self::slot::{FrameSlot, PendingBearing, grid_time, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
 use self::track::{ArrayPose, Track, TrackGains, TrackState};
 use crate::aoa::{AoaError, AoaEstimator};
+pub use crate::config::{ChainOffsetsConfig, PipelineConfig};
+use crate::config::{Config, ConfigError};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::choice::{Estimator, EstimatorKind};

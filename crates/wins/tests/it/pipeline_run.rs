@@ -13,8 +13,8 @@ use wins::eval::{EvalOptions, Metrics};
 use wins::fusion::choice::EstimatorKind;
 use wins::imu::ImuSample;
 use wins::pipeline::PacketStatus;
-use wins::pipeline::output::{COVARIANCE_FILE, METRICS_FILE, TRAJECTORY_FILE};
-use wins::pipeline::replay::{RunOutput, replay, rig_of};
+use wins::run::output::{COVARIANCE_FILE, METRICS_FILE, TRAJECTORY_FILE};
+use wins::run::replay::{RunOutput, replay, rig_of};
 use wins::sim::{Scenario, simulate, write_dataset};
 
 /// A fresh folder for `name`, its own even when two tests fly the same scenario and seed at once,
@@ -213,7 +213,7 @@ fn paper_circle_from_disk_end_to_end() {
     let unscored = wins::run_dataset(&dir, &Config::default()).unwrap();
     assert!(!unscored.frames.is_empty() && unscored.metrics.is_none());
     match &unscored.evaluation {
-        wins::pipeline::replay::Evaluation::Failed(why) => {
+        wins::run::replay::Evaluation::Failed(why) => {
             assert!(why.contains("poses.tum"), "{why}");
         }
         other => panic!("{other:?}"),

@@ -1,10 +1,11 @@
 //! The calibrations the hypotheses fly, and the second pass: without a prior, the kept step
 //! (refined by its window) flown again from the start of the flight.
 
-use super::super::{Config, Pipeline, PipelineError};
-use super::ChainOffsetsConfig;
+use super::super::{Pipeline, PipelineError};
 use super::Released;
 use super::inputs::{Input, append, feed};
+use crate::config::ChainOffsetsConfig;
+use crate::config::Config;
 use crate::csi::sanitize::wrap;
 use crate::rig::{ChainCalibration, Rig};
 use crate::time::Timestamp;

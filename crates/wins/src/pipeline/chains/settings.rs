@@ -1,118 +1,12 @@
 //! The settings of the chain resolution and what it reports.
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use super::super::{Config, PacketLog, Pipeline, StageTiming};
-use crate::check::Problems;
+use super::super::{PacketLog, Pipeline, StageTiming};
+use crate::config::Config;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::pose::PoseEstimate;
 use crate::rig::ArrayGeometry;
-
-/// Settings of the in-flight resolution of the chain offsets (`[pipeline.chains]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ChainOffsetsConfig {
-    /// Resolve the offsets from the flight (three-antenna arrays, the nonlinear estimator);
-    /// `false` uses the stored calibration (or none) as it is.
-    pub resolve: bool,
-    /// Packets (all APs) over which the curvature is measured before the hypotheses start.
-    pub curvature_packets: usize,
-    /// A hypothesis converged this long is compared with the others and the best kept, s.
-    pub decide_after_s: f64,
-    /// The same without a stored calibration, s: each hypothesis refines its step with the
-    /// trajectory (the bearings' common offset, [`crate::fusion::nonlinear`]) and needs longer
-    /// (measured: 5 s kept hypotheses that converged early on a wrong step).
-    pub decide_after_uncalibrated_s: f64,
-    /// A hypothesis converged while no other is must have been converged this long (in total)
-    /// before it is kept, s.
-    pub decide_alone_after_s: f64,
-    /// Hypotheses of the uniform step without a stored calibration (evenly around the circle).
-    pub uncalibrated_hypotheses: usize,
-    /// The curvature keeps being measured over every packet of the flight (the motion averages
-    /// the reflections out, which a drone at rest on the ground does not); every this many
-    /// packets it is applied again when it moved.
-    pub curvature_refresh_packets: usize,
-    /// Without a stored calibration, the kept step (refined by its window) is flown again from
-    /// the start of the flight when the decision comes within this flight time, s (the inputs
-    /// are kept until then); 0 turns the second pass off.
-    pub second_pass_max_s: f64,
-    /// The prior σ of the bearings' common `sin θ` offset in the second pass.
-    pub second_pass_sin_bias_sigma: f64,
-}
-
-impl Default for ChainOffsetsConfig {
-    fn default() -> Self {
-        Self {
-            resolve: true,
-            curvature_packets: 200,
-            decide_after_s: 5.0,
-            decide_after_uncalibrated_s: 15.0,
-            decide_alone_after_s: 10.0,
-            uncalibrated_hypotheses: 8,
-            curvature_refresh_packets: 250,
-            second_pass_max_s: 120.0,
-            second_pass_sin_bias_sigma: 0.03,
-        }
-    }
-}
-
-impl ChainOffsetsConfig {
-    /// Every setting in its range, under `prefix`.
-    pub fn problems(&self, prefix: &str) -> Problems {
-        let mut p = Problems::new();
-        p.require(
-            (1..=100_000).contains(&self.curvature_packets),
-            prefix,
-            "curvature_packets",
-            format!("{} is not in [1, 100000]", self.curvature_packets),
-        );
-        p.in_range(prefix, "decide_after_s", self.decide_after_s, 0.0, 600.0);
-        p.in_range(
-            prefix,
-            "decide_after_uncalibrated_s",
-            self.decide_after_uncalibrated_s,
-            0.0,
-            600.0,
-        );
-        p.in_range(
-            prefix,
-            "decide_alone_after_s",
-            self.decide_alone_after_s,
-            0.0,
-            600.0,
-        );
-        p.require(
-            (1..=1_000_000).contains(&self.curvature_refresh_packets),
-            prefix,
-            "curvature_refresh_packets",
-            format!("{} is not in [1, 1000000]", self.curvature_refresh_packets),
-        );
-        p.in_range(
-            prefix,
-            "second_pass_max_s",
-            self.second_pass_max_s,
-            0.0,
-            600.0,
-        );
-        p.in_range(
-            prefix,
-            "second_pass_sin_bias_sigma",
-            self.second_pass_sin_bias_sigma,
-            0.0,
-            2.0,
-        );
-        p.require(
-            (1..=36).contains(&self.uncalibrated_hypotheses),
-            prefix,
-            "uncalibrated_hypotheses",
-            format!(
-                "{} is not in [1, 36] (each runs a pipeline until the decision)",
-                self.uncalibrated_hypotheses
-            ),
-        );
-        p
-    }
-}
 
 /// What the resolution did (in `stats.json` as `chain_offsets`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]

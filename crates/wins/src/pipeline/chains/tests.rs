@@ -1,4 +1,5 @@
 use super::*;
+use crate::config::ChainOffsetsConfig;
 
 #[test]
 fn settings_out_of_range_are_named() {

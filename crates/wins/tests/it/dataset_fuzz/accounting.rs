@@ -24,7 +24,7 @@ use wins::csi::intel5300::read_log;
 use wins::dataset::Dataset;
 use wins::dataset::truth::{TRUTH_DIR, Truth};
 use wins::pipeline::PacketStatus;
-use wins::pipeline::replay::Evaluation;
+use wins::run::replay::Evaluation;
 use wins::{RunError, RunOutput};
 
 /// `Ok` when `outcome` (a run of the dataset at `dir`) is a refusal with a reason or a run whose

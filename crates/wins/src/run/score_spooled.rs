@@ -1,4 +1,4 @@
-//! The scoring of a spooled run ([`super::run::run_dataset_into`]) against its dataset's truth
+//! The scoring of a spooled run ([`super::run_dataset_into`]) against its dataset's truth
 //! without holding either trajectory: the estimate's records and the truth's poses are read in
 //! passes ([`crate::eval::stream`]); the metrics and figures' data are those
 //! [`RunOutput::score_against_with`] gives for the same run held in memory.

@@ -18,11 +18,11 @@ use super::output::{
 };
 use super::spooled::SpoolFiles;
 pub use super::spooled::Spooled;
-use super::{PacketLog, PacketStatus};
-use crate::dataset::truth::{Pose, write_tum_header, write_tum_pose};
+use super::trajectory::{TrajectoryWriter, pose_of};
 use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
 use crate::eval::scan::TrajectoryScan;
 use crate::fusion::pose::PoseEstimate;
+use crate::pipeline::{PacketLog, PacketStatus};
 
 /// Prefix of a spool file in the output folder.
 pub const SPOOL_PREFIX: &str = ".wins-spool-";
@@ -60,9 +60,9 @@ struct ScoringWriters {
 /// A [`RunSink`] writing the per-frame and per-packet files as they come.
 #[derive(Debug)]
 pub struct Spool {
-    trajectory: BufWriter<File>,
+    trajectory: TrajectoryWriter<BufWriter<File>>,
     covariance: BufWriter<File>,
-    trajectory_all: BufWriter<File>,
+    trajectory_all: TrajectoryWriter<BufWriter<File>>,
     aoa: csv::Writer<BufWriter<File>>,
     kept: Spooled,
     scoring: Option<ScoringWriters>,
@@ -87,11 +87,11 @@ impl Spool {
                 .collect(),
         };
         let open = |k: usize| File::create(&files.files[k].0).map(BufWriter::new);
-        let (mut trajectory, mut covariance, mut trajectory_all) = (open(0)?, open(1)?, open(2)?);
+        let (trajectory, mut covariance, trajectory_all) = (open(0)?, open(1)?, open(2)?);
         let aoa = csv::Writer::from_writer(open(3)?);
-        write_tum_header(&mut trajectory)?;
+        let trajectory = TrajectoryWriter::new(trajectory)?;
         write_covariance_header(&mut covariance)?;
-        write_tum_header(&mut trajectory_all)?;
+        let trajectory_all = TrajectoryWriter::new(trajectory_all)?;
         let scoring = for_scoring
             .then(|| {
                 let path = |name: &str| dir.join(format!("{SPOOL_PREFIX}{id}-{name}"));
@@ -149,15 +149,11 @@ impl Spool {
 
 impl RunSink for Spool {
     fn frame(&mut self, frame: PoseEstimate) -> io::Result<()> {
-        let pose = Pose {
-            t: frame.t,
-            p_b_in_w: frame.p_b_in_w,
-            world_from_body: frame.world_from_body,
-        };
-        write_tum_pose(&mut self.trajectory_all, &pose)?;
+        let pose = pose_of(&frame);
+        self.trajectory_all.pose(&pose)?;
         self.kept.frames += 1;
         if frame.converged {
-            write_tum_pose(&mut self.trajectory, &pose)?;
+            self.trajectory.pose(&pose)?;
             write_covariance_row(&mut self.covariance, &frame)?;
             self.kept.frames_converged += 1;
             if let Some(w) = &mut self.scoring {

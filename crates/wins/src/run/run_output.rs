@@ -5,13 +5,13 @@
 use nalgebra::Vector3;
 
 use super::figure_data::RunFigures;
-use super::{ChainReport, PacketLog, PipelineError, PipelineStats, StageTiming};
 use crate::dataset::DatasetError;
 use crate::dataset::checks::InputReport;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalOptions, Metrics};
 use crate::fusion::pose::PoseEstimate;
 use crate::fusion::stats::EstimatorStats;
+use crate::pipeline::{ChainReport, PacketLog, PipelineError, PipelineStats, StageTiming};
 use crate::time::Timestamp;
 
 /// Why a dataset cannot be replayed.

@@ -1,9 +1,10 @@
-//! A dataset directory through the pipeline (a [`super::ChainResolver`] over [`super::Pipeline`]s): IMU
+//! A dataset directory through the pipeline (a [`crate::pipeline::ChainResolver`] over
+//! [`crate::pipeline::Pipeline`]s): IMU
 //! samples and every AP's packets merged by time (a packet before the IMU samples after it), as a
 //! live driver would push them.
 
-use super::Config;
 use super::drive::{Collected, Flight, RunSink, drive};
+use crate::config::Config;
 use crate::dataset::checks::InputReport;
 use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::dataset::{BaroSample, Dataset, Manifest};

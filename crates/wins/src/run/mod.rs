@@ -1,18 +1,42 @@
-//! The library's front door: a dataset folder in, a scored run out ([`run_dataset`]), what
-//! `wins run` does.
+//! Batch runs: a dataset replayed through the [`crate::pipeline`] and its run folder written.
+//! The library's front door is here: a dataset folder in, a scored run out ([`run_dataset`]),
+//! what `wins run` does.
+//!
+//! - [`replay`]: a dataset (in memory or read as it is consumed) pushed through a
+//!   [`crate::pipeline::ChainResolver`] by one loop ([`drive`]); [`RunOutput`] is what it gives;
+//! - [`output`], [`run_dir`]: the run folder's files and its manifest `run.json`; the one writer
+//!   of `trajectory.tum` is [`trajectory`] (`wins live` writes through it too);
+//! - [`spool`]: the per-frame and per-packet files written as they come, for a run whose memory
+//!   does not grow with the flight ([`run_dataset_into`]), and its scoring from those files;
+//! - [`figures`], [`coverage`]: the figures' data against a truth, and how much of the flight
+//!   the converged poses cover.
+
+pub mod coverage;
+pub mod drive;
+mod figure_data;
+pub mod figures;
+pub mod output;
+pub mod replay;
+pub mod run_dir;
+pub mod run_output;
+mod score_spooled;
+pub(crate) mod scoring_truth;
+pub mod spool;
+pub mod spooled;
+pub mod trajectory;
 
 use std::path::Path;
 
-use super::Config;
-use super::chains::resolves;
-use super::drive::{Collected, RunSink};
-use super::replay::{replay_stream, rig_of_manifest};
-use super::run_output::{Evaluation, ReplayError, RunOutput};
-use super::scoring_truth::ScoringTruth;
-use super::spool::{ScoringSpool, Spool};
+use self::drive::{Collected, RunSink};
+use self::replay::{replay_stream, rig_of_manifest};
+use self::run_output::{Evaluation, ReplayError, RunOutput};
+use self::scoring_truth::ScoringTruth;
+use self::spool::{ScoringSpool, Spool};
+use crate::config::Config;
 use crate::dataset::DatasetError;
 use crate::dataset::stream::DatasetStream;
 use crate::dataset::truth::{TRUTH_DIR, Truth};
+use crate::pipeline::chains::resolves;
 use crate::rig::{ChainCalibration, ImuNoise};
 
 /// What a run may take from outside the dataset.
@@ -23,7 +47,7 @@ pub struct RunOptions {
     /// IMU noise densities to use instead of the dataset's.
     pub imu_noise: Option<ImuNoise>,
     /// Use no chain calibration, not even the dataset's: the offsets are resolved from the
-    /// flight alone ([`super::chains`]).
+    /// flight alone ([`crate::pipeline::chains`]).
     pub no_calibration: bool,
     /// Make no figures' data (`figures` stays `None`; `wins run --no-plots`).
     pub no_figures: bool,
@@ -34,7 +58,7 @@ pub struct RunOptions {
 pub enum RunError {
     /// The settings cannot be used (every problem listed).
     #[error(transparent)]
-    Config(#[from] super::ConfigError),
+    Config(#[from] crate::config::ConfigError),
     /// The dataset cannot be loaded.
     #[error("loading {path}: {source}")]
     Dataset {
@@ -61,7 +85,7 @@ pub fn run_dataset(path: &Path, config: &Config) -> Result<RunOutput, RunError> 
 }
 
 /// Reads the dataset at `path` as it is consumed ([`DatasetStream`]), replays it through the
-/// [`super::Pipeline`], and when it has a `truth/` folder scores the converged trajectory
+/// [`crate::pipeline::Pipeline`], and when it has a `truth/` folder scores the converged trajectory
 /// against it (`metrics`, `figures`). What limits the result (no chain calibration, a run that
 /// cannot be scored) is in `warnings`. The frames and packet rows are kept in the output; for a
 /// run whose memory does not grow with the flight's length, [`run_dataset_into`].

@@ -6,7 +6,7 @@
 //! | `trajectory_all.tum` | the same from the first frame (before convergence `w` is not yet fixed) |
 //! | `covariance.csv` | the covariance reported with each pose of `trajectory.tum` ([`write_covariance`]) |
 //! | `aps.csv` | estimated AP positions in `w` (`crate::eval::aps` format) |
-//! | `aoa.csv` | one row per packet ([`super::PacketLog`]) |
+//! | `aoa.csv` | one row per packet ([`crate::pipeline::PacketLog`]) |
 //! | `stats.json` | packets used/dropped per AP and why, estimator counters, per-stage wall time |
 //! | `metrics.json`, `report.txt` | with a truth only: [`crate::eval::Metrics`] and its text |
 //!
@@ -21,15 +21,16 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::run_output::RunOutput;
-use super::{ChainReport, PacketStatus, PipelineStats, StageTiming};
+use super::trajectory::{TrajectoryWriter, pose_of};
 use crate::dataset::checks::InputReport;
-use crate::dataset::truth::{Pose, Truth, write_csv, write_tum};
+use crate::dataset::truth::{Pose, Truth, write_csv};
 use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
 };
 use crate::fusion::pose::PoseEstimate;
 use crate::fusion::stats::EstimatorStats;
 use crate::io_safety::write_atomically;
+use crate::pipeline::{ChainReport, PacketStatus, PipelineStats, StageTiming};
 use crate::time::NANOS_PER_SEC;
 
 /// Converged trajectory file.
@@ -84,15 +85,6 @@ pub struct RunStats<'a> {
     pub coverage: &'a super::coverage::Coverage,
     /// What limits the result, in words.
     pub warnings: &'a [String],
-}
-
-/// A frame's pose.
-pub(crate) fn pose_of(p: &PoseEstimate) -> Pose {
-    Pose {
-        t: p.t,
-        p_b_in_w: p.p_b_in_w,
-        world_from_body: p.world_from_body,
-    }
 }
 
 impl RunOutput {
@@ -160,7 +152,7 @@ impl RunOutput {
 
     /// The run scored against `truth`: [`evaluate`] on the converged trajectory, plus the
     /// run-only fields (AoA median error, packets, real-time factor). A spooled run holds no
-    /// frames: [`super::run::run_dataset_into`] scores it from its files.
+    /// frames: [`super::run_dataset_into`] scores it from its files.
     pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
         let poses = self.converged_poses();
         let mut m = evaluate(
@@ -222,13 +214,18 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
     };
     if spooled.is_empty() {
         put(TRAJECTORY_FILE, &mut |w| {
-            write_tum(w, &run.converged_poses())
+            let mut tum = TrajectoryWriter::new(w)?;
+            tum.frames(run.converged_frames())?;
+            tum.finish().map(drop)
         })?;
         put(COVARIANCE_FILE, &mut |w| {
             write_covariance(w, run.converged_frames())
         })?;
-        let all: Vec<Pose> = run.frames.iter().map(pose_of).collect();
-        put(TRAJECTORY_ALL_FILE, &mut |w| write_tum(w, &all))?;
+        put(TRAJECTORY_ALL_FILE, &mut |w| {
+            let mut tum = TrajectoryWriter::new(w)?;
+            tum.frames(&run.frames)?;
+            tum.finish().map(drop)
+        })?;
     }
     put(APS_FILE, &mut |w| {
         write_estimated_aps(w, &run.estimated_aps())

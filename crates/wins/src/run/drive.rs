@@ -6,9 +6,10 @@ use std::time::Instant;
 
 use super::coverage::CoverageCheck;
 use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
-use super::{ChainResolver, Config, PacketLog, Released};
+use crate::config::Config;
 use crate::dataset::checks::InputReport;
 use crate::fusion::pose::PoseEstimate;
+use crate::pipeline::{ChainResolver, PacketLog, Released};
 use crate::rig::Rig;
 use crate::time::{NANOS_PER_SEC, Timestamp};
 

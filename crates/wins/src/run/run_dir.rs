@@ -18,13 +18,13 @@ use std::path::{Component, Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::Config;
 use super::output::{
     AOA_FILE, APS_FILE, COVARIANCE_FILE, METRICS_FILE, REPORT_FILE, STATS_FILE,
     TRAJECTORY_ALL_FILE, TRAJECTORY_FILE,
 };
 use super::run_output::RunOutput;
 use super::spool::SPOOL_PREFIX;
+use crate::config::Config;
 use crate::dataset::load::{MANIFEST_FILE as DATASET_MANIFEST, read_manifest};
 use crate::dataset::truth::TRUTH_DIR;
 use crate::io_safety::{

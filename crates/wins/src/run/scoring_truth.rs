@@ -25,7 +25,7 @@ pub(crate) struct ScoringTruth {
 }
 
 impl ScoringTruth {
-    /// Reads `dataset_dir/truth/` as [`super::truth::Truth::load_for_scoring`] does, with the
+    /// Reads `dataset_dir/truth/` as [`crate::dataset::truth::Truth::load_for_scoring`] does, with the
     /// same errors, keeping of the poses only their scan.
     pub(crate) fn open(dataset_dir: &Path) -> Result<Self, TruthError> {
         let dir = dataset_dir.join(TRUTH_DIR);
@@ -66,7 +66,7 @@ impl ScoringTruth {
 }
 
 /// `keep` of each row of the CSV file `dir/name`, read as it is parsed (none when there is no
-/// such file; the errors of [`super::truth::Truth::load`]).
+/// such file; the errors of [`crate::dataset::truth::Truth::load`]).
 fn rows_or_empty<T: serde::de::DeserializeOwned, K>(
     dir: &Path,
     name: &str,
