@@ -29,6 +29,6 @@ pub struct EstimatorStats {
     /// see).
     pub frames_in_imu_gap: u64,
     /// Keyframes held at zero velocity: taken while the IMU was still, on the ground
-    /// ([`crate::fusion::nonlinear::still`]).
+    /// ([`crate::fusion::nonlinear::start::still`]).
     pub still_keyframes: u64,
 }

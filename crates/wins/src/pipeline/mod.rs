@@ -16,7 +16,7 @@
 //! Accepted bearings join the frame at the next grid time (`slot`), moved to that instant by
 //! the gyro (and the velocity once known); the frame is solved by the estimator ([`Estimator`]) when the IMU stream
 //! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed
-//! rotation averaging, [`crate::fusion::attitude`], made attitude worse when fed back).
+//! rotation averaging made attitude worse when fed back: docs/RESULTS.md).
 
 pub mod aoa_log;
 pub mod chains;

@@ -3,8 +3,8 @@
 
 use wins::Config;
 use wins::fusion::nonlinear::NonlinearConfig;
-use wins::fusion::nonlinear::rest::SMOOTHING_S;
-use wins::fusion::nonlinear::still::StillDetector;
+use wins::fusion::nonlinear::start::rest::SMOOTHING_S;
+use wins::fusion::nonlinear::start::still::StillDetector;
 use wins::imu::STANDARD_GRAVITY_M_S2;
 use wins::sim::scenario::BUILT_IN;
 use wins::sim::{Scenario, simulate, write_dataset};

@@ -41,19 +41,19 @@ pub struct NonlinearConfig {
     /// puts the AP close, where its bearings pin it: a linearized σ alone then looks fine).
     pub max_ap_sigma_fraction: f64,
     /// At rest, for the static start and the stillness of the zero-velocity updates alike
-    /// ([`super::rest::means_at_rest`]): the gyro's 0.1 s mean norm below this, rad/s …
+    /// ([`crate::fusion::nonlinear::start::rest::means_at_rest`]): the gyro's 0.1 s mean norm below this, rad/s …
     pub rest_max_gyro_rad_s: f64,
     /// … and the 0.1 s mean specific force's norm within this of gravity, m/s².
     pub rest_max_accel_deviation_m_s2: f64,
-    /// At least this long at rest (the means alone, up to [`super::rest::ONSET_MARGIN_S`] before
+    /// At least this long at rest (the means alone, up to [`crate::fusion::nonlinear::start::rest::ONSET_MARGIN_S`] before
     /// the first motion) gives a static initialization, s.
     pub rest_min_s: f64,
     /// Zero-velocity updates: a keyframe while the IMU is still (on the ground) holds its
-    /// velocity at zero ([`super::still`], [`super::zero_velocity`]).
+    /// velocity at zero ([`crate::fusion::nonlinear::start::still`], [`crate::fusion::nonlinear::factors::zero_velocity`]).
     pub zero_velocity: bool,
     /// 1σ of that zero velocity, per axis, m/s.
     pub zero_velocity_sigma_m_s: f64,
-    /// The IMU still ([`super::still`]: at rest, and its samples' scatter and means steady) for
+    /// The IMU still ([`crate::fusion::nonlinear::start::still`]: at rest, and its samples' scatter and means steady) for
     /// at least this long before the keyframe, s.
     pub zero_velocity_min_still_s: f64,
     /// … and the window's predicted speed at the keyframe below this, m/s (a last bound: an IMU

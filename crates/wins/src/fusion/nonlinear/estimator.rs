@@ -1,10 +1,10 @@
 //! The nonlinear estimator as a push API (IMU samples, bearings and barometer samples in; poses
-//! out). What it does with a frame depends on the flight's phase ([`super::phase`]), and the
-//! frame handler is one `match` on it ([`NonlinearEstimator::on_frame`]):
+//! out). What it does with a frame depends on the flight's phase ([`crate::fusion::nonlinear::phase`]), and the
+//! frame handler is one `match` on it (`on_frame`):
 //!
-//! 1. **At rest** ([`super::rest`]): while the IMU is still, the gyro bias, roll, pitch and the
+//! 1. **At rest** ([`crate::fusion::nonlinear::start::rest`]): while the IMU is still, the gyro bias, roll, pitch and the
 //!    accelerometer bias along gravity.
-//! 2. **Starting** ([`super::start`]): from the rest's end the IMU alone carries the trajectory
+//! 2. **Starting** ([`crate::fusion::nonlinear::start`]): from the rest's end the IMU alone carries the trajectory
 //!    (dead reckoning) and the APs are triangulated against it: the inertial proposal, for up to
 //!    [`NonlinearConfig::inertial_start_max_s`]. Without such a state (a flight started in the
 //!    air) a start solver (the paper's linear window, [`crate::fusion::proposal`]) solves
@@ -14,7 +14,7 @@
 //!    and accepted only when its residuals pass the χ² test at
 //!    [`NonlinearConfig::chi2_significance`] and every placed AP's horizontal σ is within
 //!    [`NonlinearConfig::max_ap_sigma_m`] and its fraction of the range.
-//! 3. **Tracking** ([`super::track`]): one solve per keyframe; APs placed later join
+//! 3. **Tracking** ([`crate::fusion::nonlinear::track`]): one solve per keyframe; APs placed later join
 //!    (`late_ap`). The same χ² tests over the window's residuals decide loss: failing for
 //!    [`NonlinearConfig::loss_window_s`] in a row ends the window.
 //! 4. **Recovering**: a start again from the last keyframe that passed, propagated by the IMU to
@@ -25,15 +25,15 @@ use std::collections::VecDeque;
 
 use nalgebra::{Isometry3, Vector3};
 
-use super::config::NonlinearConfig;
-use super::phase::{AtRest, Phase, PhaseChange, PhaseKind, Reason};
-use super::rest::{ONSET_MARGIN_S, RestDetector, StaticInit};
-use super::start::StartKeyframe;
-use super::still::StillDetector;
-use super::window::{NonlinearWindow, SubFrame};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::error::EstimatorError;
 use crate::fusion::frames::{check_frame_order, drop_frames_in_gap};
+use crate::fusion::nonlinear::config::NonlinearConfig;
+use crate::fusion::nonlinear::phase::{AtRest, Phase, PhaseChange, PhaseKind, Reason};
+use crate::fusion::nonlinear::solve::{NonlinearWindow, SubFrame};
+use crate::fusion::nonlinear::start::StartKeyframe;
+use crate::fusion::nonlinear::start::rest::{ONSET_MARGIN_S, RestDetector, StaticInit};
+use crate::fusion::nonlinear::start::still::StillDetector;
 use crate::fusion::pose::{PoseEstimate, Step};
 use crate::fusion::proposal::StartSolverFactory;
 use crate::fusion::stats::EstimatorStats;
@@ -92,7 +92,7 @@ pub struct NonlinearEstimator {
     pub(super) start_solver: StartSolverFactory,
     pub(super) has_baro: bool,
     pub(super) inputs: Inputs,
-    /// Stillness for the zero-velocity updates ([`super::still`]).
+    /// Stillness for the zero-velocity updates ([`crate::fusion::nonlinear::start::still`]).
     pub(super) still: StillDetector,
     /// What the rest measured, when the flight started at rest.
     pub(super) static_init: Option<StaticInit>,
@@ -101,7 +101,7 @@ pub struct NonlinearEstimator {
     /// Output `w` from the window's `w`.
     pub(super) anchor: Isometry3<f64>,
     pub(super) record: Record,
-    /// The phase, with the state only it owns ([`super::phase`]).
+    /// The phase, with the state only it owns ([`crate::fusion::nonlinear::phase`]).
     pub(super) phase: Phase,
 }
 

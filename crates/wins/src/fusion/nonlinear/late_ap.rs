@@ -1,15 +1,15 @@
 //! APs first seen (or first placeable) after the start: their bearings are kept against the
 //! window's own estimate of each keyframe as it leaves the window, and the AP is triangulated
-//! from them ([`super::triangulate`]) and joins the window once its horizontal σ passes the same
+//! from them ([`crate::fusion::nonlinear::start::triangulate`]) and joins the window once its horizontal σ passes the same
 //! bounds as a start's APs.
 
-use super::aps::triangulate_within_bounds;
+use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
 use nalgebra::Isometry3;
 
-use super::estimator::NonlinearEstimator;
-use super::phase::Tracking;
-use super::state::pose_at;
-use super::triangulate::{LateSights, Sight};
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::phase::Tracking;
+use crate::fusion::nonlinear::start::triangulate::{LateSights, Sight};
+use crate::fusion::nonlinear::state::pose_at;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// At most this many sights are kept per AP (the oldest leave first).

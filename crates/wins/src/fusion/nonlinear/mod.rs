@@ -1,4 +1,4 @@
-//! The 6-DoF nonlinear sliding-window estimator, started by the paper's linear one.
+//! The 6-DoF nonlinear sliding-window estimator, the default (docs/ESTIMATOR.md).
 //!
 //! State per keyframe `k` ([`state::NavState`]): attitude `R_k` on SO(3), position, velocity,
 //! gyro and accelerometer biases, in a gravity-aligned world frame `w` (z up); every AP's position
@@ -6,54 +6,43 @@
 //! of every bearing's `sin θ` (what an error in the receive chains' uniform phase step does). The
 //! error state of a keyframe is `[δθ, δp, δv, δb_g, δb_a]` with `R = R̂ Exp(δθ)` (15 numbers).
 //!
-//! Factors, each with an analytic Jacobian beside its finite-difference test:
-//! - [`imu_factor`]: IMU preintegration on the manifold with first-order bias correction;
-//! - [`cone_factor`]: the exact AoA model of a linear array, `sin θ = ŷ_a · unit(c − p_array)`,
-//!   with the lever arm: no front/back decision and no assumption on the AP's height; a robust
-//!   (Cauchy) loss so that one reflection cannot drag the solution; `∂r/∂β = 1` for the
-//!   bearings' common offset β when it is estimated;
-//! - [`baro_factor`]: the barometer's altitude, `z + o`, with the offset `o` a state;
-//! - after a hole in the information, a range anchor (`range_anchor`): what the window lost to it
-//!   knew of an AP's horizontal range from the path across the hole;
-//! - [`zero_velocity`]: a keyframe taken while the IMU is still (on the ground, [`still`]) holds
-//!   its velocity at zero;
-//! - the marginalization prior ([`window`]), with first-estimate Jacobians.
+//! Its rooms, one concept each:
 //!
-//! Measurements between keyframes are tied to the keyframe before them through the partial
-//! preintegration to their instant ([`state::pose_at`]), so keyframes can be sparser than the
-//! bearings. [`estimator::NonlinearEstimator`] runs the start (static initialization, the paper's linear
-//! window, the χ² acceptance) and the loss test.
+//! - [`estimator`]: the push API and the frame handler, one `match` on the flight's [`phase`]
+//!   (at rest, starting, tracking, recovering), whose transitions all happen in one place;
+//! - [`state`]: the keyframe state, its `⊞`/`⊟`, and the partial preintegration that ties a
+//!   measurement between keyframes to the keyframe before it ([`state::pose_at`]);
+//! - [`factors`]: each factor's residual and Jacobian (IMU, AoA cone, barometer, zero velocity,
+//!   range anchor), handed to the solver as a linearization;
+//! - [`solve`]: the window ([`solve::NonlinearWindow`]): keyframes, APs, the marginalization
+//!   prior with first-estimate Jacobians, the Gauss–Newton solve ([`solve::optimize`]) and the
+//!   residual statistics and χ² test ([`solve::fit`]);
+//! - [`start`]: the start from the rest ([`start::rest`]), the inertial and start-solver
+//!   proposals ([`start::proposal`]), the triangulation of APs ([`start::triangulate`]), and
+//!   the stillness detector of the zero-velocity holds ([`start::still`]);
+//! - `track`: a keyframe while tracking, its solve, the loss test, and APs that join late;
+//! - `recovery`: after a hole in the information (an IMU gap, a CSI outage), where the new
+//!   window is placed by what the lost one knew;
+//! - `output`: the pose and its covariance, in the output frame.
+//!
+//! It imports no estimator of the paper's: a flight started in the air is proposed by a start
+//! solver handed in through [`crate::fusion::proposal`].
 
-mod anchor;
-mod aps;
-pub mod baro_factor;
-mod bridge;
-pub mod cone_factor;
 pub mod config;
 pub mod estimator;
-mod fit;
-mod holes;
-pub mod imu_factor;
+pub mod factors;
 mod late_ap;
-mod nullspace;
 mod output;
-mod phase;
-mod proposal;
-mod range_anchor;
-mod relocate;
-pub mod rest;
-mod solve;
-mod start;
+pub mod phase;
+pub mod recovery;
+pub mod solve;
+pub mod start;
 pub mod state;
-pub mod still;
-mod track;
-pub mod triangulate;
-pub mod window;
-pub mod zero_velocity;
+pub mod track;
 
 pub use config::NonlinearConfig;
 pub use estimator::{NonlinearEstimator, Sensors};
-pub use fit::passes_chi2;
 pub use phase::{PhaseChange, PhaseKind, Reason};
-pub use solve::{SolveError, SolveReport};
-pub use window::{FitStats, NonlinearWindow, SubFrame};
+pub use solve::fit::passes_chi2;
+pub use solve::optimize::{SolveError, SolveReport};
+pub use solve::{FitStats, NonlinearWindow, SubFrame};

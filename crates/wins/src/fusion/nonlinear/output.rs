@@ -3,8 +3,8 @@
 
 use nalgebra::{Matrix3, Matrix6};
 
-use super::estimator::NonlinearEstimator;
-use super::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::state::{NavState, POS, THETA, pose_at, pose_at_jacobians};
 use crate::fusion::pose::PoseEstimate;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
@@ -38,7 +38,7 @@ impl NonlinearEstimator {
         &self,
         x: &NavState,
         partial: &Preintegrated,
-        cov_x: &super::state::Mat15,
+        cov_x: &crate::fusion::nonlinear::state::Mat15,
     ) -> PoseEstimate {
         let g = STANDARD_GRAVITY_M_S2;
         let p = pose_at(x, partial, g);

@@ -1,5 +1,5 @@
 //! The phases a flight goes through, as a value: every transition happens in
-//! [`NonlinearEstimator::enter`], with its reason, and is recorded in the timeline
+//! `NonlinearEstimator::enter`, with its reason, and is recorded in the timeline
 //! (`stats.json`'s `estimator.phases`).
 //!
 //! ```text
@@ -8,23 +8,23 @@
 //!                         └──┘                    └────────accepted────────┘◄─┘
 //! ```
 //!
-//! - [`Phase::AtRest`]: before the first motion; the rest detector measures the gyro bias,
-//!   roll, pitch and the accelerometer bias along gravity ([`super::rest`]).
-//! - [`Phase::Starting`]: a start from the rest (or, airborne, from nothing): the start window
-//!   gathers keyframes until a proposal passes the χ² acceptance ([`super::start`]).
-//! - [`Phase::Tracking`]: the nonlinear window runs, one solve per keyframe, and the loss test
-//!   watches its residuals ([`super::track`]).
-//! - [`Phase::Recovering`]: a start after a loss or a hole, from the last good state carried to
+//! - `Phase::AtRest`: before the first motion; the rest detector measures the gyro bias,
+//!   roll, pitch and the accelerometer bias along gravity ([`crate::fusion::nonlinear::start::rest`]).
+//! - `Phase::Starting`: a start from the rest (or, airborne, from nothing): the start window
+//!   gathers keyframes until a proposal passes the χ² acceptance ([`crate::fusion::nonlinear::start`]).
+//! - `Phase::Tracking`: the nonlinear window runs, one solve per keyframe, and the loss test
+//!   watches its residuals ([`crate::fusion::nonlinear::track`]).
+//! - `Phase::Recovering`: a start after a loss or a hole, from the last good state carried to
 //!   now; after a hole it places the new window by what the lost one knew
 //!   (`holes`).
 
 use serde::Serialize;
 
-use super::estimator::NonlinearEstimator;
-use super::rest::RestDetector;
-use super::start::Start;
-use super::triangulate::LateSights;
-use super::window::NonlinearWindow;
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::solve::NonlinearWindow;
+use crate::fusion::nonlinear::start::Start;
+use crate::fusion::nonlinear::start::rest::RestDetector;
+use crate::fusion::nonlinear::start::triangulate::LateSights;
 use crate::imu::Preintegrated;
 use crate::time::Timestamp;
 
@@ -56,12 +56,12 @@ pub(super) struct Tracking {
     /// Since when the residuals fail the χ² test.
     pub(super) failing_since: Option<Timestamp>,
     /// The newest keyframe that passed the loss test.
-    pub(super) last_good: Option<super::state::NavState>,
+    pub(super) last_good: Option<crate::fusion::nonlinear::state::NavState>,
     /// Bearings of APs the window does not hold yet, against its estimate
     /// (`late_ap`).
     pub(super) late_sights: Vec<LateSights>,
     /// The newest keyframe's time when its solve has not run yet
-    /// ([`NonlinearEstimator::solve_pending`]).
+    /// (`NonlinearEstimator::solve_pending`).
     pub(super) solve_due: Option<Timestamp>,
 }
 

@@ -1,13 +1,13 @@
-//! Tracking (module doc of [`super::estimator`], step 3): a frame while the nonlinear window
+//! Tracking (module doc of [`crate::fusion::nonlinear::estimator`], step 3): a frame while the nonlinear window
 //! runs, the solve of a keyframe after its pose has gone out, and the loss test.
 
 use std::collections::VecDeque;
 
-use super::estimator::NonlinearEstimator;
-use super::fit::passes_chi2;
-use super::phase::{Phase, Reason};
-use super::state::{NavState, pose_at};
-use super::window::SubFrame;
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::phase::{Phase, Reason};
+use crate::fusion::nonlinear::solve::SubFrame;
+use crate::fusion::nonlinear::solve::fit::passes_chi2;
+use crate::fusion::nonlinear::state::{NavState, pose_at};
 use crate::fusion::pose::PoseEstimate;
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
@@ -43,7 +43,7 @@ impl NonlinearEstimator {
             self.record.stats.frames_refused += 1;
             return self.pose_now(t);
         }
-        // On the ground: held at zero velocity ([`super::zero_velocity`]).
+        // On the ground: held at zero velocity ([`crate::fusion::nonlinear::factors::zero_velocity`]).
         let c = &self.config;
         if c.zero_velocity
             && self.still.still_for_s(t) >= c.zero_velocity_min_still_s
@@ -84,7 +84,7 @@ impl NonlinearEstimator {
         }
     }
 
-    /// The loss test after a keyframe's solve (module doc of [`super::estimator`], step 3).
+    /// The loss test after a keyframe's solve (module doc of [`crate::fusion::nonlinear::estimator`], step 3).
     pub(super) fn check_health(&mut self, t: Timestamp) {
         let alpha = self.config.chi2_significance;
         let Some(tr) = self.phase.tracking_mut() else {

@@ -4,7 +4,7 @@
 //! g_k (in b_k)]`, then a border of the accelerometer and gyro biases `b_a`, `b_g` and every AP's
 //! position `c_l`. Rotations `R_{b_k}^{b_0}` are chained from the gyro by the caller; with them
 //! fixed every factor is linear ([`factors`]); the normal equations are an arrow matrix solved by
-//! a block Cholesky ([`arrow`]), assembled in `assemble`. When the window is full the oldest
+//! a block Cholesky ([`crate::fusion::arrow`]), assembled in `assemble`. When the window is full the oldest
 //! frame is marginalized by the Schur complement of only the factors that touch it (its prior,
 //! its IMU factor, its AoA factors) into a prior on the next frame and the border: with fixed
 //! rotations and weights this is exact, so the window reproduces the batch solution (tested).

@@ -1,10 +1,10 @@
 //! The window's true nullspace (translation and yaw about the vertical), against which its
-//! information is tested (first-estimate Jacobians keep it; [`super::window`]).
+//! information is tested (first-estimate Jacobians keep it; [`crate::fusion::nonlinear::solve`]).
 
 use nalgebra::{DMatrix, Vector3};
 
-use super::state::{POS, STATE_DIM, THETA, VEL, Vec15};
-use super::window::NonlinearWindow;
+use crate::fusion::nonlinear::solve::NonlinearWindow;
+use crate::fusion::nonlinear::state::{POS, STATE_DIM, THETA, VEL, Vec15};
 
 impl NonlinearWindow {
     /// The 4 directions no data can see, at the linearization points: translation along x, y,

@@ -1,4 +1,4 @@
-//! The start's proposals (module doc of [`super::estimator`], step 2): the inertial one (the
+//! The start's proposals (module doc of [`crate::fusion::nonlinear::estimator`], step 2): the inertial one (the
 //! dead reckoning from a known state, the APs triangulated against it), the start solver's
 //! (levelled), and the nonlinear window over either, iterated and accepted or not.
 
@@ -6,13 +6,13 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use super::aps::triangulate_within_bounds;
-use super::estimator::NonlinearEstimator;
-use super::fit::passes_chi2;
-use super::start::Start;
-use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
-use super::triangulate::Sight;
-use super::window::NonlinearWindow;
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::solve::NonlinearWindow;
+use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
+use crate::fusion::nonlinear::solve::fit::passes_chi2;
+use crate::fusion::nonlinear::start::Start;
+use crate::fusion::nonlinear::start::triangulate::Sight;
+use crate::fusion::nonlinear::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
 use crate::fusion::proposal::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 use crate::time::Timestamp;
@@ -50,14 +50,14 @@ fn dead_reckoned_sigmas(from_rest: bool, elapsed_s: f64) -> (f64, f64) {
 }
 
 /// A starting point for the nonlinear window over the start keyframes from `first` on.
-pub(super) struct Proposal {
+pub(in crate::fusion::nonlinear) struct Proposal {
     first: usize,
     states: Vec<NavState>,
     /// The APs, `None` where not placed yet.
     aps: Vec<Option<Vector3<f64>>>,
     /// Priors on APs, in their information (what a window lost to a hole knew of them: range
     /// and height from the carried position), with the horizontal σ the relocation found them
-    /// with ([`super::relocate`]).
+    /// with ([`crate::fusion::nonlinear::recovery::relocate`]).
     ap_priors: Vec<(usize, Matrix3<f64>, f64)>,
     /// σ of the first state's roll and pitch, rad.
     tilt_sigma_rad: f64,
@@ -80,10 +80,10 @@ struct RestForce {
 
 impl NonlinearEstimator {
     /// The inertial proposal: every start keyframe's dead-reckoned state, and every AP
-    /// triangulated against those poses ([`super::triangulate`]). After a hole the dead
+    /// triangulated against those poses ([`crate::fusion::nonlinear::start::triangulate`]). After a hole the dead
     /// reckoning is first corrected by the AP the lost window had placed
-    /// ([`super::relocate`]).
-    pub(super) fn propose_inertial(&self, start: &Start) -> Option<Proposal> {
+    /// ([`crate::fusion::nonlinear::recovery::relocate`]).
+    pub(in crate::fusion::nonlinear) fn propose_inertial(&self, start: &Start) -> Option<Proposal> {
         let reference = start.reference.as_ref()?;
         let mut states: Vec<NavState> = start
             .keyframes
@@ -158,7 +158,7 @@ impl NonlinearEstimator {
 
     /// Every bearing of the start seen from the start keyframes at `states`, per AP, with the
     /// time of its frame.
-    pub(super) fn sights_along(
+    pub(in crate::fusion::nonlinear) fn sights_along(
         &self,
         start: &Start,
         states: &[NavState],
@@ -184,7 +184,7 @@ impl NonlinearEstimator {
     }
 
     /// The linear proposal: the linear window's frames, levelled (its mean gravity to −z).
-    pub(super) fn propose_linear(&self, start: &Start) -> Option<Proposal> {
+    pub(in crate::fusion::nonlinear) fn propose_linear(&self, start: &Start) -> Option<Proposal> {
         let linear = start.solver.proposal()?;
         let frames: HashMap<i64, FrameEstimate> =
             linear.frames.iter().map(|f| (f.t.0, *f)).collect();
@@ -243,7 +243,11 @@ impl NonlinearEstimator {
     }
 
     /// The nonlinear window over a proposal, iterated; `None` when it is not accepted.
-    pub(super) fn refine(&self, start: &Start, proposal: Proposal) -> Option<NonlinearWindow> {
+    pub(in crate::fusion::nonlinear) fn refine(
+        &self,
+        start: &Start,
+        proposal: Proposal,
+    ) -> Option<NonlinearWindow> {
         let Proposal {
             first,
             states,

@@ -1,7 +1,7 @@
 //! The range anchor: what a window lost to a hole knew of an AP's range, as a factor on the
-//! next window's first keyframe and that AP ([`super::anchor`]).
+//! next window's first keyframe and that AP (`recovery::anchor`).
 //!
-//! The bridge ([`super::bridge`]) puts the new window's first keyframe, at `p₀` with velocity
+//! The bridge (`recovery::bridge`) puts the new window's first keyframe, at `p₀` with velocity
 //! `v₀`, at `p_b + (v_b + v₀) T/2 + (a_b − a₀) T²/10 + (j_b + j₀) T³/120` after the lost
 //! window's last state `p_b` (its motion `v_b, a_b, j_b`; `T` the hole), each motion in its own
 //! window's frame. The two frames differ by an unknown turn about the vertical and a shift, but
@@ -17,11 +17,11 @@
 //! errors are in the bridge's σ). `∂r/∂c = u/σ`, `∂r/∂δp₀ = −u/σ`, `∂r/∂δv₀ = (T/2) u/σ` with
 //! `u = (L_x, L_y, 0)/‖L_xy‖` (position and velocity errors are additive in `w`). The anchor
 //! gives a new window the AP's range, the one thing its first seconds of bearings lack, and no
-//! heading: the turn between the windows is found afterwards ([`super::holes`]).
+//! heading: the turn between the windows is found afterwards ([`crate::fusion::nonlinear::recovery`]).
 
 use nalgebra::Vector3;
 
-use super::state::{NavState, POS, Row15, VEL};
+use crate::fusion::nonlinear::state::{NavState, POS, Row15, VEL};
 use crate::time::Timestamp;
 
 /// A range anchor (module doc).
@@ -70,7 +70,7 @@ impl RangeAnchor {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+pub(in crate::fusion::nonlinear) mod tests {
     use nalgebra::UnitQuaternion;
 
     use super::*;

@@ -1,17 +1,22 @@
-//! A start (module doc of [`super::estimator`], step 2), from the rest, from nothing (airborne),
+//! A start (module doc of [`crate::fusion::nonlinear::estimator`], step 2), from the rest, from nothing (airborne),
 //! or after a loss or a hole: the state it owns, how it begins, its keyframes, and its
 //! acceptance into tracking. The proposals it tries are in `proposal`.
+
+pub mod proposal;
+pub mod rest;
+pub mod still;
+pub mod triangulate;
 
 use std::collections::VecDeque;
 
 use nalgebra::{Isometry3, Translation3, Vector3};
 
-use super::config::NonlinearConfig;
-use super::estimator::NonlinearEstimator;
-use super::holes::HoleFix;
-use super::phase::{Phase, PhaseKind, Reason, Tracking};
-use super::state::{NavState, pose_at};
-use super::window::{NonlinearWindow, SubFrame};
+use crate::fusion::nonlinear::config::NonlinearConfig;
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::phase::{Phase, PhaseKind, Reason, Tracking};
+use crate::fusion::nonlinear::recovery::HoleFix;
+use crate::fusion::nonlinear::solve::{NonlinearWindow, SubFrame};
+use crate::fusion::nonlinear::state::{NavState, pose_at};
 use crate::fusion::proposal::{StartPrior, StartSolver};
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::so3::heading;
@@ -193,7 +198,7 @@ impl NonlinearEstimator {
         self.enter(phase, Some(t), Reason::ImuGapWhileStarting);
     }
 
-    /// Tries the start when it is time (module doc of [`super::estimator`], step 2); an
+    /// Tries the start when it is time (module doc of [`crate::fusion::nonlinear::estimator`], step 2); an
     /// accepted window starts tracking.
     pub(super) fn maybe_start(&mut self, t: Timestamp) {
         let Some(start) = self.phase.start() else {

@@ -16,8 +16,8 @@
 
 use nalgebra::{Isometry3, RowVector3, Vector3};
 
-use super::state::{NavState, Row15, pose_at, pose_at_jacobians};
 use crate::aoa::steering::sin_aoa;
+use crate::fusion::nonlinear::state::{NavState, Row15, pose_at, pose_at_jacobians};
 use crate::imu::Preintegrated;
 
 /// Below this distance (m) between the AP and the array centre the bearing is undefined.
@@ -130,4 +130,5 @@ pub fn sin_sigma(aoa_rad: f64, sigma_rad: f64) -> f64 {
 }
 
 #[cfg(test)]
+#[path = "cone_tests.rs"]
 mod tests;

@@ -17,7 +17,9 @@
 
 use nalgebra::Matrix3;
 
-use super::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, Vec15, gravity_in_w};
+use crate::fusion::nonlinear::state::{
+    BA, BG, Mat15, NavState, POS, THETA, VEL, Vec15, gravity_in_w,
+};
 use crate::imu::Preintegrated;
 use crate::rig::ImuNoise;
 use crate::so3::{exp, log, right_jacobian, right_jacobian_inverse};
@@ -185,4 +187,5 @@ pub fn imu_information(pre: &Preintegrated, noise: &ImuNoise) -> Option<Mat15> {
 }
 
 #[cfg(test)]
+#[path = "imu_tests.rs"]
 mod tests;

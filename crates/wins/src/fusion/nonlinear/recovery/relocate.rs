@@ -5,7 +5,7 @@
 //! IMU's straight line across a turn), which turns the velocity the dead reckoning leaves with
 //! against the body by as much, and its roll and pitch a degree or two, which adds a constant
 //! acceleration `g δθ` to the dead reckoning. Both grow into metres within the seconds a start
-//! needs, so the APs no longer triangulate against it ([`super::triangulate`]). The dead
+//! needs, so the APs no longer triangulate against it ([`crate::fusion::nonlinear::start::triangulate`]). The dead
 //! reckoning is linear in the initial velocity and, to first order, in a world-frame tilt error:
 //! the array's true positions are `p_a(t) + δv t + ½ δa t²` (`t` since the hole's first frame,
 //! `δa` horizontal). So the AP's position `c`, `δv` and `δa` are solved together, minimizing
@@ -17,26 +17,26 @@
 
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
-use super::triangulate::Sight;
-use super::window::cauchy;
+use crate::fusion::nonlinear::solve::cauchy;
+use crate::fusion::nonlinear::start::triangulate::Sight;
 
 /// One sight and its time since the hole's first frame, s.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct TimedSight {
-    pub(super) sight: Sight,
-    pub(super) t_s: f64,
+pub(in crate::fusion::nonlinear) struct TimedSight {
+    pub(in crate::fusion::nonlinear) sight: Sight,
+    pub(in crate::fusion::nonlinear) t_s: f64,
 }
 
 /// What the lost window knew of the AP, seen from where the IMU carried the drone: its
 /// horizontal range and height above the drone (the bearing is what the hole lost).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct ApFromDrone {
+pub(in crate::fusion::nonlinear) struct ApFromDrone {
     /// The drone at the hole's first frame, m.
-    pub(super) drone: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) drone: Vector3<f64>,
     /// The AP from there, were the carried heading right, m.
-    pub(super) offset: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) offset: Vector3<f64>,
     /// 1σ of the range and of the height, m.
-    pub(super) sigma_m: f64,
+    pub(in crate::fusion::nonlinear) sigma_m: f64,
 }
 
 impl ApFromDrone {
@@ -51,7 +51,10 @@ impl ApFromDrone {
     }
 
     /// Their information on the AP at `c` (rank 2: range and height), 1/m².
-    pub(super) fn information(&self, c: &Vector3<f64>) -> nalgebra::Matrix3<f64> {
+    pub(in crate::fusion::nonlinear) fn information(
+        &self,
+        c: &Vector3<f64>,
+    ) -> nalgebra::Matrix3<f64> {
         self.residuals(c)
             .iter()
             .map(|(_, j)| j * j.transpose())
@@ -61,27 +64,27 @@ impl ApFromDrone {
 
 /// The joint solution.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Relocated {
+pub(in crate::fusion::nonlinear) struct Relocated {
     /// The AP, in the dead reckoning's frame, m.
-    pub(super) c: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) c: Vector3<f64>,
     /// The velocity correction at the hole's first frame, m/s.
-    pub(super) dv: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) dv: Vector3<f64>,
     /// The horizontal acceleration correction (tilt), m/s².
-    pub(super) da: Vector2<f64>,
+    pub(in crate::fusion::nonlinear) da: Vector2<f64>,
     /// The robust cost with the priors.
-    pub(super) cost: f64,
+    pub(in crate::fusion::nonlinear) cost: f64,
     /// Horizontal σ of the AP, m (its largest).
-    pub(super) ap_sigma_m: f64,
+    pub(in crate::fusion::nonlinear) ap_sigma_m: f64,
 }
 
 impl Relocated {
     /// The position correction at `t_s` after the hole's first frame, m.
-    pub(super) fn dp(&self, t_s: f64) -> Vector3<f64> {
+    pub(in crate::fusion::nonlinear) fn dp(&self, t_s: f64) -> Vector3<f64> {
         self.dv * t_s + Vector3::new(self.da.x, self.da.y, 0.0) * (0.5 * t_s * t_s)
     }
 
     /// The velocity correction at `t_s`, m/s.
-    pub(super) fn dvel(&self, t_s: f64) -> Vector3<f64> {
+    pub(in crate::fusion::nonlinear) fn dvel(&self, t_s: f64) -> Vector3<f64> {
         self.dv + Vector3::new(self.da.x, self.da.y, 0.0) * t_s
     }
 }
@@ -233,7 +236,7 @@ fn solve(
 /// lost window knew of the AP (`ap`, in the dead reckoning's frame, the heading unknown), seeded
 /// by that AP turned about the drone and the carried velocity `v0` turned; `None` with fewer
 /// than 6 sights or no finite solution.
-pub(super) fn relocate(
+pub(in crate::fusion::nonlinear) fn relocate(
     sights: &[TimedSight],
     ap: &ApFromDrone,
     v0: &Vector3<f64>,

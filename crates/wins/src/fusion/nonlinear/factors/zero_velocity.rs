@@ -1,4 +1,4 @@
-//! The zero-velocity factor: a keyframe taken while the IMU is still ([`super::still`]) and the
+//! The zero-velocity factor: a keyframe taken while the IMU is still ([`crate::fusion::nonlinear::start::still`]) and the
 //! window's speed estimate is small holds its velocity at zero,
 //!
 //! ```text
@@ -15,10 +15,10 @@
 //! other measurements. Its cost counts in the χ² tests, its residuals not among their degrees
 //! of freedom ([`crate::fusion::nonlinear::passes_chi2`]).
 
-use super::fit::FitStats;
-use super::state::{NavState, STATE_DIM, VEL};
-use super::window::{Keyframe, NonlinearWindow};
 use crate::fusion::arrow::{ArrowSystem, Linearized, Weight};
+use crate::fusion::nonlinear::solve::fit::FitStats;
+use crate::fusion::nonlinear::solve::{Keyframe, NonlinearWindow};
+use crate::fusion::nonlinear::state::{NavState, STATE_DIM, VEL};
 
 /// The residual `r = v` (module doc), m/s.
 pub fn zero_velocity_residual(x: &NavState) -> nalgebra::Vector3<f64> {
@@ -48,7 +48,7 @@ impl NonlinearWindow {
 
     /// Adds keyframe `k`'s zero-velocity factor to `sys` (the Jacobian is constant, so first
     /// estimates change nothing).
-    pub(super) fn add_zero_velocity(
+    pub(in crate::fusion::nonlinear) fn add_zero_velocity(
         &self,
         k: usize,
         kf: &Keyframe,
@@ -74,7 +74,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::fusion::nonlinear::aps::tests::window;
+    use crate::fusion::nonlinear::solve::aps::tests::window;
     use crate::fusion::nonlinear::state::testing::{
         assert_close, central_difference, random_state,
     };

@@ -6,7 +6,7 @@
 //! r = p_t,z + o − h
 //! ```
 
-use super::state::{NavState, Row15, pose_at, pose_at_jacobians};
+use crate::fusion::nonlinear::state::{NavState, Row15, pose_at, pose_at_jacobians};
 use crate::imu::Preintegrated;
 
 /// The barometer residual `r = p_t,z + o − h` (module doc) for an altitude `altitude_m` measured

@@ -5,7 +5,7 @@
 //! trajectory, with its metric scale, for the few seconds the start needs. Against those array
 //! poses every AP is a separate, three-unknown problem: minimize the Cauchy-robust sum of the
 //! cone residuals `r = ŷ_a · unit(R_waᵀ (c − p_a)) − sin θ` (the cone factor's model,
-//! [`super::cone_factor`]) over `c`. That cost is not convex (the range along the bearings is
+//! [`crate::fusion::nonlinear::factors::cone`]) over `c`. That cost is not convex (the range along the bearings is
 //! weakly constrained, a linear array cannot tell the AP's mirror images apart), so it is searched
 //! on a grid of directions and log-spaced ranges around the trajectory and the best candidates are
 //! refined by Gauss–Newton with the Cauchy weights; the lowest cost wins. The joint window then
@@ -15,11 +15,11 @@ use std::collections::VecDeque;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
 
-use super::cone_factor::sin_sigma;
-use super::state::PoseAt;
-use super::window::cauchy;
 use crate::aoa::steering::sin_aoa;
 use crate::fusion::bearing::Bearing;
+use crate::fusion::nonlinear::factors::cone::sin_sigma;
+use crate::fusion::nonlinear::solve::cauchy;
+use crate::fusion::nonlinear::state::PoseAt;
 
 /// One cone angle seen from a known array pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,7 +30,7 @@ pub struct Sight {
     pub world_from_array: Rotation3<f64>,
     /// The measured sin θ.
     pub sin_measured: f64,
-    /// σ of the sin residual ([`super::cone_factor::sin_sigma`]).
+    /// σ of the sin residual ([`crate::fusion::nonlinear::factors::cone::sin_sigma`]).
     pub sigma: f64,
 }
 
@@ -48,7 +48,10 @@ impl Sight {
 
     /// The residual `ŷ_a · unit(d_a) − sin θ` for an AP at `c`, and `∂r/∂c`; `None` at the
     /// array centre.
-    pub(super) fn residual(&self, c: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
+    pub(in crate::fusion::nonlinear) fn residual(
+        &self,
+        c: &Vector3<f64>,
+    ) -> Option<(f64, Vector3<f64>)> {
         let d_a = self
             .world_from_array
             .inverse_transform_vector(&(c - self.p_a_in_w));
@@ -64,12 +67,12 @@ impl Sight {
 
 /// The sights of one AP not placed yet.
 #[derive(Clone, Debug, Default)]
-pub(super) struct LateSights {
+pub(in crate::fusion::nonlinear) struct LateSights {
     /// The newest ones (at most `late_ap::MAX_SIGHTS`).
-    pub(super) sights: VecDeque<Sight>,
+    pub(in crate::fusion::nonlinear) sights: VecDeque<Sight>,
     /// Sights kept since the AP was first seen (the cadence of the attempts, also once the
     /// oldest leave).
-    pub(super) seen: usize,
+    pub(in crate::fusion::nonlinear) seen: usize,
 }
 
 /// The solution for one AP.

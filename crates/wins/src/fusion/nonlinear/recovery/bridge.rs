@@ -1,4 +1,4 @@
-//! The bridge across a hole in the information ([`super::holes`]): where the drone is after
+//! The bridge across a hole in the information ([`crate::fusion::nonlinear::recovery`]): where the drone is after
 //! it, from the lost window's last state and the new window's first motion alone.
 //!
 //! A drone's path is smooth: its velocity across a hole of `T` s is well described by the
@@ -10,18 +10,18 @@
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use super::state::NavState;
+use crate::fusion::nonlinear::state::NavState;
 use crate::time::Timestamp;
 
 /// The lost window's last state before a hole, in the output frame.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Before {
+pub(in crate::fusion::nonlinear) struct Before {
     /// Its time.
-    pub(super) t: Timestamp,
+    pub(in crate::fusion::nonlinear) t: Timestamp,
     /// The body's position, m.
-    pub(super) p: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) p: Vector3<f64>,
     /// The path's velocity and its next two derivatives there.
-    pub(super) motion: EndMotion,
+    pub(in crate::fusion::nonlinear) motion: EndMotion,
 }
 
 /// The seventh derivative a drone's path may have across a hole, m/s⁷ (a circle of 2.5 m
@@ -40,7 +40,7 @@ const END_FIT_MIN_STATES: usize = 5;
 
 /// 1σ of the bridge across a hole of `span_s` s, m: its truncation
 /// ([`BRIDGE_SMOOTHNESS_M_S7`]) and the errors of its ends' motions.
-pub(super) fn bridge_sigma_m(span_s: f64) -> f64 {
+pub(in crate::fusion::nonlinear) fn bridge_sigma_m(span_s: f64) -> f64 {
     let t = span_s.max(0.0);
     let truncation = BRIDGE_SMOOTHNESS_M_S7 * t.powi(7) / 100_800.0;
     let ends = (BRIDGE_VELOCITY_SIGMA_M_S * t / 2.0)
@@ -51,15 +51,15 @@ pub(super) fn bridge_sigma_m(span_s: f64) -> f64 {
 
 /// A path's velocity and its next two derivatives at one end of a window, m/s, m/s², m/s³.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct EndMotion {
-    pub(super) v: Vector3<f64>,
-    pub(super) a: Vector3<f64>,
-    pub(super) j: Vector3<f64>,
+pub(in crate::fusion::nonlinear) struct EndMotion {
+    pub(in crate::fusion::nonlinear) v: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) a: Vector3<f64>,
+    pub(in crate::fusion::nonlinear) j: Vector3<f64>,
 }
 
 impl EndMotion {
     /// The same motion in a frame turned by `rotation`.
-    pub(super) fn turned(&self, rotation: &UnitQuaternion<f64>) -> Self {
+    pub(in crate::fusion::nonlinear) fn turned(&self, rotation: &UnitQuaternion<f64>) -> Self {
         Self {
             v: rotation * self.v,
             a: rotation * self.a,
@@ -72,7 +72,9 @@ impl EndMotion {
 /// velocity, and the acceleration and jerk of the quadratic `v + a τ + j τ²/2` fitted by
 /// least squares to the velocities within [`END_FIT_S`] of it; with fewer than
 /// [`END_FIT_MIN_STATES`] there, the acceleration between the first two alone.
-pub(super) fn end_motion<'a>(mut states: impl Iterator<Item = &'a NavState>) -> EndMotion {
+pub(in crate::fusion::nonlinear) fn end_motion<'a>(
+    mut states: impl Iterator<Item = &'a NavState>,
+) -> EndMotion {
     let Some(end) = states.next() else {
         return EndMotion::default();
     };
@@ -113,7 +115,11 @@ impl Before {
     /// interpolation, `p + (v + v′) T/2 + (a − a′) T²/10 + (j + j′) T³/120`, exact for a
     /// path of degree six and off by about `T⁷/100800` times its seventh derivative
     /// otherwise.
-    pub(super) fn bridged(&self, t: Timestamp, after: &EndMotion) -> Vector3<f64> {
+    pub(in crate::fusion::nonlinear) fn bridged(
+        &self,
+        t: Timestamp,
+        after: &EndMotion,
+    ) -> Vector3<f64> {
         let span_s = t.secs_since(self.t).max(0.0);
         let m = &self.motion;
         self.p

@@ -13,7 +13,7 @@ use std::collections::VecDeque;
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::config::NonlinearConfig;
+use crate::fusion::nonlinear::config::NonlinearConfig;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
 

@@ -1,5 +1,5 @@
 //! Stillness: when the IMU shows the body at rest (on the ground before take-off or after
-//! landing), the window may hold the keyframe's velocity at zero ([`super::zero_velocity`]).
+//! landing), the window may hold the keyframe's velocity at zero ([`crate::fusion::nonlinear::factors::zero_velocity`]).
 //!
 //! An IMU cannot tell rest from flight at a constant velocity: both read gravity and no rotation.
 //! Three tests separate them in practice, and all are required:
@@ -8,7 +8,7 @@
 //!   sensor's own white noise per sample (`density / √Δt`, floored at [`MIN_ACCEL_SCATTER_M_S2`]
 //!   and [`MIN_GYRO_SCATTER_RAD_S`]). Spinning rotors shake the airframe far above the sensor's
 //!   noise, so a flying (or armed) drone is never still;
-//! - **the means**, as for the static start ([`super::rest`]): the rate's norm below
+//! - **the means**, as for the static start ([`crate::fusion::nonlinear::start::rest`]): the rate's norm below
 //!   [`NonlinearConfig::rest_max_gyro_rad_s`], the specific force's within
 //!   [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity;
 //! - **the means stay put**: no axis of a 0.1 s mean moves from the means when the stillness
@@ -26,8 +26,8 @@ use std::collections::VecDeque;
 
 use nalgebra::Vector3;
 
-use super::config::NonlinearConfig;
-use super::rest::{SMOOTHING_S, means_at_rest};
+use crate::fusion::nonlinear::config::NonlinearConfig;
+use crate::fusion::nonlinear::start::rest::{SMOOTHING_S, means_at_rest};
 use crate::imu::ImuSample;
 use crate::rig::ImuNoise;
 use crate::time::Timestamp;

@@ -6,15 +6,15 @@
 //! that guess with two iterations and a marginalization prior linearized at it; on the simulated
 //! circle a 2 s gap then drifted to metres. So a hole while tracking ends the window: at the
 //! first frame after it the estimator restarts from the newest keyframe carried across the hole
-//! by the IMU ([`super::start`]; its linear window starts from zeros, the carried velocity and
+//! by the IMU ([`crate::fusion::nonlinear::start`]; its linear window starts from zeros, the carried velocity and
 //! attitude being guesses), no pose is given until the new window is accepted, and the APs the
 //! lost window had placed are kept. When the new window is accepted, it is placed so
-//! that its APs fall where the lost window had them ([`relocated`]): the APs do not move, so
+//! that its APs fall where the lost window had them (`relocated`): the APs do not move, so
 //! they undo the drift of the guess. With one AP that fixes the position; with two or more, the
 //! heading too (a rotation about the vertical through one AP leaves every bearing of it
 //! unchanged, so one AP cannot). With one AP the heading comes from the path's continuity
-//! across the hole ([`super::bridge`]). A new window whose APs' ranges from the bridge's end
-//! disagree with the lost window's is refused ([`Placement::agrees`]), and an accepted one keeps
+//! across the hole (`recovery::bridge`). A new window whose APs' ranges from the bridge's end
+//! disagree with the lost window's is refused (`Placement::agrees`), and an accepted one keeps
 //! its APs where the lost window had them (in its prior). The height comes mostly from the
 //! barometer, which runs on through an IMU gap: the new window's barometer offset, as placed, is
 //! the lost window's give or take the offset's walk since, and is held there; an AP's own
@@ -22,15 +22,19 @@
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
-use super::bridge::{Before, bridge_sigma_m, end_motion};
+use crate::fusion::nonlinear::recovery::bridge::{Before, bridge_sigma_m, end_motion};
+pub(in crate::fusion::nonlinear) mod anchor;
+pub(in crate::fusion::nonlinear) mod bridge;
+pub(in crate::fusion::nonlinear) mod relocate;
+
 use std::collections::VecDeque;
 
-use super::estimator::NonlinearEstimator;
-use super::phase::{Phase, Reason};
-use super::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
-use super::start::Start;
-use super::state::{NavState, pose_at};
-use super::window::NonlinearWindow;
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::phase::{Phase, Reason};
+use crate::fusion::nonlinear::recovery::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
+use crate::fusion::nonlinear::solve::NonlinearWindow;
+use crate::fusion::nonlinear::start::Start;
+use crate::fusion::nonlinear::state::{NavState, pose_at};
 use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 
@@ -77,7 +81,7 @@ impl NonlinearEstimator {
 
     /// Ends the tracking window at the frame `t` after a hole, `interval` the IMU since the
     /// last frame (with gaps of `imu_gap_s` s in it): restarts from the newest keyframe
-    /// carried to `t` by the IMU, keeping its placed APs for the new window ([`relocated`]).
+    /// carried to `t` by the IMU, keeping its placed APs for the new window (`relocated`).
     pub(super) fn restart_after_hole(
         &mut self,
         t: Timestamp,
@@ -162,7 +166,7 @@ impl NonlinearEstimator {
     }
 
     /// After a hole: the AP of the lost window with the most bearings since, found with the
-    /// velocity and tilt corrections of the dead reckoning at `states` ([`super::relocate`]).
+    /// velocity and tilt corrections of the dead reckoning at `states` ([`crate::fusion::nonlinear::recovery::relocate`]).
     pub(super) fn relocate_after_hole(
         &self,
         start: &Start,
@@ -243,7 +247,7 @@ impl NonlinearEstimator {
             pairs.push(Weighted::even(here, here, fix.carried_sigma_m.powi(-2)));
             // The bridge: where the lost window's last state and the new window's first
             // motion, turned as the placement turns it, put the drone (found with the
-            // placement, a few rounds; [`super::bridge`]).
+            // placement, a few rounds; `recovery::bridge`).
             let before = fix.before;
             let here_motion = end_motion(w.keyframes()).turned(&self.anchor.rotation);
             let span_s = first.t.secs_since(before.t).max(0.0);

@@ -1,12 +1,12 @@
-//! The lost window's ranges in a window started after a hole ([`super::holes`]).
+//! The lost window's ranges in a window started after a hole ([`crate::fusion::nonlinear::recovery`]).
 //!
 //! A window started after a hole sees its AP's direction within seconds, but its range only from
 //! the parallax of its own path, and the range sets the scale of everything it estimates: the
 //! speed, and so where the drone drifts once it stops moving across the line of sight (a hover,
-//! a landing). The lost window knew that range: the bridge ([`super::bridge`]) ties the new
+//! a landing). The lost window knew that range: the bridge ([`crate::fusion::nonlinear::recovery::bridge`]) ties the new
 //! window's first keyframe to the lost window's last state, and the horizontal distance from the
 //! bridge's lever to the AP is the same in both frames, whatever turn and shift lie between them
-//! ([`super::range_anchor`]). So a new window that would be accepted (its own APs placed within
+//! ([`crate::fusion::nonlinear::factors::range_anchor`]). So a new window that would be accepted (its own APs placed within
 //! the σ bounds, its ranges agreeing with the lost window's) gets one range anchor per lost AP
 //! (σ: the lost AP's and the bridge's) and is solved again; when each anchor is met within
 //! [`MAX_ANCHOR_RESIDUAL`] σ and the residuals still pass the χ² test, that window is accepted
@@ -17,12 +17,12 @@
 //! error after a 5 s IMU gap (29 instead of 26), fewer after a 2 s gap (28 instead of 32): a
 //! young window's shape is off by more than its covariance says (docs/VALIDATION.md).
 
-use super::bridge::{bridge_sigma_m, end_motion};
-use super::estimator::NonlinearEstimator;
-use super::fit::passes_chi2;
-use super::holes::{FIRST_KEYFRAME_WITHIN_S, HoleFix, Placement};
-use super::range_anchor::RangeAnchor;
-use super::window::NonlinearWindow;
+use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
+use crate::fusion::nonlinear::recovery::bridge::{bridge_sigma_m, end_motion};
+use crate::fusion::nonlinear::recovery::{FIRST_KEYFRAME_WITHIN_S, HoleFix, Placement};
+use crate::fusion::nonlinear::solve::NonlinearWindow;
+use crate::fusion::nonlinear::solve::fit::passes_chi2;
 
 /// The largest whitened residual of an anchor in an accepted window.
 const MAX_ANCHOR_RESIDUAL: f64 = 3.0;
@@ -30,11 +30,11 @@ const MAX_ANCHOR_RESIDUAL: f64 = 3.0;
 const MIN_ANCHOR_SIGMA_M: f64 = 0.05;
 
 /// A window started after a hole, anchored to the lost window's ranges.
-pub(super) struct Anchored {
+pub(in crate::fusion::nonlinear) struct Anchored {
     /// The window, anchored and solved again.
-    pub(super) window: NonlinearWindow,
+    pub(in crate::fusion::nonlinear) window: NonlinearWindow,
     /// Where it goes.
-    pub(super) placement: Placement,
+    pub(in crate::fusion::nonlinear) placement: Placement,
 }
 
 impl NonlinearEstimator {
@@ -44,7 +44,11 @@ impl NonlinearEstimator {
     /// placed within the σ bounds by `w` itself (the relocation's σ may have accepted it), no
     /// lost AP is in `w`, or the anchored window misses an anchor, fails the χ² test or
     /// disagrees with the lost window's ranges.
-    pub(super) fn anchored(&self, fix: &HoleFix, w: &NonlinearWindow) -> Option<Anchored> {
+    pub(in crate::fusion::nonlinear) fn anchored(
+        &self,
+        fix: &HoleFix,
+        w: &NonlinearWindow,
+    ) -> Option<Anchored> {
         let first = *w.keyframes().next()?;
         if first.t.secs_since(fix.t).abs() > FIRST_KEYFRAME_WITHIN_S {
             return None;
@@ -64,8 +68,8 @@ impl NonlinearEstimator {
         let mut any = false;
         let before = &fix.before.motion;
         for old in &fix.aps_in_w {
-            // `D` of [`super::range_anchor`], in the output frame: the AP from the lost window's
-            // half of the bridge ([`Before::bridged`](super::bridge::Before::bridged)).
+            // `D` of [`crate::fusion::nonlinear::factors::range_anchor`], in the output frame: the AP from the lost window's
+            // half of the bridge ([`Before::bridged`](crate::fusion::nonlinear::recovery::bridge::Before::bridged)).
             let d = old.c_in_w
                 - fix.before.p
                 - before.v * (span_s / 2.0)

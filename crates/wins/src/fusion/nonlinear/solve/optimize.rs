@@ -5,9 +5,9 @@ use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::state::{NavState, STATE_DIM};
-use super::window::{Keyframe, LAMBDA_FIRST, NonlinearWindow};
 use crate::fusion::arrow::ArrowSystem;
+use crate::fusion::nonlinear::solve::{Keyframe, LAMBDA_FIRST, NonlinearWindow};
+use crate::fusion::nonlinear::state::{NavState, STATE_DIM};
 
 /// Why a solve failed (the estimate is left as it was).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -168,7 +168,7 @@ impl NonlinearWindow {
 
     /// `δ = x ⊟ x_lin` over `[first keyframe, border]` (border entries without a frozen point:
     /// 0).
-    pub(super) fn prior_delta(&self) -> DVector<f64> {
+    pub(in crate::fusion::nonlinear) fn prior_delta(&self) -> DVector<f64> {
         let mut e = DVector::zeros(STATE_DIM + self.border_dim());
         if let Some(k0) = self.keyframes.front() {
             let lin = k0.lin.unwrap_or(k0.x);
@@ -190,7 +190,7 @@ impl NonlinearWindow {
     }
 
     /// Adds the prior to `sys`; returns its cost `δᵀHδ + 2gᵀδ`.
-    pub(super) fn add_prior(&self, sys: &mut ArrowSystem<STATE_DIM>) -> f64 {
+    pub(in crate::fusion::nonlinear) fn add_prior(&self, sys: &mut ArrowSystem<STATE_DIM>) -> f64 {
         let dim = self.prior_h.nrows();
         let full = STATE_DIM + self.border_dim();
         let mut e = self.prior_delta();
@@ -205,7 +205,7 @@ impl NonlinearWindow {
     }
 
     /// Marginalizes the oldest keyframe into the prior on `[next keyframe, border]` (module doc
-    /// of [`super::window`]): the Schur complement of only the factors that touch it, with the
+    /// of [`crate::fusion::nonlinear::solve`]): the Schur complement of only the factors that touch it, with the
     /// states it leaves in the prior frozen at their current estimate for every later Jacobian.
     pub fn marginalize_oldest(&mut self) {
         if self.keyframes.len() < 2 {

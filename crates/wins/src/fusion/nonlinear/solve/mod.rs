@@ -18,19 +18,24 @@
 //!
 //! The prior is `½ δᵀ H δ + gᵀ δ` with `δ = x ⊟ x_lin` over `[first keyframe, border]`.
 
+pub(in crate::fusion::nonlinear) mod aps;
+pub mod fit;
+pub(in crate::fusion::nonlinear) mod nullspace;
+pub mod optimize;
+
 use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector1, Vector3};
 
-use super::baro_factor::{baro_jacobian, baro_residual};
-use super::cone_factor::{cone_jacobian, cone_residual, sin_sigma};
-use super::config::NonlinearConfig;
-pub use super::fit::{FitStats, cauchy};
-use super::imu_factor::{imu_information, imu_jacobians, imu_residual};
-use super::range_anchor::RangeAnchor;
-use super::state::{Mat15, NavState, STATE_DIM, Vec15};
 use crate::fusion::arrow::{ArrowSystem, BorderBlock, Linearized, Weight};
 use crate::fusion::bearing::Bearing;
+use crate::fusion::nonlinear::config::NonlinearConfig;
+use crate::fusion::nonlinear::factors::baro::{baro_jacobian, baro_residual};
+use crate::fusion::nonlinear::factors::cone::{cone_jacobian, cone_residual, sin_sigma};
+use crate::fusion::nonlinear::factors::imu::{imu_information, imu_jacobians, imu_residual};
+use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
+pub use crate::fusion::nonlinear::solve::fit::{FitStats, cauchy};
+use crate::fusion::nonlinear::state::{Mat15, NavState, STATE_DIM, Vec15};
 use crate::imu::Preintegrated;
 use crate::rig::ImuNoise;
 
@@ -64,7 +69,7 @@ pub(super) struct Keyframe {
     /// IMU interval from the previous keyframe and its information.
     pub(super) from_prev: Option<(Preintegrated, Mat15)>,
     pub(super) frames: Vec<SubFrame>,
-    /// Held at zero velocity ([`super::zero_velocity`]).
+    /// Held at zero velocity ([`crate::fusion::nonlinear::factors::zero_velocity`]).
     pub(super) still: bool,
 }
 
@@ -88,7 +93,7 @@ pub struct NonlinearWindow {
     pub(super) aps: Vec<Vector3<f64>>,
     pub(super) ap_lin: Vec<Option<Vector3<f64>>>,
     /// Whether AP `l` is placed; an AP not yet placed holds a placeholder (its bearings are
-    /// skipped and a vanishing prior keeps the system regular): [`super::aps`].
+    /// skipped and a vanishing prior keeps the system regular): [`crate::fusion::nonlinear::solve::aps`].
     pub(super) placed: Vec<bool>,
     /// Barometer offset and its frozen point, when the window has a barometer.
     pub(super) baro: Option<(f64, Option<f64>)>,
@@ -104,7 +109,7 @@ pub struct NonlinearWindow {
     pub(super) skipped_bearings: u64,
     /// The Levenberg–Marquardt damping the last solve ended with (the next one starts there).
     pub(super) lambda: f64,
-    /// Range anchors on the first keyframe ([`super::range_anchor`]).
+    /// Range anchors on the first keyframe ([`crate::fusion::nonlinear::factors::range_anchor`]).
     pub(super) anchors: Vec<RangeAnchor>,
 }
 

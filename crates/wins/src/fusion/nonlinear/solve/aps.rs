@@ -1,19 +1,19 @@
 //! The window's APs: placed ones (in the border, their bearings used) and placeholders for APs
 //! seen but not yet placed (the border keeps their slot so that an AP's index is its number; a
 //! vanishing prior keeps the system regular; their bearings are skipped). An AP is placed at the
-//! start, or later from its triangulation ([`super::late_ap`]), whose information joins the
+//! start, or later from its triangulation ([`crate::fusion::nonlinear::late_ap`]), whose information joins the
 //! prior at that point. What is known of them from outside the window (a window lost to a hole:
 //! where it had them, their ranges) is held here too.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector1, Vector3};
 
-use super::config::NonlinearConfig;
-use super::fit::FitStats;
-use super::range_anchor::RangeAnchor;
-use super::state::{NavState, STATE_DIM};
-use super::triangulate::{Sight, Triangulated, triangulate};
-use super::window::{Keyframe, NonlinearWindow, PLACEHOLDER_INFORMATION};
 use crate::fusion::arrow::{ArrowSystem, BorderBlock, Linearized, Weight};
+use crate::fusion::nonlinear::config::NonlinearConfig;
+use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
+use crate::fusion::nonlinear::solve::fit::FitStats;
+use crate::fusion::nonlinear::solve::{Keyframe, NonlinearWindow, PLACEHOLDER_INFORMATION};
+use crate::fusion::nonlinear::start::triangulate::{Sight, Triangulated, triangulate};
+use crate::fusion::nonlinear::state::{NavState, STATE_DIM};
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
 pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {
@@ -66,7 +66,12 @@ impl NonlinearWindow {
     /// `(c − target)ᵀ Λ (c − target)` about the AP's linearization point, frozen here at its
     /// estimate if it was not yet (as when it enters the prior at a marginalization). `false`
     /// when the AP is not placed.
-    pub(super) fn hold_ap(&mut self, l: usize, target: Vector3<f64>, info: &Matrix3<f64>) -> bool {
+    pub(in crate::fusion::nonlinear) fn hold_ap(
+        &mut self,
+        l: usize,
+        target: Vector3<f64>,
+        info: &Matrix3<f64>,
+    ) -> bool {
         let (Some(true), Some(c), Some(lin)) =
             (self.placed.get(l), self.aps.get(l), self.ap_lin.get_mut(l))
         else {
@@ -84,7 +89,11 @@ impl NonlinearWindow {
     /// Holds the barometer offset near `target_m` with information `info` (1/m²; what is known
     /// of it from outside the window: a lost window's offset, the barometer having run on),
     /// added to its prior as [`hold_ap`](Self::hold_ap) does. `false` without a barometer.
-    pub(super) fn hold_baro_offset(&mut self, target_m: f64, info: f64) -> bool {
+    pub(in crate::fusion::nonlinear) fn hold_baro_offset(
+        &mut self,
+        target_m: f64,
+        info: f64,
+    ) -> bool {
         let Some((o, lin)) = self.baro.as_mut() else {
             return false;
         };
@@ -153,10 +162,10 @@ impl NonlinearWindow {
 }
 
 impl NonlinearWindow {
-    /// Adds range anchor `a` ([`super::range_anchor`]), on the keyframe at `a.t` while it is the window's
+    /// Adds range anchor `a` ([`crate::fusion::nonlinear::factors::range_anchor`]), on the keyframe at `a.t` while it is the window's
     /// first (its marginalization folds the anchor into the prior). `false` when AP `a.l` is not
     /// placed or no keyframe is at `a.t`.
-    pub(super) fn add_range_anchor(&mut self, a: RangeAnchor) -> bool {
+    pub(in crate::fusion::nonlinear) fn add_range_anchor(&mut self, a: RangeAnchor) -> bool {
         let ok = self.is_placed(a.l)
             && self.keyframes.front().is_some_and(|k| k.x.t == a.t)
             && a.sigma_m > 0.0
@@ -169,7 +178,7 @@ impl NonlinearWindow {
 
     /// The range anchors on keyframe `kf`, the window's first, into `sys` (first-estimate
     /// Jacobians, as the other factors).
-    pub(super) fn add_anchors(
+    pub(in crate::fusion::nonlinear) fn add_anchors(
         &self,
         kf: &Keyframe,
         lin: &NavState,
@@ -199,14 +208,14 @@ impl NonlinearWindow {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+pub(in crate::fusion::nonlinear) mod tests {
     use nalgebra::{Isometry3, Matrix3, Vector3};
 
-    use super::super::config::NonlinearConfig;
-    use super::super::range_anchor::RangeAnchor;
-    use super::super::range_anchor::tests::{anchor, state};
-    use super::super::state::{Mat15, NavState};
-    use super::super::window::NonlinearWindow;
+    use crate::fusion::nonlinear::config::NonlinearConfig;
+    use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
+    use crate::fusion::nonlinear::factors::range_anchor::tests::{anchor, state};
+    use crate::fusion::nonlinear::solve::NonlinearWindow;
+    use crate::fusion::nonlinear::state::{Mat15, NavState};
     use crate::rig::ImuNoise;
     use crate::time::Timestamp;
 
