@@ -57,7 +57,7 @@ impl NonlinearWindow {
         stats: &mut FitStats,
     ) {
         let r = zero_velocity_residual(&kf.x);
-        let info = self.config.zero_velocity_sigma_m_s.powi(-2);
+        let info = self.model.config.zero_velocity_sigma_m_s.powi(-2);
         let j = zero_velocity_jacobian();
         let e2 = r.norm_squared() * info;
         *cost += e2;
@@ -104,13 +104,13 @@ mod tests {
         use crate::imu::{ImuBiases, ImuSample, Preintegrator};
         let mut w = window(Vec::new());
         let x0 = *w.keyframes().next().unwrap();
-        let g = w.gravity_m_s2;
+        let g = w.model.gravity_m_s2;
         let sample = |ms: i64| ImuSample {
             t: Timestamp(ms * 1_000_000),
             gyro_rad_s: Vector3::zeros(),
             accel_m_s2: Vector3::new(0.5, 0.0, g),
         };
-        let mut pre = Preintegrator::new(w.imu_noise.clone(), ImuBiases::zero());
+        let mut pre = Preintegrator::new(w.model.imu_noise.clone(), ImuBiases::zero());
         for k in 1..=n {
             for ms in ((k - 1) * 100..k * 100).step_by(10) {
                 pre.push(&sample(ms)).unwrap();
@@ -155,7 +155,7 @@ mod tests {
             w.marginalize_oldest();
             w.marginalize_oldest();
             assert_eq!(w.fit().zero_velocity, if held { 6 } else { 0 });
-            w.prior_h.fixed_view::<3, 3>(VEL, VEL).diagonal().min()
+            w.prior.h.fixed_view::<3, 3>(VEL, VEL).diagonal().min()
         };
         let info = 0.02_f64.powi(-2);
         let held = velocity_information(true);

@@ -51,11 +51,11 @@ impl NonlinearWindow {
             self.push_placeholder();
         }
         let o = STATE_DIM + self.ap_offset(l);
-        let n = self.prior_h.nrows();
-        self.prior_h.view_mut((o, 0), (3, n)).fill(0.0);
-        self.prior_h.view_mut((0, o), (n, 3)).fill(0.0);
-        self.prior_h.view_mut((o, o), (3, 3)).copy_from(info);
-        self.prior_g.rows_mut(o, 3).fill(0.0);
+        let n = self.prior.h.nrows();
+        self.prior.h.view_mut((o, 0), (3, n)).fill(0.0);
+        self.prior.h.view_mut((0, o), (n, 3)).fill(0.0);
+        self.prior.h.view_mut((o, o), (3, 3)).copy_from(info);
+        self.prior.g.rows_mut(o, 3).fill(0.0);
         self.aps[l] = c_in_w;
         self.ap_lin[l] = Some(c_in_w);
         self.placed[l] = true;
@@ -79,9 +79,9 @@ impl NonlinearWindow {
         };
         let lin = *lin.get_or_insert(*c);
         let o = STATE_DIM + self.ap_offset(l);
-        let mut block = self.prior_h.view_mut((o, o), (3, 3));
+        let mut block = self.prior.h.view_mut((o, o), (3, 3));
         block += info;
-        let mut g = self.prior_g.rows_mut(o, 3);
+        let mut g = self.prior.g.rows_mut(o, 3);
         g += info * (lin - target);
         true
     }
@@ -98,22 +98,22 @@ impl NonlinearWindow {
             return false;
         };
         let lin = *lin.get_or_insert(*o);
-        self.prior_h[(STATE_DIM, STATE_DIM)] += info;
-        self.prior_g[STATE_DIM] += info * (lin - target_m);
+        self.prior.h[(STATE_DIM, STATE_DIM)] += info;
+        self.prior.g[STATE_DIM] += info * (lin - target_m);
         true
     }
 
     fn push_placeholder(&mut self) {
-        let dim = self.prior_h.nrows();
+        let dim = self.prior.h.nrows();
         let full = STATE_DIM + self.border_dim() + 3;
         let mut h = DMatrix::zeros(full, full);
-        h.view_mut((0, 0), (dim, dim)).copy_from(&self.prior_h);
+        h.view_mut((0, 0), (dim, dim)).copy_from(&self.prior.h);
         h.view_mut((full - 3, full - 3), (3, 3))
             .fill_diagonal(PLACEHOLDER_INFORMATION);
         let mut g = DVector::zeros(full);
-        g.rows_mut(0, dim).copy_from(&self.prior_g);
-        self.prior_h = h;
-        self.prior_g = g;
+        g.rows_mut(0, dim).copy_from(&self.prior.g);
+        self.prior.h = h;
+        self.prior.g = g;
         self.aps.push(Vector3::zeros());
         self.ap_lin.push(None);
         self.placed.push(false);
@@ -132,8 +132,8 @@ impl NonlinearWindow {
     /// AP `l`'s marginal position covariance (last solve), m², when placed.
     pub fn ap_covariance(&self, l: usize) -> Option<Matrix3<f64>> {
         let o = self.ap_offset(l);
-        (self.is_placed(l) && self.border_covariance.nrows() >= o + 3)
-            .then(|| self.border_covariance.fixed_view::<3, 3>(o, o).into_owned())
+        (self.is_placed(l) && self.covariance.border.nrows() >= o + 3)
+            .then(|| self.covariance.border.fixed_view::<3, 3>(o, o).into_owned())
     }
 
     /// AP `l`'s largest marginal σ (largest eigenvalue of its block), m.
@@ -191,7 +191,7 @@ impl NonlinearWindow {
                 continue;
             };
             let c_lin = match self.ap_lin[a.l] {
-                Some(l) if self.fej => l,
+                Some(l) if self.model.fej => l,
                 _ => *c,
             };
             let r = a.residual(&kf.x, c);
@@ -377,7 +377,7 @@ pub(in crate::fusion::nonlinear) mod tests {
         assert!(w.hold_ap(0, c0, &(Matrix3::identity() * 1e-2)));
         // A second keyframe 0.1 s on, the IMU measuring the state's own motion (none but
         // gravity against its attitude).
-        let mut pre = Preintegrator::new(w.imu_noise.clone(), ImuBiases::zero());
+        let mut pre = Preintegrator::new(w.model.imu_noise.clone(), ImuBiases::zero());
         let f = x0.world_from_body.inverse() * Vector3::new(0.0, 0.0, 9.81);
         let sample = |ms: i64| ImuSample {
             t: Timestamp(ms * 1_000_000),

@@ -82,35 +82,64 @@ impl Keyframe {
     }
 }
 
+/// What the window's factors are computed with: settings, gravity, the IMU's noise, the
+/// array's mounting, and whether Jacobians are taken at the first estimates.
+#[derive(Clone, Debug)]
+pub(in crate::fusion::nonlinear) struct Model {
+    pub(in crate::fusion::nonlinear) config: NonlinearConfig,
+    pub(in crate::fusion::nonlinear) gravity_m_s2: f64,
+    pub(in crate::fusion::nonlinear) imu_noise: ImuNoise,
+    pub(in crate::fusion::nonlinear) body_from_array: Isometry3<f64>,
+    /// First-estimate Jacobians on (off only to show what they prevent).
+    pub(in crate::fusion::nonlinear) fej: bool,
+}
+
+/// The marginalization prior `½ δᵀ H δ + gᵀ δ` over `[first keyframe, border]` (module doc).
+#[derive(Clone, Debug)]
+pub(in crate::fusion::nonlinear) struct Prior {
+    pub(in crate::fusion::nonlinear) h: DMatrix<f64>,
+    pub(in crate::fusion::nonlinear) g: DVector<f64>,
+}
+
+/// The covariances of the last solve.
+#[derive(Clone, Debug)]
+pub(in crate::fusion::nonlinear) struct Covariances {
+    /// Of the newest keyframe's error state.
+    pub(in crate::fusion::nonlinear) newest: Mat15,
+    /// Of the border.
+    pub(in crate::fusion::nonlinear) border: DMatrix<f64>,
+}
+
+/// What the window has done with its inputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub(in crate::fusion::nonlinear) struct Counts {
+    /// Keyframes marginalized.
+    pub(in crate::fusion::nonlinear) marginalized: usize,
+    /// Bearings to an AP without a state.
+    pub(in crate::fusion::nonlinear) skipped_bearings: u64,
+}
+
 /// The window (module doc).
 #[derive(Clone, Debug)]
 pub struct NonlinearWindow {
-    pub(super) config: NonlinearConfig,
-    pub(super) gravity_m_s2: f64,
-    pub(super) imu_noise: ImuNoise,
-    pub(super) body_from_array: Isometry3<f64>,
-    pub(super) keyframes: VecDeque<Keyframe>,
-    pub(super) aps: Vec<Vector3<f64>>,
-    pub(super) ap_lin: Vec<Option<Vector3<f64>>>,
+    pub(in crate::fusion::nonlinear) model: Model,
+    pub(in crate::fusion::nonlinear) keyframes: VecDeque<Keyframe>,
+    pub(in crate::fusion::nonlinear) aps: Vec<Vector3<f64>>,
+    pub(in crate::fusion::nonlinear) ap_lin: Vec<Option<Vector3<f64>>>,
     /// Whether AP `l` is placed; an AP not yet placed holds a placeholder (its bearings are
-    /// skipped and a vanishing prior keeps the system regular): [`crate::fusion::nonlinear::solve::aps`].
-    pub(super) placed: Vec<bool>,
+    /// skipped and a vanishing prior keeps the system regular): `aps`.
+    pub(in crate::fusion::nonlinear) placed: Vec<bool>,
     /// Barometer offset and its frozen point, when the window has a barometer.
-    pub(super) baro: Option<(f64, Option<f64>)>,
+    pub(in crate::fusion::nonlinear) baro: Option<(f64, Option<f64>)>,
     /// The bearings' common `sin θ` offset β and its frozen point, when estimated.
-    pub(super) bias: Option<(f64, Option<f64>)>,
-    pub(super) prior_h: DMatrix<f64>,
-    pub(super) prior_g: DVector<f64>,
-    /// First-estimate Jacobians on (off only to show what they prevent).
-    pub(super) fej: bool,
-    pub(super) last_covariance: Mat15,
-    pub(super) border_covariance: DMatrix<f64>,
-    pub(super) marginalized: usize,
-    pub(super) skipped_bearings: u64,
+    pub(in crate::fusion::nonlinear) bias: Option<(f64, Option<f64>)>,
+    pub(in crate::fusion::nonlinear) prior: Prior,
+    pub(in crate::fusion::nonlinear) covariance: Covariances,
+    pub(in crate::fusion::nonlinear) counts: Counts,
     /// The Levenberg–Marquardt damping the last solve ended with (the next one starts there).
-    pub(super) lambda: f64,
-    /// Range anchors on the first keyframe ([`crate::fusion::nonlinear::factors::range_anchor`]).
-    pub(super) anchors: Vec<RangeAnchor>,
+    pub(in crate::fusion::nonlinear) lambda: f64,
+    /// Range anchors on the first keyframe (`factors::range_anchor`).
+    pub(in crate::fusion::nonlinear) anchors: Vec<RangeAnchor>,
 }
 
 impl NonlinearWindow {
@@ -147,10 +176,13 @@ impl NonlinearWindow {
         }
         let n_aps = aps.len();
         Self {
-            config,
-            gravity_m_s2,
-            imu_noise,
-            body_from_array,
+            model: Model {
+                config,
+                gravity_m_s2,
+                imu_noise,
+                body_from_array,
+                fej: true,
+            },
             keyframes: VecDeque::from([Keyframe {
                 x: x0,
                 lin: Some(x0),
@@ -167,13 +199,15 @@ impl NonlinearWindow {
             baro: baro_offset_m.map(|o| (o, None)),
             // Its prior is centred on the value given: the point is fixed from the start.
             bias: sin_bias.map(|(b, _)| (b, Some(b))),
-            prior_h: h,
-            prior_g: DVector::zeros(dim),
-            fej: true,
-            last_covariance: Mat15::identity(),
-            border_covariance: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
-            marginalized: 0,
-            skipped_bearings: 0,
+            prior: Prior {
+                h,
+                g: DVector::zeros(dim),
+            },
+            covariance: Covariances {
+                newest: Mat15::identity(),
+                border: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
+            },
+            counts: Counts::default(),
             lambda: LAMBDA_FIRST,
             anchors: Vec::new(),
         }
@@ -182,7 +216,7 @@ impl NonlinearWindow {
     /// The same window with first-estimate Jacobians off (every Jacobian at the current
     /// estimate): only to show what they prevent.
     pub fn without_fej(mut self) -> Self {
-        self.fej = false;
+        self.model.fej = false;
         self
     }
 
@@ -221,7 +255,7 @@ impl NonlinearWindow {
         from_prev: Preintegrated,
         frames: Vec<SubFrame>,
     ) -> Option<()> {
-        let info = imu_information(&from_prev, &self.imu_noise)?;
+        let info = imu_information(&from_prev, &self.model.imu_noise)?;
         self.keyframes.push_back(Keyframe {
             x,
             lin: None,
@@ -273,7 +307,8 @@ impl NonlinearWindow {
     pub fn sin_bias(&self) -> Option<(f64, f64)> {
         let o = self.scalars().checked_sub(1)?;
         let sigma = self
-            .border_covariance
+            .covariance
+            .border
             .get((o, o))
             .map_or(f64::INFINITY, |v| v.max(0.0).sqrt());
         self.bias.map(|b| (b.0, sigma))
@@ -286,17 +321,17 @@ impl NonlinearWindow {
 
     /// Marginal covariance of the newest keyframe's error state (last solve).
     pub fn newest_covariance(&self) -> &Mat15 {
-        &self.last_covariance
+        &self.covariance.newest
     }
 
     /// Keyframes marginalized so far.
     pub fn marginalized(&self) -> usize {
-        self.marginalized
+        self.counts.marginalized
     }
 
     /// Bearings to an AP without a state (not counted in the solve).
     pub fn skipped_bearings(&self) -> u64 {
-        self.skipped_bearings
+        self.counts.skipped_bearings
     }
 
     /// The normal equations at the current estimate (Jacobians at the linearization points) over
@@ -307,13 +342,13 @@ impl NonlinearWindow {
         let mut sys = ArrowSystem::<STATE_DIM>::zeros(n, m);
         let mut cost = 0.0;
         let mut stats = FitStats::default();
-        let g = self.gravity_m_s2;
+        let g = self.model.gravity_m_s2;
         for (k, kf) in self.keyframes.iter().enumerate() {
-            let lin_k = kf.lin_or_current(self.fej);
+            let lin_k = kf.lin_or_current(self.model.fej);
             if let (Some((pre, info)), Some(prev)) = (&kf.from_prev, k.checked_sub(1)) {
                 let p = &self.keyframes[prev];
                 let r = imu_residual(pre, g, &p.x, &kf.x);
-                let (ji, jj) = imu_jacobians(pre, g, &p.lin_or_current(self.fej), &lin_k);
+                let (ji, jj) = imu_jacobians(pre, g, &p.lin_or_current(self.model.fej), &lin_k);
                 sys.add(&Linearized::between(
                     (prev, ji),
                     (k, jj),
@@ -349,20 +384,25 @@ impl NonlinearWindow {
         cost: &mut f64,
         stats: &mut FitStats,
     ) {
-        let g = self.gravity_m_s2;
+        let g = self.model.gravity_m_s2;
         for f in &kf.frames {
             for b in &f.bearings {
                 let Some(c) = self.aps.get(b.ap).filter(|_| self.placed[b.ap]) else {
                     continue;
                 };
                 let c_lin = match self.ap_lin[b.ap] {
-                    Some(l) if self.fej => l,
+                    Some(l) if self.model.fej => l,
                     _ => *c,
                 };
                 let s_meas = b.aoa_rad.sin();
-                let Some(j) =
-                    cone_jacobian(lin_k, &f.partial, g, &self.body_from_array, &c_lin, s_meas)
-                else {
+                let Some(j) = cone_jacobian(
+                    lin_k,
+                    &f.partial,
+                    g,
+                    &self.model.body_from_array,
+                    &c_lin,
+                    s_meas,
+                ) else {
                     continue;
                 };
                 // The residual at the current estimate: the Jacobian's own unless a frozen point
@@ -370,14 +410,21 @@ impl NonlinearWindow {
                 let r = if *lin_k == kf.x && c_lin == *c {
                     j.residual
                 } else {
-                    match cone_residual(&kf.x, &f.partial, g, &self.body_from_array, c, s_meas) {
+                    match cone_residual(
+                        &kf.x,
+                        &f.partial,
+                        g,
+                        &self.model.body_from_array,
+                        c,
+                        s_meas,
+                    ) {
                         Some(r) => r,
                         None => continue,
                     }
                 } + self.bias.map_or(0.0, |b| b.0);
                 let sigma = sin_sigma(b.aoa_rad, b.sigma_rad);
                 let e2 = (r / sigma).powi(2);
-                let (rho, w) = cauchy(e2, self.config.cauchy_scale);
+                let (rho, w) = cauchy(e2, self.model.config.cauchy_scale);
                 *cost += rho;
                 stats.bearings += 1;
                 stats.bearing_chi2 += e2;
@@ -397,11 +444,11 @@ impl NonlinearWindow {
             if let (Some(h), Some((o, o_lin))) = (f.altitude_m, self.baro) {
                 let r = baro_residual(&kf.x, &f.partial, g, o, h);
                 let o_lin = match o_lin {
-                    Some(l) if self.fej => l,
+                    Some(l) if self.model.fej => l,
                     _ => o,
                 };
                 let (jx, jo) = baro_jacobian(lin_k, &f.partial, g, o_lin, h);
-                let info = self.config.baro_sigma_m.powi(-2);
+                let info = self.model.config.baro_sigma_m.powi(-2);
                 let e2 = r * r * info;
                 *cost += e2;
                 stats.baro += 1;

@@ -17,7 +17,7 @@ impl NonlinearWindow {
         let mut nsp = DMatrix::zeros(dim, 4);
         let ez = Vector3::z();
         for (k, kf) in self.keyframes.iter().enumerate() {
-            let x = kf.lin_or_current(self.fej);
+            let x = kf.lin_or_current(self.model.fej);
             let o = k * STATE_DIM;
             for a in 0..3 {
                 nsp[(o + POS + a, a)] = 1.0;
@@ -38,7 +38,7 @@ impl NonlinearWindow {
         }
         for (l, c) in self.aps.iter().enumerate() {
             let c = match self.ap_lin[l] {
-                Some(lin) if self.fej => lin,
+                Some(lin) if self.model.fej => lin,
                 _ => *c,
             };
             let o = bo + self.ap_offset(l);

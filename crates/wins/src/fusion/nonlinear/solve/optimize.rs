@@ -152,8 +152,8 @@ impl NonlinearWindow {
         // The covariances at the final estimate (the loop's factorizations are damped, and at
         // the estimate before each step).
         if let Some(sol) = damped(&sys, 0.0).into_solution() {
-            self.last_covariance = sol.last_frame_covariance;
-            self.border_covariance = sol.border_covariance;
+            self.covariance.newest = sol.last_frame_covariance;
+            self.covariance.border = sol.border_covariance;
         }
         // The next solve starts where this one ended, but never more damped than a new window: a
         // solve that found no lower cost (at its minimum) leaves the damping past 1e6, which
@@ -191,17 +191,17 @@ impl NonlinearWindow {
 
     /// Adds the prior to `sys`; returns its cost `δᵀHδ + 2gᵀδ`.
     pub(in crate::fusion::nonlinear) fn add_prior(&self, sys: &mut ArrowSystem<STATE_DIM>) -> f64 {
-        let dim = self.prior_h.nrows();
+        let dim = self.prior.h.nrows();
         let full = STATE_DIM + self.border_dim();
         let mut e = self.prior_delta();
         e = e.rows(0, dim.min(full)).into_owned();
-        let he = &self.prior_h * &e;
-        let grad = &he + &self.prior_g;
+        let he = &self.prior.h * &e;
+        let grad = &he + &self.prior.g;
         if sys.frames() == 0 {
             return 0.0;
         }
-        sys.add_prior(&self.prior_h, &-grad);
-        e.dot(&he) + 2.0 * e.dot(&self.prior_g)
+        sys.add_prior(&self.prior.h, &-grad);
+        e.dot(&he) + 2.0 * e.dot(&self.prior.g)
     }
 
     /// Marginalizes the oldest keyframe into the prior on `[next keyframe, border]` (module doc
@@ -240,12 +240,12 @@ impl NonlinearWindow {
             }
         }
         if let Some(b) = &mut self.baro
-            && (has_altitude || self.prior_h.nrows() > STATE_DIM)
+            && (has_altitude || self.prior.h.nrows() > STATE_DIM)
         {
             b.1.get_or_insert(b.0);
         }
         if let Some(b) = &mut self.bias
-            && (has_bearing || self.prior_h.nrows() > STATE_DIM)
+            && (has_bearing || self.prior.h.nrows() > STATE_DIM)
         {
             b.1.get_or_insert(b.0);
         }
@@ -285,28 +285,28 @@ impl NonlinearWindow {
         let new_rhs = rhs.rows(s, r).into_owned() - &k * rhs.rows(0, s);
         let e = self.prior_delta();
         let e = e.rows(0, r.min(e.nrows())).into_owned();
-        self.prior_g = -new_rhs - &new_h * e;
-        self.prior_h = new_h;
-        self.marginalized += 1;
+        self.prior.g = -new_rhs - &new_h * e;
+        self.prior.h = new_h;
+        self.counts.marginalized += 1;
         self.inflate_baro_offset(dt_s);
     }
 
     /// The barometer offset wanders (a random walk): its prior variance grows by `q Δt`
     /// (Woodbury on the information form, mean kept).
     fn inflate_baro_offset(&mut self, dt_s: f64) {
-        let q = self.config.baro_offset_walk_m_sqrt_s.powi(2) * dt_s.max(0.0);
+        let q = self.model.config.baro_offset_walk_m_sqrt_s.powi(2) * dt_s.max(0.0);
         let i = STATE_DIM;
-        if self.baro.is_none() || q <= 0.0 || self.prior_h.nrows() <= i {
+        if self.baro.is_none() || q <= 0.0 || self.prior.h.nrows() <= i {
             return;
         }
-        let hu = self.prior_h.column(i).into_owned();
+        let hu = self.prior.h.column(i).into_owned();
         let d = 1.0 / q + hu[i];
         if d <= 0.0 {
             return;
         }
-        let ug = self.prior_g[i];
-        self.prior_h -= &hu * hu.transpose() / d;
-        self.prior_g -= &hu * (ug / d);
+        let ug = self.prior.g[i];
+        self.prior.h -= &hu * hu.transpose() / d;
+        self.prior.g -= &hu * (ug / d);
     }
 }
 
