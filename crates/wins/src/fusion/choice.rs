@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::bearing::Bearing;
 use super::error::EstimatorError;
-use super::nonlinear::{NonlinearConfig, NonlinearEstimator, Sensors};
+use super::nonlinear::{NonlinearConfig, NonlinearEstimator, PhaseChange, Sensors};
 use super::paper::estimator::{LinearConfig, LinearEstimator};
 use super::paper::start_solver::linear_start_solver;
 use super::pose::Step;
@@ -107,6 +107,15 @@ impl Estimator {
         match self {
             Self::Paper(w) => w.stats(),
             Self::Nonlinear(n) => n.stats(),
+        }
+    }
+
+    /// The default estimator's phases, with when and why each began (the paper's estimator
+    /// keeps none: empty).
+    pub fn timeline(&self) -> &[PhaseChange] {
+        match self {
+            Self::Paper(_) => &[],
+            Self::Nonlinear(n) => n.timeline(),
         }
     }
 

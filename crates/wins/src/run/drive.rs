@@ -111,6 +111,7 @@ pub(crate) fn drive(
         converged_at: wins.converged_at(),
         stats: done.pipeline.stats().clone(),
         wins: wins.stats(),
+        phases: wins.timeline().to_vec(),
         timing: done.timing,
         chains: done.report,
         wall_s: started.elapsed().as_secs_f64(),

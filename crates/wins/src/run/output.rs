@@ -27,6 +27,7 @@ use crate::dataset::truth::{Pose, Truth, write_csv};
 use crate::eval::{
     EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
 };
+use crate::fusion::nonlinear::PhaseChange;
 use crate::fusion::pose::PoseEstimate;
 use crate::fusion::stats::EstimatorStats;
 use crate::io_safety::write_atomically;
@@ -75,6 +76,9 @@ pub struct RunStats<'a> {
     pub packets: &'a PipelineStats,
     /// The estimator's counters.
     pub estimator: EstimatorStats,
+    /// The estimator's phases (at rest, starting, tracking, recovering): when each began, s on
+    /// the IMU clock, and why.
+    pub phases: &'a [PhaseChange],
     /// IMU samples refused.
     pub imu_refused: u64,
     /// How the receive chains' offsets were resolved from the flight.
@@ -124,6 +128,7 @@ impl RunOutput {
             timing: self.timing,
             packets: &self.stats,
             estimator: self.wins,
+            phases: &self.phases,
             imu_refused: self.imu_refused,
             chain_offsets: &self.chains,
             inputs: &self.inputs,

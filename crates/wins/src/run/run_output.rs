@@ -9,6 +9,7 @@ use crate::dataset::DatasetError;
 use crate::dataset::checks::InputReport;
 use crate::dataset::truth::Truth;
 use crate::eval::{EvalOptions, Metrics};
+use crate::fusion::nonlinear::PhaseChange;
 use crate::fusion::pose::PoseEstimate;
 use crate::fusion::stats::EstimatorStats;
 use crate::pipeline::{ChainReport, PacketLog, PipelineError, PipelineStats, StageTiming};
@@ -60,6 +61,8 @@ pub struct RunOutput {
     pub stats: PipelineStats,
     /// The estimator's counters.
     pub wins: EstimatorStats,
+    /// The estimator's phases: when and why each began (empty for the paper's estimator).
+    pub phases: Vec<PhaseChange>,
     /// Wall time per stage, s (over every chain-offset hypothesis run).
     pub timing: StageTiming,
     /// How the receive chains' offsets were resolved from the flight.

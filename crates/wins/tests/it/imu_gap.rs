@@ -8,6 +8,7 @@ use wins::csi::intel5300::{CODE_CSI, LEN_FIELD};
 use wins::dataset::Manifest;
 use wins::dataset::truth::{Pose, read_tum};
 use wins::eval::{EvalOptions, position_error_rms_from, umeyama};
+use wins::fusion::nonlinear::{PhaseKind, Reason};
 use wins::sim::{Scenario, simulate, write_dataset};
 use wins::time::Timestamp;
 
@@ -48,6 +49,49 @@ fn no_pose_comes_from_inside_an_imu_gap_and_the_estimate_starts_again_after_it()
         run.coverage
     );
     assert!(w.contains("gap(s) without a pose"), "{w}");
+    // The phases say it: at rest, starting, tracking; after the gap recovering, then tracking
+    // again; each change after the one before.
+    let phases: Vec<(PhaseKind, Reason)> = run.phases.iter().map(|c| (c.phase, c.reason)).collect();
+    assert_eq!(
+        phases[..3],
+        [
+            (PhaseKind::AtRest, Reason::Created),
+            (PhaseKind::Starting, Reason::Motion),
+            (PhaseKind::Tracking, Reason::Accepted),
+        ],
+        "{phases:?}"
+    );
+    let gap = run
+        .phases
+        .iter()
+        .position(|c| c.phase == PhaseKind::Recovering && c.reason == Reason::ImuGap)
+        .expect("a recovery after the IMU gap");
+    assert!(
+        run.phases[gap].t_s.is_some_and(|t| t >= 22.0),
+        "{:?}",
+        run.phases
+    );
+    assert!(
+        run.phases[gap..]
+            .iter()
+            .any(|c| c.phase == PhaseKind::Tracking),
+        "{:?}",
+        run.phases
+    );
+    let times: Vec<f64> = run.phases.iter().filter_map(|c| c.t_s).collect();
+    assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
+    // stats.json carries them.
+    let stats = serde_json::to_value(run.run_stats()).unwrap();
+    assert_eq!(
+        stats["phases"][2]["phase"], "tracking",
+        "{}",
+        stats["phases"]
+    );
+    assert_eq!(
+        stats["phases"][gap]["reason"], "imu_gap",
+        "{}",
+        stats["phases"]
+    );
 }
 
 /// What is cut out of the flight.

@@ -102,12 +102,12 @@ pub enum Reason {
 }
 
 /// One change of phase.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct PhaseChange {
     /// The phase entered.
     pub phase: PhaseKind,
-    /// When, ns (`None`: before any input).
-    pub t_ns: Option<i64>,
+    /// When, s on the IMU clock (`None`: before any input).
+    pub t_s: Option<f64>,
     /// Why.
     pub reason: Reason,
 }
@@ -166,7 +166,7 @@ impl NonlinearEstimator {
     pub(super) fn enter(&mut self, phase: Phase, t: Option<Timestamp>, reason: Reason) {
         self.record.timeline.push(PhaseChange {
             phase: phase.kind(),
-            t_ns: t.map(|t| t.0),
+            t_s: t.map(|t| t.as_secs_f64()),
             reason,
         });
         self.phase = phase;
