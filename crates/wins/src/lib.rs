@@ -51,8 +51,10 @@
 //! describes the hardware), [`csi`] (the Intel 5300 CSI Tool log reader, streaming decoder and
 //! writer), [`imu`] (preintegration); [`dataset`] (the on-disk layout); [`aoa`] (sanitization,
 //! MUSIC over AoA and ToF, SpotFi, the IMU-guided PAoA; [`aoa::steering`] is the one steering
-//! vector), [`eval`] (trajectory and AP errors, evo-compatible); [`fusion`] (the sliding-window
-//! estimator, an EKF baseline); [`sim`] (flights, IMU and multipath CSI written as datasets);
+//! vector), [`eval`] (trajectory and AP errors, evo-compatible); [`fusion`] (the default
+//! 6-DoF nonlinear window in [`fusion::nonlinear`], the paper's method as the comparison in
+//! [`fusion::paper`], and what both share: poses out, counters, errors, the arrow solver and its
+//! one factor interface); [`sim`] (flights, IMU and multipath CSI written as datasets);
 //! [`config`] (the settings tree: every stage's section under one [`Config`], loaded and checked
 //! at once); [`pipeline`] (WINS end to end as a push API: per-AP tracks, frames, the receive
 //! chains' offsets resolved in flight); [`run`] (batch runs: a dataset replayed through the

@@ -1,5 +1,6 @@
 use super::cholesky::{scale_block, scale_border_t, scale_both_sides};
 use super::*;
+use nalgebra::{SMatrix, SVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -145,4 +146,108 @@ fn indefinite_systems_are_refused() {
     let mut s = random::<FRAME_DIM>(3, 3, 5);
     s.diag[1] = -Block::identity();
     assert!(s.solve().is_none());
+}
+
+/// `Jᵀ W J` and `−Jᵀ W r` of a factor, dense, over `n` frames of 4 and a border of `m`: the
+/// reference for [`ArrowSystem::add`].
+fn dense_factor<const R: usize>(
+    f: &Linearized<R, 4>,
+    n: usize,
+    m: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let dim = 4 * n + m;
+    let mut j = DMatrix::zeros(R, dim);
+    for (k, jk) in f.frames() {
+        j.view_mut((0, 4 * k), (R, 4)).copy_from(jk);
+    }
+    for c in f.border() {
+        j.view_mut((0, 4 * n + c.offset), (R, c.cols))
+            .copy_from(&c.jacobian.columns(0, c.cols));
+    }
+    let w = match f.weight {
+        Weight::Scalar(w) => DMatrix::identity(R, R) * w,
+        Weight::Matrix(w) => DMatrix::from_fn(R, R, |a, b| w[(a, b)]),
+    };
+    let r = DVector::from_fn(R, |a, _| f.residual[a]);
+    let jt_w = j.transpose() * w;
+    (&jt_w * &j, -(jt_w * r))
+}
+
+#[test]
+fn any_factor_adds_its_normal_equations() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut rand = || rng.random::<f64>() - 0.5;
+    let (n, m) = (3, 5);
+    // A factor between frames 1 and 2 with a full weight, one on frame 0 with an AP block and a
+    // scalar of the border, and one on frame 2 alone.
+    let w = SMatrix::<f64, 2, 2>::from_fn(|_, _| rand());
+    let between = Linearized::between(
+        (1, SMatrix::<f64, 2, 4>::from_fn(|_, _| rand())),
+        (2, SMatrix::<f64, 2, 4>::from_fn(|_, _| rand())),
+        SVector::<f64, 2>::from_fn(|_, _| rand()),
+        Weight::Matrix(w * w.transpose()),
+    );
+    let cone = Linearized::on_frame(
+        0,
+        SMatrix::<f64, 1, 4>::from_fn(|_, _| rand()),
+        SVector::<f64, 1>::new(rand()),
+        Weight::Scalar(2.5),
+    )
+    .with_border(BorderBlock::three(
+        2,
+        SMatrix::<f64, 1, 3>::from_fn(|_, _| rand()),
+    ))
+    .with_border(BorderBlock::one(0, SVector::<f64, 1>::new(1.0)));
+    let alone = Linearized::on_frame(
+        2,
+        SMatrix::<f64, 3, 4>::from_fn(|_, _| rand()),
+        SVector::<f64, 3>::from_fn(|_, _| rand()),
+        Weight::Scalar(0.7),
+    );
+    let mut sys = ArrowSystem::<4>::zeros(n, m);
+    sys.add(&between);
+    sys.add(&cone);
+    sys.add(&alone);
+    let (h, b) = sys.to_dense();
+    let (h1, b1) = dense_factor(&between, n, m);
+    let (h2, b2) = dense_factor(&cone, n, m);
+    let (h3, b3) = dense_factor(&alone, n, m);
+    assert_close(&h, &(h1 + h2 + h3), 1e-12, "information matrix");
+    let b_ref = b1 + b2 + b3;
+    assert_close(
+        &DMatrix::from_column_slice(b.len(), 1, b.as_slice()),
+        &DMatrix::from_column_slice(b_ref.len(), 1, b_ref.as_slice()),
+        1e-12,
+        "information vector",
+    );
+}
+
+#[test]
+fn information_blocks_land_with_their_mirror() {
+    let mut sys = ArrowSystem::<2>::zeros(2, 3);
+    let block = SMatrix::<f64, 2, 1>::new(1.0, 2.0);
+    // Frame 1's rows against border column 2, given either way round.
+    sys.add_information(At::Frame(1, 0), At::Border(2), &block);
+    sys.add_information(At::Border(2), At::Frame(1, 0), &block.transpose());
+    // Border 0 against border 1: both triangles.
+    sys.add_information(
+        At::Border(0),
+        At::Border(1),
+        &SMatrix::<f64, 1, 1>::new(3.0),
+    );
+    // Frame 0 against frame 1 from above the diagonal.
+    sys.add_information(
+        At::Frame(0, 1),
+        At::Frame(1, 0),
+        &SMatrix::<f64, 1, 1>::new(4.0),
+    );
+    let (h, _) = sys.to_dense();
+    assert_eq!(h[(2, 6)], 2.0);
+    assert_eq!(h[(3, 6)], 4.0);
+    assert_eq!(h[(6, 3)], 4.0);
+    assert_eq!(h[(4, 5)], 3.0);
+    assert_eq!(h[(5, 4)], 3.0);
+    assert_eq!(h[(1, 2)], 4.0);
+    assert_eq!(h[(2, 1)], 4.0);
+    assert_eq!(h, h.transpose());
 }

@@ -118,9 +118,18 @@ pub(crate) fn random_interval(n: usize, seed: u64) -> Preintegrated {
 pub(crate) fn central_difference<const R: usize>(
     f: impl Fn(&Vec15) -> SVector<f64, R>,
 ) -> SMatrix<f64, R, 15> {
-    let mut out = SMatrix::<f64, R, 15>::zeros();
-    for k in 0..15 {
-        let mut d = Vec15::zeros();
+    central_difference_n(f)
+}
+
+/// Central differences of `f` over an `N`-dimensional increment (an error state, an AP's
+/// position, a scalar of the border): column `k` is `(f(e_k h) − f(−e_k h)) / 2h`. Every
+/// factor's Jacobian test goes through this one helper.
+pub(crate) fn central_difference_n<const N: usize, const R: usize>(
+    f: impl Fn(&SVector<f64, N>) -> SVector<f64, R>,
+) -> SMatrix<f64, R, N> {
+    let mut out = SMatrix::<f64, R, N>::zeros();
+    for k in 0..N {
+        let mut d = SVector::<f64, N>::zeros();
         d[k] = STEP;
         let col = (f(&d) - f(&-d)) / (2.0 * STEP);
         out.set_column(k, &col);
