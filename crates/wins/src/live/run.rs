@@ -10,6 +10,8 @@
 //! Every file is flushed when the run stops (the stop flag, set by Ctrl-C in the binary, or
 //! `live.idle_exit_s` without input).
 
+mod outputs;
+
 use std::fs::{self, File};
 use std::io::{self, BufWriter};
 use std::net::SocketAddr;
@@ -26,29 +28,27 @@ use serde::Serialize;
 use super::csi_server::CsiServer;
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, InboundStats, RawImuScale};
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
-use super::mavlink::outbound::{OdometryExtras, odometry, vision_position_estimate};
 use super::recorder::Recorder;
 use super::session::ClockReport;
-use super::session::{LiveFrame, LiveSession, LiveStats, SessionError};
+use super::session::{LiveSession, LiveStats, SessionError};
 use super::status::{Histogram, LiveStatus, percentiles};
-use super::{FcEvent, HostClock, LiveInput, PoseMessage};
+use super::{FcEvent, HostClock, LiveInput};
 use crate::config::Config;
 use crate::csi::intel5300::MacAddress;
 use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
-use crate::fusion::pose::PoseEstimate;
 use crate::rig::{ChainCalibration, Rig};
 use crate::run::output::TRAJECTORY_FILE;
 use crate::run::replay::rig_of_manifest;
 use crate::run::trajectory::TrajectoryWriter;
+use outputs::Outputs;
+pub use outputs::{QUALITY_SIGMA_M, quality};
 
 /// Capacity of the inputs' channel (about 10 s of a 200 Hz IMU and two 100 packet/s APs):
 /// beyond it the links wait, and the TCP stream backs up to the logger.
 const CHANNEL: usize = 4096;
 /// The loop's longest sleep waiting for inputs.
 const TICK: Duration = Duration::from_millis(2);
-/// 1σ of position at which `quality` is 37 (it falls as `exp(−σ / this)`), m.
-pub const QUALITY_SIGMA_M: f64 = 0.5;
 
 /// Why `wins live` cannot run.
 #[derive(Debug, thiserror::Error)]
@@ -308,75 +308,6 @@ fn decode(inbound: &Mutex<InboundDecoder>, message: &MavMessage, arrival_ns: i64
         });
     }
     events
-}
-
-/// Where frames go: the flight controller and the trajectory file.
-struct Outputs<'a> {
-    link: &'a MavlinkLink,
-    message: PoseMessage,
-    tum: TrajectoryWriter<BufWriter<File>>,
-    sent: u64,
-    not_sent: u64,
-    ages: Histogram,
-    window_ages_ms: Vec<f64>,
-    converged: bool,
-}
-
-impl Outputs<'_> {
-    /// Writes a frame; sends it when it is fresh and `age_ms` (how old it is now) is known.
-    fn frame(&mut self, f: &LiveFrame, age_ms: Option<f64>) -> Result<(), LiveError> {
-        self.converged = f.pose.converged;
-        if !f.pose.converged {
-            return Ok(());
-        }
-        self.tum
-            .frame(&f.pose)
-            .map_err(io_err("writing trajectory.tum"))?;
-        let Some(age) = age_ms.filter(|_| f.fresh) else {
-            return Ok(());
-        };
-        match self.send(f) {
-            true => {
-                self.sent += 1;
-                self.ages.push(age);
-                self.window_ages_ms.push(age);
-            }
-            false => self.not_sent += 1,
-        }
-        Ok(())
-    }
-
-    fn send(&self, f: &LiveFrame) -> bool {
-        let extras = OdometryExtras {
-            time_usec: u64::try_from(f.pose.t.as_nanos() / 1000).unwrap_or(0),
-            reset_counter: f.reset_counter,
-            quality: quality(&f.pose),
-            angular_velocity_rad_s: None,
-            velocity_covariance_in_w: None,
-        };
-        let message = match self.message {
-            PoseMessage::Odometry => odometry(&f.pose, &extras).map(MavMessage::ODOMETRY),
-            PoseMessage::VisionPositionEstimate => {
-                vision_position_estimate(&f.pose, &extras).map(MavMessage::VISION_POSITION_ESTIMATE)
-            }
-        };
-        message.is_ok_and(|m| self.link.send(&m).is_ok())
-    }
-}
-
-/// `quality` of a converged pose: 100·exp(−σ_p / [`QUALITY_SIGMA_M`]), σ_p the RMS of the
-/// position's 1σ over the axes, at least 1 (0 is "unknown" to the flight controller).
-pub fn quality(pose: &PoseEstimate) -> i8 {
-    let Some(c) = &pose.covariance else {
-        return 0;
-    };
-    let sigma = ((c[(3, 3)] + c[(4, 4)] + c[(5, 5)]) / 3.0).max(0.0).sqrt();
-    if !sigma.is_finite() {
-        return 0;
-    }
-    (100.0 * (-sigma / QUALITY_SIGMA_M).exp())
-        .round()
-        .clamp(1.0, 100.0) as i8
 }
 
 /// The main loop's settings.

@@ -1,4 +1,5 @@
 use nalgebra::{UnitQuaternion, Vector3};
+use serde_json::Value;
 
 use super::*;
 use crate::dataset::truth::{ApRow, Pose};
