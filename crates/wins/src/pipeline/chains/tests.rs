@@ -1,5 +1,7 @@
+use super::second_pass::with_step;
 use super::*;
 use crate::config::ChainOffsetsConfig;
+use crate::csi::sanitize::wrap;
 
 #[test]
 fn settings_out_of_range_are_named() {
