@@ -2,7 +2,7 @@
 //! stored calibration is a prior, not a requirement.
 //!
 //! An Intel 5300 draws new chain offsets at every start: each chain moves by a multiple of π at
-//! 5 GHz (π/2 at 2.4 GHz, [`restart_step_rad`]), so a calibration made before the flight can be
+//! 5 GHz (π/2 at 2.4 GHz, [`crate::aoa::restart_step_rad`]), so a calibration made before the flight can be
 //! off by those steps. Over a three-antenna array the offsets have two parts
 //! ([`crate::aoa::ChainCurvature`]):
 //!
