@@ -1,6 +1,6 @@
 //! The interface of a start solver: what proposes a first state to the default estimator when
 //! no state is known (a flight started in the air, a start after an IMU gap). The paper's linear
-//! window is one ([`super::paper::estimator::LinearEstimator`]): initialization-free, it solves
+//! window is one (`paper::estimator::LinearEstimator`): initialization-free, it solves
 //! positions, velocities, gravity and APs from zeros. The default estimator
 //! ([`super::nonlinear`]) takes any start solver through this interface and imports no
 //! estimator of its own kind; [`super::choice`] hands it the paper's.

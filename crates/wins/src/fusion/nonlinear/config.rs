@@ -1,8 +1,11 @@
 //! Settings of the nonlinear estimator (the `[nonlinear]` table of a configuration).
 
+use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::check::Problems;
+use crate::imu::ImuGap;
+use crate::rig::ImuNoise;
 
 /// Settings of the nonlinear window and its start (the `[nonlinear]` table).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -248,4 +251,15 @@ impl NonlinearConfig {
         );
         p
     }
+}
+
+/// What the estimator knows of its sensors (from the rig).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sensors {
+    /// IMU noise densities.
+    pub imu_noise: ImuNoise,
+    /// How a gap in the IMU stream is integrated.
+    pub imu_gap: ImuGap,
+    /// The antenna array's mounting.
+    pub body_from_array: Isometry3<f64>,
 }

@@ -28,7 +28,7 @@ use nalgebra::{Isometry3, Vector3};
 use crate::fusion::bearing::Bearing;
 use crate::fusion::error::EstimatorError;
 use crate::fusion::frames::{check_frame_order, drop_frames_in_gap};
-use crate::fusion::nonlinear::config::NonlinearConfig;
+use crate::fusion::nonlinear::config::{NonlinearConfig, Sensors};
 use crate::fusion::nonlinear::phase::{AtRest, Phase, PhaseChange, PhaseKind, Reason};
 use crate::fusion::nonlinear::solve::{NonlinearWindow, SubFrame};
 use crate::fusion::nonlinear::start::StartKeyframe;
@@ -37,22 +37,8 @@ use crate::fusion::nonlinear::start::still::StillDetector;
 use crate::fusion::pose::{PoseEstimate, Step};
 use crate::fusion::proposal::StartSolverFactory;
 use crate::fusion::stats::EstimatorStats;
-use crate::imu::{
-    ImuBiases, ImuGap, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2,
-};
-use crate::rig::ImuNoise;
+use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
-
-/// What the estimator knows of its sensors (from the rig).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Sensors {
-    /// IMU noise densities.
-    pub imu_noise: ImuNoise,
-    /// How a gap in the IMU stream is integrated.
-    pub imu_gap: ImuGap,
-    /// The antenna array's mounting.
-    pub body_from_array: Isometry3<f64>,
-}
 
 /// A frame waiting for the IMU to pass it.
 #[derive(Clone, Debug)]

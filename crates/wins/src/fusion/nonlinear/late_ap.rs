@@ -1,6 +1,6 @@
 //! APs first seen (or first placeable) after the start: their bearings are kept against the
 //! window's own estimate of each keyframe as it leaves the window, and the AP is triangulated
-//! from them ([`crate::fusion::nonlinear::start::triangulate`]) and joins the window once its horizontal σ passes the same
+//! from them ([`crate::fusion::nonlinear::triangulate`]) and joins the window once its horizontal σ passes the same
 //! bounds as a start's APs.
 
 use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
@@ -8,8 +8,8 @@ use nalgebra::Isometry3;
 
 use crate::fusion::nonlinear::estimator::NonlinearEstimator;
 use crate::fusion::nonlinear::phase::Tracking;
-use crate::fusion::nonlinear::start::triangulate::{LateSights, Sight};
 use crate::fusion::nonlinear::state::pose_at;
+use crate::fusion::nonlinear::triangulate::{LateSights, Sight};
 use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// At most this many sights are kept per AP (the oldest leave first).

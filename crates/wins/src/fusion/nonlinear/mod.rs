@@ -18,9 +18,12 @@
 //!   prior with first-estimate Jacobians, the Gauss–Newton solve ([`solve::optimize`]) and the
 //!   residual statistics and χ² test ([`solve::fit`]);
 //! - [`start`]: the start from the rest ([`start::rest`]), the inertial and start-solver
-//!   proposals ([`start::proposal`]), the triangulation of APs ([`start::triangulate`]), and
-//!   the stillness detector of the zero-velocity holds ([`start::still`]);
+//!   proposals ([`start::proposal`]), and the stillness detector of the zero-velocity holds
+//!   ([`start::still`]);
+//! - [`triangulate`]: an AP placed from bearings against known poses (the start, late APs, the
+//!   relocation after a hole);
 //! - `track`: a keyframe while tracking, its solve, the loss test, and APs that join late;
+//! - `transitions`: every change of phase, in one place;
 //! - `recovery`: after a hole in the information (an IMU gap, a CSI outage), where the new
 //!   window is placed by what the lost one knew;
 //! - `output`: the pose and its covariance, in the output frame.
@@ -39,9 +42,11 @@ pub mod solve;
 pub mod start;
 pub mod state;
 pub mod track;
+mod transitions;
+pub mod triangulate;
 
-pub use config::NonlinearConfig;
-pub use estimator::{NonlinearEstimator, Sensors};
+pub use config::{NonlinearConfig, Sensors};
+pub use estimator::NonlinearEstimator;
 pub use phase::{PhaseChange, PhaseKind, Reason};
 pub use solve::fit::passes_chi2;
 pub use solve::optimize::{SolveError, SolveReport};

@@ -20,11 +20,10 @@
 
 use serde::Serialize;
 
-use crate::fusion::nonlinear::estimator::NonlinearEstimator;
 use crate::fusion::nonlinear::solve::NonlinearWindow;
 use crate::fusion::nonlinear::start::Start;
 use crate::fusion::nonlinear::start::rest::RestDetector;
-use crate::fusion::nonlinear::start::triangulate::LateSights;
+use crate::fusion::nonlinear::triangulate::LateSights;
 use crate::imu::Preintegrated;
 use crate::time::Timestamp;
 
@@ -158,17 +157,5 @@ impl Phase {
     /// The window, while tracking.
     pub(super) fn window(&self) -> Option<&NonlinearWindow> {
         self.tracking().map(|t| &t.window)
-    }
-}
-
-impl NonlinearEstimator {
-    /// Every transition: enters `phase` at `t` for `reason`, and records it.
-    pub(super) fn enter(&mut self, phase: Phase, t: Option<Timestamp>, reason: Reason) {
-        self.record.timeline.push(PhaseChange {
-            phase: phase.kind(),
-            t_s: t.map(|t| t.as_secs_f64()),
-            reason,
-        });
-        self.phase = phase;
     }
 }

@@ -1,10 +1,8 @@
 //! Tracking (module doc of [`crate::fusion::nonlinear::estimator`], step 3): a frame while the nonlinear window
 //! runs, the solve of a keyframe after its pose has gone out, and the loss test.
 
-use std::collections::VecDeque;
-
 use crate::fusion::nonlinear::estimator::NonlinearEstimator;
-use crate::fusion::nonlinear::phase::{Phase, Reason};
+use crate::fusion::nonlinear::phase::Reason;
 use crate::fusion::nonlinear::solve::SubFrame;
 use crate::fusion::nonlinear::solve::fit::passes_chi2;
 use crate::fusion::nonlinear::state::{NavState, pose_at};
@@ -100,41 +98,5 @@ impl NonlinearEstimator {
         if t.secs_since(since) >= self.config.loss_window_s {
             self.lose(t, Reason::ResidualsFailed);
         }
-    }
-
-    /// The estimate is lost (for `reason`): start over from the last good keyframe, propagated
-    /// to now.
-    pub(super) fn lose(&mut self, t: Timestamp, reason: Reason) {
-        self.record.stats.restarts += 1;
-        let from = self.phase.tracking().and_then(|tr| {
-            let w = &tr.window;
-            let good = tr.last_good?;
-            let mut x = good;
-            let mut after = false;
-            for kf in &w.keyframes {
-                if after && let Some((pre, _)) = &kf.from_prev {
-                    let p = pose_at(&x, pre, STANDARD_GRAVITY_M_S2);
-                    x = NavState {
-                        t: kf.x.t,
-                        world_from_body: p.world_from_body,
-                        p_b_in_w: p.p_b_in_w,
-                        v_b_in_w: p.v_b_in_w,
-                        ..x
-                    };
-                }
-                after |= kf.x.t == good.t;
-            }
-            // Into the output frame.
-            let a = self.anchor;
-            Some(NavState {
-                world_from_body: a.rotation * x.world_from_body,
-                p_b_in_w: a.transform_point(&x.p_b_in_w.into()).coords,
-                v_b_in_w: a.rotation * x.v_b_in_w,
-                ..x
-            })
-        });
-        self.record.epoch += 1;
-        let start = self.new_start(t, from, VecDeque::new());
-        self.enter(Phase::Recovering(Box::new(start)), Some(t), reason);
     }
 }

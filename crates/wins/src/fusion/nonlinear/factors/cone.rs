@@ -129,6 +129,14 @@ pub fn sin_sigma(aoa_rad: f64, sigma_rad: f64) -> f64 {
     aoa_rad.cos().abs().max(COS_FLOOR) * sigma_rad
 }
 
+/// The bearings' robust loss (one reflection cannot drag the solution): the Cauchy loss
+/// `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight
+/// `ρ'(s) = 1 / (1 + s/c²)`.
+pub fn cauchy(s: f64, c: f64) -> (f64, f64) {
+    let c2 = c * c;
+    (c2 * (s / c2).ln_1p(), 1.0 / (1.0 + s / c2))
+}
+
 #[cfg(test)]
 #[path = "cone_tests.rs"]
 mod tests;

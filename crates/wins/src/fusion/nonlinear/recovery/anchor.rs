@@ -10,14 +10,13 @@
 //! the σ bounds, its ranges agreeing with the lost window's) gets one range anchor per lost AP
 //! (σ: the lost AP's and the bridge's) and is solved again; when each anchor is met within
 //! [`MAX_ANCHOR_RESIDUAL`] σ and the residuals still pass the χ² test, that window is accepted
-//! and placed ([`NonlinearEstimator::placement`]); otherwise the window as it was.
+//! and placed (`Recovery::placement`); otherwise the window as it was.
 //!
 //! Accepting on the anchor alone, before the window's own APs pass the σ bounds, was tried: on
 //! 32 flights it brought the poses back 2–8 s sooner and more flights within twice the undamaged
 //! error after a 5 s IMU gap (29 instead of 26), fewer after a 2 s gap (28 instead of 32): a
 //! young window's shape is off by more than its covariance says (docs/VALIDATION.md).
 
-use crate::fusion::nonlinear::estimator::NonlinearEstimator;
 use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
 use crate::fusion::nonlinear::recovery::bridge::{bridge_sigma_m, end_motion};
 use crate::fusion::nonlinear::recovery::{FIRST_KEYFRAME_WITHIN_S, HoleFix, Placement};
@@ -37,7 +36,7 @@ pub(in crate::fusion::nonlinear) struct Anchored {
     pub(in crate::fusion::nonlinear) placement: Placement,
 }
 
-impl NonlinearEstimator {
+impl super::Recovery<'_> {
     /// The accepted window `w` started after a hole, anchored to the lost window's APs' ranges
     /// (module doc), solved again and placed: `None` when there was no hole, `w`'s first
     /// keyframe is not the first frame after it (no bridge leaves from it), an AP of `w` is not

@@ -20,22 +20,17 @@
 //! the lost window's give or take the offset's walk since, and is held there; an AP's own
 //! height, weakly seen, weighs by its vertical σ.
 
-use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
-
-use crate::fusion::nonlinear::recovery::bridge::{Before, bridge_sigma_m, end_motion};
 pub(in crate::fusion::nonlinear) mod anchor;
 pub(in crate::fusion::nonlinear) mod bridge;
 pub(in crate::fusion::nonlinear) mod relocate;
 
-use std::collections::VecDeque;
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
-use crate::fusion::nonlinear::estimator::NonlinearEstimator;
-use crate::fusion::nonlinear::phase::{Phase, Reason};
-use crate::fusion::nonlinear::recovery::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
+use crate::fusion::nonlinear::recovery::bridge::{Before, bridge_sigma_m, end_motion};
+
+use crate::fusion::nonlinear::config::NonlinearConfig;
+
 use crate::fusion::nonlinear::solve::NonlinearWindow;
-use crate::fusion::nonlinear::start::Start;
-use crate::fusion::nonlinear::state::{NavState, pose_at};
-use crate::imu::{Preintegrated, STANDARD_GRAVITY_M_S2};
 use crate::time::Timestamp;
 
 /// What a window lost to a hole (an IMU gap, a CSI outage) leaves for the next one.
@@ -69,68 +64,26 @@ pub(super) struct LostAp {
     pub(super) var_z_m2: f64,
 }
 
-impl NonlinearEstimator {
-    /// Whether a frame at `t` comes after a hole in the tracking window's information: an IMU
-    /// gap since the last frame, or no keyframe for longer than the dead-reckoning limit.
-    pub(super) fn after_hole(&self, t: Timestamp, imu_gap: bool) -> bool {
-        let Some(newest) = self.phase.window().and_then(|w| w.newest()) else {
-            return false;
-        };
-        imu_gap || t.secs_since(newest.t) > self.config.max_dead_reckoning_s
-    }
+/// What recovery reads of the estimator: its settings, and the output frame it moves.
+#[derive(Clone, Copy, Debug)]
+pub(in crate::fusion::nonlinear) struct Recovery<'a> {
+    pub(in crate::fusion::nonlinear) config: &'a NonlinearConfig,
+    /// Output `w` from the window's `w`.
+    pub(in crate::fusion::nonlinear) anchor: Isometry3<f64>,
+}
 
-    /// Ends the tracking window at the frame `t` after a hole, `interval` the IMU since the
-    /// last frame (with gaps of `imu_gap_s` s in it): restarts from the newest keyframe
-    /// carried to `t` by the IMU, keeping its placed APs for the new window (`relocated`).
-    pub(super) fn restart_after_hole(
-        &mut self,
-        t: Timestamp,
-        interval: &Preintegrated,
-        imu_gap_s: f64,
-    ) {
-        let Some(w) = self.phase.window() else {
-            return;
-        };
-        let Some(newest) = w.newest().copied() else {
-            return;
-        };
-        let mut carried = self
-            .since_keyframe
-            .clone()
-            .unwrap_or_else(|| Preintegrated::empty(newest.t, interval.bias));
-        if carried.append(interval).is_err() {
-            carried = interval.clone();
-        }
-        let p = pose_at(&newest, &carried, STANDARD_GRAVITY_M_S2);
-        let a = self.anchor;
-        let from = NavState {
-            t,
-            world_from_body: a.rotation * p.world_from_body,
-            p_b_in_w: a.transform_point(&p.p_b_in_w.into()).coords,
-            v_b_in_w: a.rotation * p.v_b_in_w,
-            ..newest
-        };
-        let fix = self.hole_fix(t, carried.dt_s(), imu_gap_s);
-        self.record.stats.restarts += 1;
-        self.record.epoch += 1;
-        let mut start = self.new_start(t, Some(from), VecDeque::new());
-        // The carried velocity and attitude are guesses: the start solver starts from zeros.
-        start.solver = self.start_solver.make(None);
-        start.hole = fix;
-        let reason = if imu_gap_s > 0.0 {
-            Reason::ImuGap
-        } else {
-            Reason::CsiOutage
-        };
-        self.enter(Phase::Recovering(Box::new(start)), Some(t), reason);
-    }
-
+impl Recovery<'_> {
     /// What the tracking window leaves for the next one when it ends at `t`, its newest state
     /// carried `carried_s` by the IMU alone, across gaps of `imu_gap_s` s: its placed APs and
     /// that newest state in the output frame, and how far the carried position may be off.
     /// `None` without a window, a keyframe or a placed AP.
-    pub(super) fn hole_fix(&self, t: Timestamp, carried_s: f64, imu_gap_s: f64) -> Option<HoleFix> {
-        let w = self.phase.window()?;
+    pub(in crate::fusion::nonlinear) fn hole_fix(
+        &self,
+        w: &NonlinearWindow,
+        t: Timestamp,
+        carried_s: f64,
+        imu_gap_s: f64,
+    ) -> Option<HoleFix> {
         let newest = w.newest()?;
         let a = self.anchor;
         let aps_in_w: Vec<_> = (0..w.aps().len())
@@ -165,49 +118,6 @@ impl NonlinearEstimator {
         })
     }
 
-    /// After a hole: the AP of the lost window with the most bearings since, found with the
-    /// velocity and tilt corrections of the dead reckoning at `states` ([`crate::fusion::nonlinear::recovery::relocate`]).
-    pub(super) fn relocate_after_hole(
-        &self,
-        start: &Start,
-        states: &[NavState],
-    ) -> Option<(usize, Relocated, ApFromDrone)> {
-        let fix = start.hole.as_ref()?;
-        let reference = start.reference.as_ref()?;
-        let sights: Vec<Vec<TimedSight>> = self
-            .sights_along(start, states)
-            .into_iter()
-            .map(|s| {
-                s.into_iter()
-                    .map(|(t, sight)| TimedSight {
-                        sight,
-                        t_s: t.secs_since(reference.t),
-                    })
-                    .collect()
-            })
-            .collect();
-        let lost = fix
-            .aps_in_w
-            .iter()
-            .max_by_key(|ap| sights.get(ap.l).map_or(0, Vec::len))?;
-        let (l, c_old) = (lost.l, lost.c_in_w);
-        // The lost window's AP in the new window's frame, were the carried heading right.
-        let c_guess = self.anchor.inverse_transform_point(&c_old.into()).coords;
-        let sigma_old = lost.sigma_m;
-        let ap = ApFromDrone {
-            drone: reference.p_b_in_w,
-            offset: c_guess - reference.p_b_in_w,
-            sigma_m: fix.carried_sigma_m.hypot(sigma_old),
-        };
-        let found = relocate(
-            sights.get(l)?,
-            &ap,
-            &reference.v_b_in_w,
-            self.config.cauchy_scale,
-        )?;
-        Some((l, found, ap))
-    }
-
     /// Where a window `w` started after a hole goes, at its acceptance: the move of the output
     /// frame that puts the window's APs where the lost window had them and its first keyframe,
     /// when it is the first frame after the hole, where the IMU carried it and where the bridge
@@ -218,7 +128,11 @@ impl NonlinearEstimator {
     /// moves the whole trajectory by range × angle. The height goes mostly by the barometer
     /// (a pair on the height alone: the two windows' offsets). `w` is untrimmed (its first
     /// keyframe is the start's). `None` without a lost window's AP in `w`.
-    pub(super) fn placement(&self, fix: &HoleFix, w: &NonlinearWindow) -> Option<Placement> {
+    pub(in crate::fusion::nonlinear) fn placement(
+        &self,
+        fix: &HoleFix,
+        w: &NonlinearWindow,
+    ) -> Option<Placement> {
         let mut pairs: Vec<Weighted> = fix
             .aps_in_w
             .iter()
@@ -294,7 +208,12 @@ impl NonlinearEstimator {
     /// At the acceptance of a window started after a hole, its [`placement`](Self::placement):
     /// moves the output frame by it and holds the window's APs where the lost window had them.
     /// Called before the window is trimmed.
-    pub(super) fn place_by_aps(&mut self, fix: HoleFix, placement: Option<Placement>) {
+    pub(in crate::fusion::nonlinear) fn place_by_aps(
+        &mut self,
+        w: &mut NonlinearWindow,
+        fix: HoleFix,
+        placement: Option<Placement>,
+    ) {
         if let Some(p) = placement {
             self.anchor = p.correction * self.anchor;
         }
@@ -302,11 +221,8 @@ impl NonlinearEstimator {
         // own frame, as now placed), or its drift after the placement moves the trajectory
         // against the one before the hole.
         let anchor = self.anchor;
-        let baro_var = self
-            .phase
-            .window()
-            .map_or(MIN_BARO_VAR_M2, |w| self.baro_offset_variance_m2(&fix, w));
-        if let Some(w) = self.phase.tracking_mut().map(|t| &mut t.window) {
+        let baro_var = self.baro_offset_variance_m2(&fix, w);
+        {
             // The barometer ran on through the hole: its offset is the lost window's, give or
             // take its walk since.
             if let Some(o_old) = fix.baro_offset_m {
@@ -323,7 +239,7 @@ impl NonlinearEstimator {
     }
 }
 
-/// Where a window started after a hole is placed ([`NonlinearEstimator::placement`]).
+/// Where a window started after a hole is placed (`Recovery::placement`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Placement {
     /// The move of the output frame.

@@ -5,7 +5,7 @@
 //! IMU's straight line across a turn), which turns the velocity the dead reckoning leaves with
 //! against the body by as much, and its roll and pitch a degree or two, which adds a constant
 //! acceleration `g δθ` to the dead reckoning. Both grow into metres within the seconds a start
-//! needs, so the APs no longer triangulate against it ([`crate::fusion::nonlinear::start::triangulate`]). The dead
+//! needs, so the APs no longer triangulate against it ([`crate::fusion::nonlinear::triangulate`]). The dead
 //! reckoning is linear in the initial velocity and, to first order, in a world-frame tilt error:
 //! the array's true positions are `p_a(t) + δv t + ½ δa t²` (`t` since the hole's first frame,
 //! `δa` horizontal). So the AP's position `c`, `δv` and `δa` are solved together, minimizing
@@ -17,8 +17,8 @@
 
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
-use crate::fusion::nonlinear::solve::cauchy;
-use crate::fusion::nonlinear::start::triangulate::Sight;
+use crate::fusion::nonlinear::factors::cone::cauchy;
+use crate::fusion::nonlinear::triangulate::Sight;
 
 /// One sight and its time since the hole's first frame, s.
 #[derive(Clone, Copy, Debug)]

@@ -12,8 +12,8 @@ use crate::fusion::nonlinear::config::NonlinearConfig;
 use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
 use crate::fusion::nonlinear::solve::fit::FitStats;
 use crate::fusion::nonlinear::solve::{Keyframe, NonlinearWindow, PLACEHOLDER_INFORMATION};
-use crate::fusion::nonlinear::start::triangulate::{Sight, Triangulated, triangulate};
 use crate::fusion::nonlinear::state::{NavState, STATE_DIM};
+use crate::fusion::nonlinear::triangulate::{Sight, Triangulated, triangulate};
 
 /// The largest horizontal σ (of the x–y block) of a position covariance, m.
 pub fn horizontal_sigma_m(covariance: &Matrix3<f64>) -> f64 {

@@ -1,4 +1,4 @@
-//! The window's residual statistics and the Cauchy loss its bearings are weighed by.
+//! The window's residual statistics, and the χ² test on them (acceptance of a start, loss).
 
 use crate::chi2::chi2_upper;
 
@@ -30,13 +30,6 @@ pub struct FitStats {
     pub zero_velocity: usize,
     /// See `zero_velocity`.
     pub zero_velocity_chi2: f64,
-}
-
-/// Cauchy loss `ρ(s) = c² ln(1 + s/c²)` on a squared whitened residual `s`, and its IRLS weight
-/// `ρ'(s) = 1 / (1 + s/c²)`.
-pub fn cauchy(s: f64, c: f64) -> (f64, f64) {
-    let c2 = c * c;
-    (c2 * (s / c2).ln_1p(), 1.0 / (1.0 + s / c2))
 }
 
 /// Whether residual statistics pass the χ² test at significance `alpha`: the whole cost (IMU,

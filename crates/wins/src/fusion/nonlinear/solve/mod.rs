@@ -32,7 +32,7 @@ use crate::fusion::bearing::Bearing;
 use crate::fusion::nonlinear::config::NonlinearConfig;
 use crate::fusion::nonlinear::factors::imu::imu_information;
 use crate::fusion::nonlinear::factors::range_anchor::RangeAnchor;
-pub use crate::fusion::nonlinear::solve::fit::{FitStats, cauchy};
+pub use crate::fusion::nonlinear::solve::fit::FitStats;
 use crate::fusion::nonlinear::state::{Mat15, NavState, STATE_DIM, Vec15};
 use crate::imu::Preintegrated;
 use crate::rig::ImuNoise;

@@ -6,13 +6,14 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use crate::fusion::nonlinear::estimator::NonlinearEstimator;
+use crate::fusion::nonlinear::recovery::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use crate::fusion::nonlinear::solve::NonlinearWindow;
 use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
 use crate::fusion::nonlinear::solve::fit::passes_chi2;
 use crate::fusion::nonlinear::start::Start;
-use crate::fusion::nonlinear::start::triangulate::Sight;
+use crate::fusion::nonlinear::start::StartContext;
 use crate::fusion::nonlinear::state::{BA, BG, Mat15, NavState, POS, THETA, VEL, pose_at};
+use crate::fusion::nonlinear::triangulate::Sight;
 use crate::fusion::proposal::FrameEstimate;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 use crate::time::Timestamp;
@@ -78,9 +79,9 @@ struct RestForce {
     duration_s: f64,
 }
 
-impl NonlinearEstimator {
+impl StartContext<'_> {
     /// The inertial proposal: every start keyframe's dead-reckoned state, and every AP
-    /// triangulated against those poses ([`crate::fusion::nonlinear::start::triangulate`]). After a hole the dead
+    /// triangulated against those poses ([`crate::fusion::nonlinear::triangulate`]). After a hole the dead
     /// reckoning is first corrected by the AP the lost window had placed
     /// ([`crate::fusion::nonlinear::recovery::relocate`]).
     pub(in crate::fusion::nonlinear) fn propose_inertial(&self, start: &Start) -> Option<Proposal> {
@@ -151,7 +152,7 @@ impl NonlinearEstimator {
             .iter()
             .map(|s| {
                 let sights: Vec<Sight> = s.iter().map(|(_, sight)| *sight).collect();
-                triangulate_within_bounds(&sights, &self.config).map(|t| t.c_in_w)
+                triangulate_within_bounds(&sights, self.config).map(|t| t.c_in_w)
             })
             .collect()
     }
@@ -361,5 +362,48 @@ impl NonlinearEstimator {
             h += j.transpose() * j * info;
         }
         h
+    }
+
+    /// After a hole: the AP of the lost window with the most bearings since, found with the
+    /// velocity and tilt corrections of the dead reckoning at `states` ([`crate::fusion::nonlinear::recovery::relocate`]).
+    pub(super) fn relocate_after_hole(
+        &self,
+        start: &Start,
+        states: &[NavState],
+    ) -> Option<(usize, Relocated, ApFromDrone)> {
+        let fix = start.hole.as_ref()?;
+        let reference = start.reference.as_ref()?;
+        let sights: Vec<Vec<TimedSight>> = self
+            .sights_along(start, states)
+            .into_iter()
+            .map(|s| {
+                s.into_iter()
+                    .map(|(t, sight)| TimedSight {
+                        sight,
+                        t_s: t.secs_since(reference.t),
+                    })
+                    .collect()
+            })
+            .collect();
+        let lost = fix
+            .aps_in_w
+            .iter()
+            .max_by_key(|ap| sights.get(ap.l).map_or(0, Vec::len))?;
+        let (l, c_old) = (lost.l, lost.c_in_w);
+        // The lost window's AP in the new window's frame, were the carried heading right.
+        let c_guess = self.anchor.inverse_transform_point(&c_old.into()).coords;
+        let sigma_old = lost.sigma_m;
+        let ap = ApFromDrone {
+            drone: reference.p_b_in_w,
+            offset: c_guess - reference.p_b_in_w,
+            sigma_m: fix.carried_sigma_m.hypot(sigma_old),
+        };
+        let found = relocate(
+            sights.get(l)?,
+            &ap,
+            &reference.v_b_in_w,
+            self.config.cauchy_scale,
+        )?;
+        Some((l, found, ap))
     }
 }

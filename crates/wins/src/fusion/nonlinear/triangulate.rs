@@ -17,8 +17,8 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
 
 use crate::aoa::steering::sin_aoa;
 use crate::fusion::bearing::Bearing;
+use crate::fusion::nonlinear::factors::cone::cauchy;
 use crate::fusion::nonlinear::factors::cone::sin_sigma;
-use crate::fusion::nonlinear::solve::cauchy;
 use crate::fusion::nonlinear::state::PoseAt;
 
 /// One cone angle seen from a known array pose.
