@@ -49,8 +49,8 @@ fn no_pose_comes_from_inside_an_imu_gap_and_the_estimate_starts_again_after_it()
         run.coverage
     );
     assert!(w.contains("gap(s) without a pose"), "{w}");
-    // The phases say it: at rest, starting, tracking; after the gap recovering, then tracking
-    // again; each change after the one before.
+    // The phases say it: at rest, starting, tracking, and recovering from the first frame after
+    // the gap; each change after the one before.
     let phases: Vec<(PhaseKind, Reason)> = run.phases.iter().map(|c| (c.phase, c.reason)).collect();
     assert_eq!(
         phases[..3],
