@@ -132,12 +132,8 @@ impl<const D: usize> ArrowSystem<D> {
     fn add_scalar_weighted<const R: usize>(&mut self, f: &Linearized<R, D>, w: f64) {
         let wr = f.residual * w;
         for (a, (k, j_k)) in f.frames().enumerate() {
-            self.add_information(
-                At::Frame(*k, 0),
-                At::Frame(*k, 0),
-                &(j_k.transpose() * j_k * w),
-            );
-            self.add_rhs(At::Frame(*k, 0), &-(j_k.transpose() * wr));
+            self.diag[*k] += j_k.transpose() * j_k * w;
+            self.rhs_frames[*k] -= j_k.transpose() * wr;
             for (l, j_l) in f.frames().take(a) {
                 self.add_information(
                     At::Frame(*k, 0),
@@ -147,22 +143,20 @@ impl<const D: usize> ArrowSystem<D> {
             }
             for c in f.border() {
                 let block = j_k.transpose() * c.jacobian * w;
-                self.add_information(
-                    At::Frame(*k, 0),
-                    At::Border(c.offset),
-                    &block.columns(0, c.cols),
-                );
+                let mut fb = self.frame_border[*k].columns_mut(c.offset, c.cols);
+                fb += block.columns(0, c.cols);
             }
         }
         for (a, c) in f.border().enumerate() {
             let block = c.jacobian.transpose() * c.jacobian * w;
-            let at = At::Border(c.offset);
-            self.add_information(at, at, &block.view((0, 0), (c.cols, c.cols)));
-            self.add_rhs(at, &-(c.jacobian.transpose() * wr).rows(0, c.cols));
+            let mut corner = self.corner.view_mut((c.offset, c.offset), (c.cols, c.cols));
+            corner += block.view((0, 0), (c.cols, c.cols));
+            let mut rb = self.rhs_border.rows_mut(c.offset, c.cols);
+            rb -= (c.jacobian.transpose() * wr).rows(0, c.cols);
             for d in f.border().take(a) {
                 let block = c.jacobian.transpose() * d.jacobian * w;
                 self.add_information(
-                    at,
+                    At::Border(c.offset),
                     At::Border(d.offset),
                     &block.view((0, 0), (c.cols, d.cols)),
                 );
@@ -181,32 +175,30 @@ impl<const D: usize> ArrowSystem<D> {
             let Some(jt_w_k) = &jt_w[a] else {
                 continue;
             };
-            self.add_information(At::Frame(*k, 0), At::Frame(*k, 0), &(jt_w_k * j_k));
-            self.add_rhs(At::Frame(*k, 0), &-(jt_w_k * f.residual));
-            // The block below the diagonal, `(J_lᵀ W) J_k` for `l > k`.
+            self.diag[*k] += jt_w_k * j_k;
+            self.rhs_frames[*k] -= jt_w_k * f.residual;
+            // The block below the diagonal, `(J_lᵀ W) J_k` for `l = k + 1`.
             for (b, (l, _)) in f.frames().enumerate() {
-                if let (true, Some(jt_w_l)) = (l > k, &jt_w[b]) {
-                    self.add_information(At::Frame(*l, 0), At::Frame(*k, 0), &(jt_w_l * j_k));
+                if let (true, Some(jt_w_l)) = (*l == k + 1, &jt_w[b]) {
+                    self.lower[*k] += jt_w_l * j_k;
                 }
             }
             for c in f.border() {
                 let block = jt_w_k * c.jacobian;
-                self.add_information(
-                    At::Frame(*k, 0),
-                    At::Border(c.offset),
-                    &block.columns(0, c.cols),
-                );
+                let mut fb = self.frame_border[*k].columns_mut(c.offset, c.cols);
+                fb += block.columns(0, c.cols);
             }
         }
         for (a, c) in f.border().enumerate() {
             let ct_w = c.jacobian.transpose() * w;
-            let at = At::Border(c.offset);
-            self.add_information(at, at, &(ct_w * c.jacobian).view((0, 0), (c.cols, c.cols)));
-            self.add_rhs(at, &-(ct_w * f.residual).rows(0, c.cols));
+            let mut corner = self.corner.view_mut((c.offset, c.offset), (c.cols, c.cols));
+            corner += (ct_w * c.jacobian).view((0, 0), (c.cols, c.cols));
+            let mut rb = self.rhs_border.rows_mut(c.offset, c.cols);
+            rb -= (ct_w * f.residual).rows(0, c.cols);
             for d in f.border().take(a) {
                 let block = ct_w * d.jacobian;
                 self.add_information(
-                    at,
+                    At::Border(c.offset),
                     At::Border(d.offset),
                     &block.view((0, 0), (c.cols, d.cols)),
                 );

@@ -128,46 +128,26 @@ impl<const D: usize> ArrowSystem<D> {
         col: At,
         block: &Matrix<f64, R, C, S>,
     ) {
-        let (nr, nc) = block.shape();
-        // `target[(o_r + i, o_c + j)] += b_ij`, or at `(o_r + j, o_c + i)` for the mirror.
-        let add = |target: &mut dyn FnMut(usize, usize, f64), mirror: bool| {
-            for j in 0..nc {
-                for i in 0..nr {
-                    let v = block[(i, j)];
-                    if mirror {
-                        target(j, i, v)
-                    } else {
-                        target(i, j, v)
-                    }
-                }
-            }
-        };
         match (row, col) {
             (At::Frame(i, oi), At::Frame(j, oj)) if i == j => {
-                let d = &mut self.diag[i];
-                add(&mut |r, c, v| d[(oi + r, oj + c)] += v, false);
+                add_block(&mut self.diag[i], (oi, oj), block, false);
             }
             (At::Frame(i, oi), At::Frame(j, oj)) if i == j + 1 => {
-                let d = &mut self.lower[j];
-                add(&mut |r, c, v| d[(oi + r, oj + c)] += v, false);
+                add_block(&mut self.lower[j], (oi, oj), block, false);
             }
             (At::Frame(i, oi), At::Frame(j, oj)) if j == i + 1 => {
-                let d = &mut self.lower[i];
-                add(&mut |r, c, v| d[(oj + r, oi + c)] += v, true);
+                add_block(&mut self.lower[i], (oj, oi), block, true);
             }
             (At::Frame(k, oi), At::Border(o)) => {
-                let d = &mut self.frame_border[k];
-                add(&mut |r, c, v| d[(oi + r, o + c)] += v, false);
+                add_block(&mut self.frame_border[k], (oi, o), block, false);
             }
             (At::Border(o), At::Frame(k, oj)) => {
-                let d = &mut self.frame_border[k];
-                add(&mut |r, c, v| d[(oj + r, o + c)] += v, true);
+                add_block(&mut self.frame_border[k], (oj, o), block, true);
             }
             (At::Border(a), At::Border(b)) => {
-                let d = &mut self.corner;
-                add(&mut |r, c, v| d[(a + r, b + c)] += v, false);
+                add_block(&mut self.corner, (a, b), block, false);
                 if a != b {
-                    add(&mut |r, c, v| d[(b + r, a + c)] += v, true);
+                    add_block(&mut self.corner, (b, a), block, true);
                 }
             }
             _ => debug_assert!(false, "no arrow block between {row:?} and {col:?}"),
@@ -253,6 +233,28 @@ impl<const D: usize> ArrowSystem<D> {
             b.rows_mut(bo, m).copy_from(&self.rhs_border);
         }
         (h, b)
+    }
+}
+
+/// `target[(r0 + i, c0 + j)] += b_ij`, or with `mirror` the transpose: `target[(r0 + j, c0 + i)]`.
+fn add_block<T, R: Dim, C: Dim, S: Storage<f64, R, C>>(
+    target: &mut T,
+    (r0, c0): (usize, usize),
+    block: &Matrix<f64, R, C, S>,
+    mirror: bool,
+) where
+    T: std::ops::IndexMut<(usize, usize), Output = f64>,
+{
+    let (nr, nc) = block.shape();
+    for j in 0..nc {
+        for i in 0..nr {
+            let v = block[(i, j)];
+            if mirror {
+                target[(r0 + j, c0 + i)] += v;
+            } else {
+                target[(r0 + i, c0 + j)] += v;
+            }
+        }
     }
 }
 
