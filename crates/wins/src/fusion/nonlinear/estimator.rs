@@ -105,7 +105,7 @@ impl NonlinearEstimator {
             detector: RestDetector::new(config.clone(), STANDARD_GRAVITY_M_S2),
             intervals: VecDeque::new(),
         };
-        let mut estimator = Self {
+        Self {
             inputs: Inputs {
                 pre: Preintegrator::new(sensors.imu_noise.clone(), ImuBiases::zero())
                     .with_gap(sensors.imu_gap),
@@ -120,11 +120,16 @@ impl NonlinearEstimator {
             static_init: None,
             since_keyframe: None,
             anchor: Isometry3::identity(),
-            record: Record::default(),
-            phase: Phase::AtRest(Box::new(at_rest.clone())),
-        };
-        estimator.enter(Phase::AtRest(Box::new(at_rest)), None, Reason::Created);
-        estimator
+            record: Record {
+                timeline: vec![PhaseChange {
+                    phase: PhaseKind::AtRest,
+                    t_s: None,
+                    reason: Reason::Created,
+                }],
+                ..Record::default()
+            },
+            phase: Phase::AtRest(Box::new(at_rest)),
+        }
     }
 
     /// Counters.

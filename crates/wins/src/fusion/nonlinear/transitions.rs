@@ -167,12 +167,17 @@ impl NonlinearEstimator {
     pub(super) fn restart_start(&mut self, t: Timestamp) {
         let kind = self.phase.kind();
         let hole = self.phase.start_mut().and_then(|s| s.hole.take());
-        let mut start = self.new_start(t, None, VecDeque::new());
-        start.reference = None;
-        start.reference_is_rest = false;
-        start.dead_reckoned = None;
-        start.solver = self.start_solver.make(None);
-        start.hole = hole;
+        self.since_keyframe = None;
+        let start = Start {
+            since: t,
+            solver: self.start_solver.make(None),
+            keyframes: VecDeque::new(),
+            reference: None,
+            reference_is_rest: false,
+            dead_reckoned: None,
+            last_try: None,
+            hole,
+        };
         let phase = match kind {
             PhaseKind::Recovering => Phase::Recovering(Box::new(start)),
             _ => Phase::Starting(Box::new(start)),
