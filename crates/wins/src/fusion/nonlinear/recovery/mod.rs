@@ -222,19 +222,17 @@ impl Recovery<'_> {
         // against the one before the hole.
         let anchor = self.anchor;
         let baro_var = self.baro_offset_variance_m2(&fix, w);
-        {
-            // The barometer ran on through the hole: its offset is the lost window's, give or
-            // take its walk since.
-            if let Some(o_old) = fix.baro_offset_m {
-                w.hold_baro_offset(o_old + anchor.translation.vector.z, baro_var.recip());
-            }
-            for old in &fix.aps_in_w {
-                let target = anchor.inverse_transform_point(&old.c_in_w.into()).coords;
-                // Its height too is held by the horizontal σ: held by its own (larger) σ, the
-                // AP's height and the window's drift together after the placement.
-                let info = Matrix3::identity() * old.sigma_m.max(MIN_HELD_SIGMA_M).powi(-2);
-                w.hold_ap(old.l, target, &info);
-            }
+        // The barometer ran on through the hole: its offset is the lost window's, give or
+        // take its walk since.
+        if let Some(o_old) = fix.baro_offset_m {
+            w.hold_baro_offset(o_old + anchor.translation.vector.z, baro_var.recip());
+        }
+        for old in &fix.aps_in_w {
+            let target = anchor.inverse_transform_point(&old.c_in_w.into()).coords;
+            // Its height too is held by the horizontal σ: held by its own (larger) σ, the
+            // AP's height and the window's drift together after the placement.
+            let info = Matrix3::identity() * old.sigma_m.max(MIN_HELD_SIGMA_M).powi(-2);
+            w.hold_ap(old.l, target, &info);
         }
     }
 }
