@@ -1,5 +1,5 @@
-//! The checks a dataset's inputs pass as it is loaded ([`super::incremental::check_imu`],
-//! [`super::incremental::check_ap`], [`check_spans`]): what can be used is used, what cannot is
+//! The checks a dataset's inputs pass as it is loaded ([`super::incremental::ImuCheck`],
+//! [`super::incremental::ApCheck`], [`judge_spans`]): what can be used is used, what cannot is
 //! dropped and counted, each event is reported with the time it happened, and inputs that cannot
 //! give a meaningful estimate are an error that says why.
 //!
@@ -21,7 +21,6 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::csi::intel5300::CsiRecord;
-use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
 /// A gap between IMU samples longer than this many nominal periods is an event.
@@ -215,32 +214,9 @@ pub struct ImuLimits {
     pub gyro_range_rad_s: f64,
 }
 
-/// The IMU's span against every AP's: records outside it counted, no overlap an error, ends far
-/// apart a warning.
-pub fn check_spans(
-    imu: &[ImuSample],
-    aps: &[&[CsiPacket]],
-    report: &mut InputReport,
-) -> Result<(), InputError> {
-    let (Some(first), Some(last)) = (imu.first(), imu.last()) else {
-        return Err(InputError::NoImu("no sample".into()));
-    };
-    let (from, to) = (first.t, last.t);
-    let mut inside = 0;
-    let mut csi_span: Option<(Timestamp, Timestamp)> = None;
-    for (packets, ap) in aps.iter().zip(report.aps.iter_mut()) {
-        ap.before_imu = packets.iter().filter(|p| p.t < from).count() as u64;
-        ap.after_imu = packets.iter().filter(|p| p.t > to).count() as u64;
-        inside += packets.len() as u64 - ap.before_imu - ap.after_imu;
-        for p in packets.iter() {
-            csi_span = Some(csi_span.map_or((p.t, p.t), |(a, b)| (a.min(p.t), b.max(p.t))));
-        }
-    }
-    judge_spans((from, to), inside, csi_span, report)
-}
-
-/// [`check_spans`] on what it counts: the IMU's span, the packets inside it (every AP's
-/// `before_imu` and `after_imu` set) and the packets' span.
+/// The IMU's span against every AP's, from what the reader counted: the IMU's span, the packets
+/// inside it (every AP's `before_imu` and `after_imu` set) and the packets' span. No overlap is
+/// an error, ends far apart a warning.
 pub(crate) fn judge_spans(
     (from, to): (Timestamp, Timestamp),
     inside: u64,

@@ -1,6 +1,6 @@
-//! The input checks one sample or record at a time ([`ImuCheck`], [`ApCheck`]): what
-//! [`check_imu`] and [`check_ap`] do over a whole file, with state that does not grow with the
-//! flight's length, so a reader can check a file as it streams it.
+//! The input checks one sample or record at a time ([`ImuCheck`], [`ApCheck`]), with state that
+//! does not grow with the flight's length, so a reader checks a file as it streams it
+//! ([`super::stream::DatasetStream::open`]).
 //!
 //! What is kept: the IMU's sample intervals as a histogram (exact while they take at most
 //! [`MAX_INTERVALS`] distinct values, else in power-of-two buckets of nanoseconds, so the median
@@ -16,7 +16,6 @@ use super::checks::{
     ApInputReport, CsiPacket, GAP_PERIODS, ImuLimits, InputError, InputReport, Kind, MAX_LISTED,
     SILENCE_S,
 };
-use super::imu_csv::ImuRows;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord};
 use crate::imu::ImuSample;
 use crate::time::{NANOS_PER_SEC, Timestamp};
@@ -371,36 +370,4 @@ fn header_key(h: &BfeeHeader) -> u128 {
         | (u128::from(h.bfee_count) << 80)
         | (u128::from(h.rate.0) << 64)
         | u128::from(u64::from_le_bytes(bytes))
-}
-
-/// Checks the IMU rows: returns the samples kept (strictly increasing time).
-pub fn check_imu(
-    rows: ImuRows,
-    limits: ImuLimits,
-    report: &mut InputReport,
-) -> Result<Vec<ImuSample>, InputError> {
-    let mut check = ImuCheck::new(limits);
-    let mut kept: Vec<ImuSample> = Vec::with_capacity(rows.samples.len());
-    for s in rows.samples {
-        kept.extend(check.push(s, report));
-    }
-    check.finish(rows.cut_last_line, report)?;
-    Ok(kept)
-}
-
-/// One AP's records placed on the IMU clock (`imu_minus_nic_ns`, checked), repeated records and
-/// those after a NIC clock jump dropped and counted.
-pub fn check_ap(
-    name: &str,
-    records: Vec<CsiRecord>,
-    imu_minus_nic_ns: i64,
-    report: &mut InputReport,
-) -> Result<Vec<CsiPacket>, InputError> {
-    let mut check = ApCheck::new(report.aps.len(), name, imu_minus_nic_ns, true);
-    let mut kept: Vec<CsiPacket> = Vec::with_capacity(records.len());
-    for record in records {
-        kept.extend(check.push(record, report)?);
-    }
-    check.finish(report);
-    Ok(kept)
 }

@@ -1,15 +1,15 @@
 //! Reading a dataset directory back into typed data.
 
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use super::baro_csv::{self, BaroCsvError, BaroSample};
+use super::baro_csv::{BaroCsvError, BaroSample};
 pub use super::checks::CsiPacket;
-use super::checks::{self, ImuLimits, InputError, InputReport};
-use super::imu_csv::{self, ImuCsvError};
-use super::incremental;
+use super::checks::{InputError, InputReport};
+use super::events::{Events, InMemory};
+use super::imu_csv::ImuCsvError;
 use super::manifest::{FORMAT, Manifest, VERSION};
-use crate::csi::intel5300::{ReadError, Skip, read_log};
+use super::stream::DatasetStream;
+use crate::csi::intel5300::{ReadError, Skip};
 use crate::imu::ImuSample;
 use crate::rig::{CalibrationError, ChainCalibration};
 use crate::time::NANOS_PER_MICRO;
@@ -112,83 +112,22 @@ pub struct Dataset {
 }
 
 impl Dataset {
-    /// Loads `dir/dataset.toml` and everything it names.
+    /// Loads `dir/dataset.toml` and everything it names: the checks of
+    /// [`DatasetStream::open`] (its errors, its report), then the kept samples and records read
+    /// into memory ([`DatasetStream::into_memory`]).
     pub fn load(dir: impl AsRef<Path>) -> Result<Self, DatasetError> {
-        let dir = dir.as_ref();
-        let manifest = read_manifest(dir)?;
-        let imu_path = dir.join(&manifest.imu.file);
-        let file =
-            crate::io_safety::open_regular(&imu_path).map_err(|source| DatasetError::Io {
-                path: imu_path.clone(),
-                source,
-            })?;
-        let rows =
-            imu_csv::read_rows(BufReader::new(file)).map_err(|source| DatasetError::Imu {
-                path: imu_path.clone(),
-                source,
-            })?;
-        let inputs_error = |source| DatasetError::Inputs {
-            dir: dir.to_path_buf(),
-            source,
+        DatasetStream::open(dir)?.into_memory()
+    }
+
+    /// The kept IMU samples, barometer readings (when `with_baro`) and CSI records, merged by
+    /// time as [`DatasetStream::events`] merges them from the files ([`super::events`]).
+    pub fn events(&self, with_baro: bool) -> Events<'_> {
+        let baro = if with_baro {
+            self.baro.clone()
+        } else {
+            Vec::new()
         };
-        let mut inputs = InputReport::default();
-        let limits = ImuLimits {
-            rate_hz: manifest.imu.rate_hz,
-            accel_range_m_s2: manifest.imu.accel_range_m_s2,
-            gyro_range_rad_s: manifest.imu.gyro_range_rad_s,
-        };
-        let imu = incremental::check_imu(rows, limits, &mut inputs).map_err(inputs_error)?;
-        let mut aps = Vec::with_capacity(manifest.aps.len());
-        for entry in &manifest.aps {
-            let log = read_log(dir.join(&entry.log))?;
-            let bandwidth_mismatches = log
-                .records
-                .iter()
-                .filter(|r| r.header.rate.bandwidth() != manifest.channel.bandwidth)
-                .count();
-            let packets = incremental::check_ap(
-                &entry.name,
-                log.records,
-                entry.imu_minus_nic_ns,
-                &mut inputs,
-            )
-            .map_err(inputs_error)?;
-            aps.push(ApLog {
-                name: entry.name.clone(),
-                packets,
-                skips: log.skips,
-                bandwidth_mismatches,
-            });
-        }
-        let placed: Vec<&[CsiPacket]> = aps.iter().map(|a| a.packets.as_slice()).collect();
-        checks::check_spans(&imu, &placed, &mut inputs).map_err(inputs_error)?;
-        checks::summarize(&mut inputs);
-        let calibration = match &manifest.array.calibration {
-            Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
-            None => None,
-        };
-        let baro = match &manifest.baro {
-            Some(entry) => {
-                let path = dir.join(&entry.file);
-                let file =
-                    crate::io_safety::open_regular(&path).map_err(|source| DatasetError::Io {
-                        path: path.clone(),
-                        source,
-                    })?;
-                baro_csv::read(BufReader::new(file))
-                    .map_err(|source| DatasetError::Baro { path, source })?
-            }
-            None => Vec::new(),
-        };
-        Ok(Self {
-            dir: dir.to_path_buf(),
-            manifest,
-            imu,
-            aps,
-            calibration,
-            baro,
-            inputs,
-        })
+        Events::new(Box::new(InMemory::new(self)), baro)
     }
 }
 

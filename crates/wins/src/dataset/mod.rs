@@ -19,6 +19,7 @@
 
 pub mod baro_csv;
 pub mod checks;
+pub mod events;
 pub mod imu_csv;
 pub mod incremental;
 pub(crate) mod load;

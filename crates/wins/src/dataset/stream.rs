@@ -19,11 +19,13 @@ use std::path::{Path, PathBuf};
 
 use super::baro_csv::{self, BaroSample};
 use super::checks::{self, CsiPacket, ImuLimits, InputReport};
+use super::events::Sources;
+pub use super::events::{DatasetEvent, Events};
 use super::imu_csv::RowReader;
 use super::incremental::{ApCheck, ImuCheck, JUMP_BACK_NS};
-use super::load::{DatasetError, read_manifest};
+use super::load::{ApLog, Dataset, DatasetError, read_manifest};
 use super::manifest::Manifest;
-use crate::csi::intel5300::{Event, LogReader, ReadError, SkipReason};
+use crate::csi::intel5300::{Event, LogReader, ReadError, SkipReason, read_log};
 use crate::imu::ImuSample;
 use crate::io_safety::open_regular;
 use crate::rig::ChainCalibration;
@@ -48,22 +50,6 @@ pub struct DatasetStream {
     pub inputs: InputReport,
     /// The first and last IMU sample kept.
     pub imu_span: (Timestamp, Timestamp),
-}
-
-/// One input, in time order.
-#[derive(Clone, Debug, PartialEq)]
-pub enum DatasetEvent {
-    /// A CSI record of AP `ap` (manifest order).
-    Csi {
-        /// The AP's index.
-        ap: usize,
-        /// The record on the IMU clock (boxed: it is the large one).
-        packet: Box<CsiPacket>,
-    },
-    /// A barometer reading.
-    Baro(BaroSample),
-    /// An IMU sample.
-    Imu(ImuSample),
 }
 
 impl DatasetStream {
@@ -143,9 +129,57 @@ impl DatasetStream {
         })
     }
 
+    /// The checked dataset read into memory: the kept IMU samples, and every AP's log whole
+    /// (its skipped stretches listed) with its kept records in log order.
+    pub fn into_memory(self) -> Result<Dataset, DatasetError> {
+        // The checks' counts were made by `open`; these are thrown away.
+        let mut scratch = InputReport::default();
+        let mut source = ImuSource::open(&self.dir, &self.manifest)?;
+        let mut imu = Vec::new();
+        while let Some(s) = source.next_checked(&mut scratch)? {
+            imu.push(s);
+        }
+        let mut aps = Vec::with_capacity(self.manifest.aps.len());
+        for (l, entry) in self.manifest.aps.iter().enumerate() {
+            let log = read_log(self.dir.join(&entry.log))?;
+            let bandwidth_mismatches = log
+                .records
+                .iter()
+                .filter(|r| r.header.rate.bandwidth() != self.manifest.channel.bandwidth)
+                .count();
+            let mut check = ApCheck::new(l, &entry.name, entry.imu_minus_nic_ns, false);
+            let mut packets = Vec::with_capacity(log.records.len());
+            for record in log.records {
+                let kept =
+                    check
+                        .push(record, &mut scratch)
+                        .map_err(|source| DatasetError::Inputs {
+                            dir: self.dir.clone(),
+                            source,
+                        })?;
+                packets.extend(kept);
+            }
+            aps.push(ApLog {
+                name: entry.name.clone(),
+                packets,
+                skips: log.skips,
+                bandwidth_mismatches,
+            });
+        }
+        Ok(Dataset {
+            dir: self.dir,
+            manifest: self.manifest,
+            imu,
+            aps,
+            calibration: self.calibration,
+            baro: self.baro,
+            inputs: self.inputs,
+        })
+    }
+
     /// The kept IMU samples, barometer readings (when `with_baro`) and CSI records, merged by
     /// time (module docs).
-    pub fn events(&self, with_baro: bool) -> Result<Events, DatasetError> {
+    pub fn events(&self, with_baro: bool) -> Result<Events<'static>, DatasetError> {
         let aps = self
             .manifest
             .aps
@@ -165,20 +199,16 @@ impl DatasetStream {
                 })
             })
             .collect::<Result<Vec<_>, DatasetError>>()?;
-        let heads = vec![None; aps.len()];
-        Ok(Events {
+        let files = Files {
             imu: ImuSource::open(&self.dir, &self.manifest)?,
-            imu_head: None,
-            baro: if with_baro {
-                self.baro.clone()
-            } else {
-                Vec::new()
-            },
-            baro_next: 0,
             aps,
-            heads,
-            started: false,
-        })
+        };
+        let baro = if with_baro {
+            self.baro.clone()
+        } else {
+            Vec::new()
+        };
+        Ok(Events::new(Box::new(files), baro))
     }
 }
 
@@ -294,89 +324,38 @@ impl ApSource {
     }
 }
 
-/// [`DatasetStream::events`]: the inputs merged by time.
+/// A dataset's files as [`Sources`]: the IMU file and every AP's log through their checks.
 #[derive(Debug)]
-pub struct Events {
+struct Files {
     imu: ImuSource,
-    imu_head: Option<ImuSample>,
-    baro: Vec<BaroSample>,
-    baro_next: usize,
     aps: Vec<ApSource>,
-    heads: Vec<Option<CsiPacket>>,
-    started: bool,
 }
 
-impl Events {
-    /// Records held now, every AP's together (those waiting in the reorder buffers and the next
-    /// of each AP): bounded by the records within 0.1 s of NIC time, not by the log's length.
-    pub fn held(&self) -> usize {
-        self.aps.iter().map(|a| a.buffer.len()).sum::<usize>()
-            + self.heads.iter().filter(|h| h.is_some()).count()
+impl Sources for Files {
+    fn next_imu(&mut self) -> Result<Option<ImuSample>, DatasetError> {
+        // The checks' counts were made by the first pass; these are thrown away.
+        self.imu.next_checked(&mut InputReport::default())
     }
 
-    /// Per AP, the stretches its log reader skipped and their bytes, so far.
-    pub fn skips(&self) -> Vec<(u64, u64)> {
+    fn next_packet(&mut self, ap: usize) -> Result<Option<CsiPacket>, DatasetError> {
+        match self.aps.get_mut(ap) {
+            Some(source) => source.next_packet(&mut InputReport::default()),
+            None => Ok(None),
+        }
+    }
+
+    fn aps(&self) -> usize {
+        self.aps.len()
+    }
+
+    fn skips(&self) -> Vec<(u64, u64)> {
         self.aps
             .iter()
             .map(|a| (a.skips.count, a.skips.bytes))
             .collect()
     }
 
-    /// The next input, or `None` after the last.
-    pub fn next_event(&mut self) -> Result<Option<DatasetEvent>, DatasetError> {
-        // The checks' counts were made by the first pass; these are thrown away.
-        let mut scratch = InputReport::default();
-        if !self.started {
-            self.started = true;
-            self.imu_head = self.imu.next_checked(&mut scratch)?;
-            for (head, ap) in self.heads.iter_mut().zip(&mut self.aps) {
-                *head = ap.next_packet(&mut scratch)?;
-            }
-        }
-        // (time, 0 = packet / 1 = barometer / 2 = IMU, AP)
-        let mut best: Option<(Timestamp, u8, usize)> = None;
-        let mut consider = |key: (Timestamp, u8, usize)| {
-            if best.is_none_or(|b| key < b) {
-                best = Some(key);
-            }
-        };
-        for (l, head) in self.heads.iter().enumerate() {
-            if let Some(p) = head {
-                consider((p.t, 0, l));
-            }
-        }
-        if let Some(b) = self.baro.get(self.baro_next) {
-            consider((b.t, 1, 0));
-        }
-        if let Some(s) = &self.imu_head {
-            consider((s.t, 2, 0));
-        }
-        let Some((_, kind, l)) = best else {
-            return Ok(None);
-        };
-        Ok(Some(match kind {
-            0 => {
-                let next = self.aps[l].next_packet(&mut scratch)?;
-                let packet = std::mem::replace(&mut self.heads[l], next);
-                match packet {
-                    Some(packet) => DatasetEvent::Csi {
-                        ap: l,
-                        packet: Box::new(packet),
-                    },
-                    None => return Ok(None),
-                }
-            }
-            1 => {
-                self.baro_next += 1;
-                DatasetEvent::Baro(self.baro[self.baro_next - 1])
-            }
-            _ => {
-                let next = self.imu.next_checked(&mut scratch)?;
-                match std::mem::replace(&mut self.imu_head, next) {
-                    Some(s) => DatasetEvent::Imu(s),
-                    None => return Ok(None),
-                }
-            }
-        }))
+    fn buffered(&self) -> usize {
+        self.aps.iter().map(|a| a.buffer.len()).sum()
     }
 }

@@ -1,13 +1,13 @@
-//! A dataset directory through the pipeline (a [`crate::pipeline::ChainResolver`] over
-//! [`crate::pipeline::Pipeline`]s): IMU
-//! samples and every AP's packets merged by time (a packet before the IMU samples after it), as a
-//! live driver would push them.
+//! A dataset through the pipeline (a [`crate::pipeline::ChainResolver`] over
+//! [`crate::pipeline::Pipeline`]s): its inputs merged by time ([`crate::dataset::events`]), as a
+//! live driver would push them, whether the dataset is held in memory or read as it is consumed.
 
 use super::drive::{Collected, Flight, RunSink, drive};
 use crate::config::Config;
 use crate::dataset::checks::InputReport;
-use crate::dataset::stream::{DatasetEvent, DatasetStream};
-use crate::dataset::{BaroSample, Dataset, Manifest};
+use crate::dataset::events::{DatasetEvent, Events};
+use crate::dataset::stream::DatasetStream;
+use crate::dataset::{BaroSample, Dataset, DatasetError, Manifest};
 use crate::rig::ChainCalibration;
 use crate::rig::ImuNoise;
 use crate::rig::Rig;
@@ -49,55 +49,26 @@ pub fn rig_of_manifest(
 }
 
 /// Replays `dataset` (in memory) through a pipeline for `rig`; the frames and packet rows are
-/// kept in the output.
+/// kept in the output. The same run as [`replay_stream`] of the files it was loaded from.
 pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput, ReplayError> {
     let (Some(first), Some(last)) = (dataset.imu.first(), dataset.imu.last()) else {
         return Err(ReplayError::NoImu);
     };
-    let (baro, mut warnings) = baro_in_use(&dataset.baro, &dataset.inputs, config);
-    // (time, 0 = packet / 1 = barometer / 2 = IMU, AP, index): packets and barometer samples
-    // before IMU samples at the same time.
-    let mut events: Vec<(Timestamp, u8, usize, usize)> = dataset
-        .imu
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.t, 2, 0, i))
-        .collect();
-    events.extend(baro.iter().enumerate().map(|(i, b)| (b.t, 1, 0, i)));
-    for (l, ap) in dataset.aps.iter().enumerate() {
-        events.extend(ap.packets.iter().enumerate().map(|(i, p)| (p.t, 0, l, i)));
-    }
-    events.sort_unstable();
-    let mut events = events.into_iter();
-    let mut sink = Collected::default();
-    let skips: Vec<(u64, u64)> = dataset
-        .aps
-        .iter()
-        .map(|ap| (ap.skips.len() as u64, ap.skips.iter().map(|k| k.len).sum()))
-        .collect();
-    let flight = Flight {
-        flight_s: last.t.secs_since(first.t),
-        has_baro: !baro.is_empty(),
-        inputs: &dataset.inputs,
+    let inputs = Inputs {
+        imu_span: (first.t, last.t),
+        baro: &dataset.baro,
+        report: &dataset.inputs,
     };
-    let mut run = drive(config, rig, &flight, &mut sink, |pipeline| {
-        let Some((_, kind, l, i)) = events.next() else {
-            return Ok(None);
-        };
-        Ok(Some(if kind == 0 {
-            let p = &dataset.aps[l].packets[i];
-            pipeline.push_csi(l, p.t, &p.record)?
-        } else if kind == 1 {
-            pipeline.push_baro(baro[i].t, baro[i].altitude_m)?
-        } else {
-            pipeline.push_imu(&dataset.imu[i])?
-        }))
-    })?;
-    set_skips(&mut run, &skips);
+    let mut sink = Collected::default();
+    let mut run = replay_events(
+        &inputs,
+        |with_baro| Ok(dataset.events(with_baro)),
+        rig,
+        config,
+        &mut sink,
+    )?;
     run.frames = sink.frames;
     run.packets = sink.packets;
-    warnings.append(&mut run.warnings);
-    run.warnings = warnings;
     Ok(run)
 }
 
@@ -110,13 +81,46 @@ pub fn replay_stream(
     config: &Config,
     sink: &mut dyn RunSink,
 ) -> Result<RunOutput, ReplayError> {
-    let (first, last) = stream.imu_span;
-    let (baro, mut warnings) = baro_in_use(&stream.baro, &stream.inputs, config);
-    let mut events = stream.events(!baro.is_empty()).map_err(Box::new)?;
+    let inputs = Inputs {
+        imu_span: stream.imu_span,
+        baro: &stream.baro,
+        report: &stream.inputs,
+    };
+    replay_events(
+        &inputs,
+        |with_baro| stream.events(with_baro),
+        rig,
+        config,
+        sink,
+    )
+}
+
+/// What a replay knows of a dataset before its events.
+struct Inputs<'a> {
+    /// The first and last IMU sample kept.
+    imu_span: (Timestamp, Timestamp),
+    /// Its barometer readings.
+    baro: &'a [BaroSample],
+    /// The input checks' report.
+    report: &'a InputReport,
+}
+
+/// The replay of a dataset's events (`events(with_baro)`) into `sink`, with the input checks'
+/// warnings and the log readers' skips in the output.
+fn replay_events<'a>(
+    inputs: &Inputs<'_>,
+    events: impl FnOnce(bool) -> Result<Events<'a>, DatasetError>,
+    rig: Rig,
+    config: &Config,
+    sink: &mut dyn RunSink,
+) -> Result<RunOutput, ReplayError> {
+    let (first, last) = inputs.imu_span;
+    let (baro, mut warnings) = baro_in_use(inputs.baro, inputs.report, config);
+    let mut events = events(!baro.is_empty()).map_err(Box::new)?;
     let flight = Flight {
         flight_s: last.secs_since(first),
         has_baro: !baro.is_empty(),
-        inputs: &stream.inputs,
+        inputs: inputs.report,
     };
     let mut run = drive(config, rig, &flight, sink, |pipeline| {
         Ok(match events.next_event().map_err(Box::new)? {
