@@ -1,5 +1,5 @@
 //! The checks a dataset's inputs pass as it is loaded ([`super::incremental::ImuCheck`],
-//! [`super::incremental::ApCheck`], [`judge_spans`]): what can be used is used, what cannot is
+//! [`super::incremental::ApCheck`], `judge_spans`): what can be used is used, what cannot is
 //! dropped and counted, each event is reported with the time it happened, and inputs that cannot
 //! give a meaningful estimate are an error that says why.
 //!

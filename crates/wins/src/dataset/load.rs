@@ -69,7 +69,7 @@ pub enum DatasetError {
     /// The calibration file the manifest names cannot be used.
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
-    /// The inputs cannot give a meaningful estimate ([`checks`]).
+    /// The inputs cannot give a meaningful estimate ([`super::checks`]).
     #[error("{source}")]
     Inputs {
         /// The dataset directory.
@@ -107,7 +107,7 @@ pub struct Dataset {
     pub calibration: Option<ChainCalibration>,
     /// Barometer readings, strictly increasing in time; empty when the manifest names none.
     pub baro: Vec<BaroSample>,
-    /// What the input checks dropped, counted and found ([`checks`]).
+    /// What the input checks dropped, counted and found ([`super::checks`]).
     pub inputs: InputReport,
 }
 

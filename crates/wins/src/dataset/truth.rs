@@ -250,17 +250,7 @@ impl Truth {
     /// Loads `dataset_dir/truth/`: `poses.tum` is required, every other file is optional (a
     /// motion-capture truth has only poses); a file that is there must parse.
     pub fn load(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
-        Self::load_parts(dataset_dir.as_ref(), true)
-    }
-
-    /// [`Truth::load`] without the IMU biases (one row per IMU sample), which scoring a run does
-    /// not read.
-    pub fn load_for_scoring(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
-        Self::load_parts(dataset_dir.as_ref(), false)
-    }
-
-    fn load_parts(dataset_dir: &Path, with_biases: bool) -> Result<Self, TruthError> {
-        let dir = dataset_dir.join(TRUTH_DIR);
+        let dir = dataset_dir.as_ref().join(TRUTH_DIR);
         let open = |name: &str| {
             let path = dir.join(name);
             crate::io_safety::open_regular(&path)
@@ -281,11 +271,7 @@ impl Truth {
         for ap in &aps {
             packets.push(csv_or_empty(&dir, &packets_file(&ap.name))?);
         }
-        let imu_biases = if with_biases {
-            csv_or_empty(&dir, "imu_biases.csv")?
-        } else {
-            Vec::new()
-        };
+        let imu_biases = csv_or_empty(&dir, "imu_biases.csv")?;
         Ok(Self {
             poses,
             aps,

@@ -1,12 +1,16 @@
 //! What the user of a long flight watches: the position error in the last minute (under the
 //! global alignment, and under an alignment fixed on the first minute only), the heading error's
 //! drift rate and the jumps of the estimated position. The definitions are on the fields of
-//! [`super::Metrics`]; this file computes them.
+//! [`super::Metrics`]. The evaluation computes them in passes ([`super::stream`]) with this
+//! file's steps; the whole-trajectory formulas here are the reference it is checked against.
 
 use nalgebra::UnitQuaternion;
 
+#[cfg(test)]
 use super::{Alignment, umeyama};
+#[cfg(test)]
 use crate::dataset::truth::Pose;
+#[cfg(test)]
 use crate::time::{NANOS_PER_SEC, Timestamp};
 
 /// Length of the first and last windows of the drift metrics, s: a minute, the time scale on
@@ -21,6 +25,7 @@ pub const JUMP_THRESHOLD_M: f64 = 0.3;
 /// Seconds per minute (the heading drift is reported per minute).
 pub(crate) const SECONDS_PER_MINUTE: f64 = 60.0;
 
+#[cfg(test)]
 /// The drift numbers of one evaluation (the fields of the same names in [`super::Metrics`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Drift {
@@ -34,6 +39,7 @@ pub(crate) struct Drift {
     pub(crate) jumps: usize,
 }
 
+#[cfg(test)]
 /// The drift numbers of `est` against `truth`: `pairs` are the associated `(estimate, truth)`
 /// indices in time order, `alignment` the global one and `error_norms_m[k]` the globally aligned
 /// `‖e_k‖` of `pairs[k]`.
@@ -112,6 +118,7 @@ pub(crate) fn heading_error_rad(
     m[(1, 0)].atan2(m[(0, 0)])
 }
 
+#[cfg(test)]
 /// Angles with every step between neighbours brought into [−π, π), rad (as numpy's `unwrap`):
 /// the first angle is kept, each next one is its predecessor plus the wrapped difference.
 pub(crate) fn unwrap_rad(angles_rad: &[f64]) -> Vec<f64> {
@@ -135,6 +142,7 @@ pub(crate) fn unwrap_step(previous: &mut Option<(f64, f64)>, a: f64) -> f64 {
     unwrapped
 }
 
+#[cfg(test)]
 /// Least-squares slope `Σ(t − t̄)(y − ȳ) / Σ(t − t̄)²` of `y` against `t` (0 for fewer than two
 /// points or a single time).
 pub(crate) fn least_squares_slope(t: &[f64], y: &[f64]) -> f64 {
@@ -152,6 +160,7 @@ pub(crate) fn least_squares_slope(t: &[f64], y: &[f64]) -> f64 {
     if den > 0.0 { num / den } else { 0.0 }
 }
 
+#[cfg(test)]
 /// Consecutive poses of `est` (in the order given) whose positions are more than
 /// [`JUMP_THRESHOLD_M`] apart.
 pub(crate) fn count_jumps(est: &[Pose]) -> usize {
@@ -160,6 +169,7 @@ pub(crate) fn count_jumps(est: &[Pose]) -> usize {
         .count()
 }
 
+#[cfg(test)]
 /// `√(Σ x²/n)` (0 for none).
 fn rms(values: impl Iterator<Item = f64>) -> f64 {
     let (sum_sq, n) = values.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));

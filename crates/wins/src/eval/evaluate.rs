@@ -2,17 +2,56 @@
 
 use nalgebra::Vector3;
 
+use super::records::EstRecord;
+use super::scan::TrajectoryScan;
+use super::stream::{EstSource, StreamedError, StreamedEval, TruthSource};
 use super::{
-    Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics, aps, associate, drift,
-    metrics, relative_pose_errors, umeyama,
+    Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics, associate, umeyama,
 };
+#[cfg(test)]
+use super::{aps, drift, metrics, relative_pose_errors};
 use crate::dataset::truth::{ApRow, Pose};
 use crate::time::Timestamp;
 
 /// Scores `est` against `truth` (both time-sorted, on the same clock): association, alignment
 /// and every statistic of [`Metrics`]; `aps` are moved by the same alignment and compared by name
 /// with `truth_aps`. The run-only fields of [`Metrics`] are left `None` for the caller to fill.
+/// The one evaluation (the passes a run read from files is scored by), over trajectories in
+/// memory.
 pub fn evaluate(
+    est: &[Pose],
+    truth: &[Pose],
+    aps: &[EstimatedAp],
+    truth_aps: &[ApRow],
+    options: &EvalOptions,
+) -> Result<Metrics, EvalError> {
+    let records: Vec<EstRecord> = est
+        .iter()
+        .map(|&pose| EstRecord {
+            pose,
+            position_covariance: None,
+        })
+        .collect();
+    let (est_scan, truth_scan) = (TrajectoryScan::of(est), TrajectoryScan::of(truth));
+    let eval = StreamedEval {
+        est: EstSource::Records(&records),
+        est_scan: &est_scan,
+        truth: TruthSource::Poses(truth),
+        truth_scan: &truth_scan,
+        options,
+    };
+    match eval.evaluate(aps, truth_aps, false) {
+        Ok(s) => Ok(s.metrics),
+        Err(StreamedError::Eval(e)) => Err(e),
+        Err(StreamedError::Read(e)) => Err(EvalError::Read(e.to_string())),
+    }
+}
+
+/// [`evaluate`] by the direct formulas on whole trajectories (association, Umeyama, RPE, drift
+/// as their definitions state them): the reference the evaluation in passes is checked against,
+/// bit for bit.
+#[cfg(test)]
+pub(crate) fn evaluate_direct(
     est: &[Pose],
     truth: &[Pose],
     aps: &[EstimatedAp],

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::align::Alignment;
 use super::drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
+#[cfg(test)]
 use crate::dataset::truth::Pose;
 
 /// Truth positions closer in time than this are not differenced for the speed (noise), s.
@@ -245,6 +246,7 @@ pub(crate) fn summarize(errors: &[f64]) -> Summary {
     }
 }
 
+#[cfg(test)]
 /// Population standard deviation of `values` (0 for none).
 pub(crate) fn std_dev(values: impl Iterator<Item = f64> + Clone) -> f64 {
     let n = values.clone().count() as f64;
@@ -255,6 +257,7 @@ pub(crate) fn std_dev(values: impl Iterator<Item = f64> + Clone) -> f64 {
     (values.map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
 }
 
+#[cfg(test)]
 /// Largest speed from finite differences of truth positions at least
 /// [`SPEED_MIN_INTERVAL_S`] apart (each pose with the first one far enough after it), m/s.
 pub(crate) fn max_speed(truth: &[Pose]) -> f64 {

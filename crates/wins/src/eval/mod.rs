@@ -180,6 +180,9 @@ pub enum EvalError {
     /// Options out of range (every one listed).
     #[error("invalid evaluation options: {0}")]
     InvalidOption(Problems),
+    /// A trajectory could not be read again for one of the evaluation's passes.
+    #[error("reading a trajectory again: {0}")]
+    Read(String),
 }
 
 /// A pose at `t_ms` ms, position `p`, heading `yaw` rad (for the evaluation's tests).

@@ -28,6 +28,15 @@ pub(crate) struct TrajectoryScan {
 }
 
 impl TrajectoryScan {
+    /// The scan of `poses`.
+    pub(crate) fn of(poses: &[Pose]) -> Self {
+        let mut scan = Self::default();
+        for p in poses {
+            scan.push(p);
+        }
+        scan
+    }
+
     /// The next pose of the trajectory.
     pub(crate) fn push(&mut self, p: &Pose) {
         let finite = p.p_b_in_w.iter().all(|x| x.is_finite())

@@ -1,12 +1,14 @@
-//! [`super::evaluate`] over trajectories read from files in passes, for a flight too long to hold
-//! ([`StreamedEval`]): the estimate from a file of [`EstRecord`]s, the truth from its TUM file.
-//! Both are in time order, so the association is a merge-join of the two files; the alignment,
-//! ATE, RPE, drift and NEES are sums over the pairs, taken in the order [`super::evaluate`]
-//! takes them, so the numbers are the same bit for bit. Only the pairs' position errors are held
-//! (one `f64` each, for the median).
+//! The evaluation ([`StreamedEval`]): an estimate against the truth, each read in passes, from
+//! a file (a flight too long to hold: a file of [`EstRecord`]s, a TUM file) or from memory
+//! ([`super::evaluate`]). Both are in time order, so the association is a merge-join of the
+//! two; the alignment, ATE, RPE, drift and NEES are sums over the pairs, taken in the order
+//! the direct formulas take them ([`super::associate`], [`super::umeyama`],
+//! [`super::relative_pose_errors`], [`super::position_nees`]: the tests check the passes
+//! against them bit for bit). Only the pairs' position errors are held (one `f64` each, for
+//! the median).
 
 use std::io;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nalgebra::{Isometry3, Translation3};
 
@@ -38,20 +40,41 @@ struct Pair {
     truth: Pose,
 }
 
+/// Where an evaluation reads the estimate from, in time order, once per pass.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum EstSource<'a> {
+    /// A file of [`EstRecord`]s ([`super::records`]).
+    File(&'a Path),
+    /// Records in memory.
+    Records(&'a [EstRecord]),
+}
+
+/// Where an evaluation reads the truth from, in time order, once per pass.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum TruthSource<'a> {
+    /// A TUM file.
+    File(&'a Path),
+    /// Poses in memory.
+    Poses(&'a [Pose]),
+}
+
 /// The inputs of an evaluation read in passes.
 #[derive(Clone, Debug)]
 pub(crate) struct StreamedEval<'a> {
-    /// The estimate's records ([`super::records`]), in time order.
-    pub(crate) est_path: PathBuf,
-    /// Their scan.
-    pub(crate) est: &'a TrajectoryScan,
-    /// The truth's TUM file.
-    pub(crate) truth_path: PathBuf,
-    /// Its scan.
-    pub(crate) truth: &'a TrajectoryScan,
+    /// The estimate, in time order.
+    pub(crate) est: EstSource<'a>,
+    /// What one pass over it found.
+    pub(crate) est_scan: &'a TrajectoryScan,
+    /// The truth, in time order.
+    pub(crate) truth: TruthSource<'a>,
+    /// What one pass over it found.
+    pub(crate) truth_scan: &'a TrajectoryScan,
     /// The settings.
     pub(crate) options: &'a EvalOptions,
 }
+
+/// One pass over a trajectory's items.
+type PassOver<'a, T> = Box<dyn Iterator<Item = io::Result<T>> + 'a>;
 
 /// What a streamed evaluation gives.
 #[derive(Clone, Debug)]
@@ -64,15 +87,21 @@ pub(crate) struct Streamed {
     pub(crate) series: Option<Vec<(Timestamp, f64)>>,
 }
 
-impl StreamedEval<'_> {
+impl<'a> StreamedEval<'a> {
     /// The estimate's records, in order.
-    pub(crate) fn est_records(&self) -> io::Result<impl Iterator<Item = io::Result<EstRecord>>> {
-        read_records(&self.est_path, self.est.poses())
+    pub(crate) fn est_records(&self) -> io::Result<PassOver<'a, EstRecord>> {
+        Ok(match self.est {
+            EstSource::File(path) => Box::new(read_records(path, self.est_scan.poses())?),
+            EstSource::Records(records) => Box::new(records.iter().map(|r| Ok(*r))),
+        })
     }
 
     /// The truth's poses, in order.
-    pub(crate) fn truth_poses(&self) -> io::Result<impl Iterator<Item = io::Result<Pose>>> {
-        truth_poses(&self.truth_path)
+    pub(crate) fn truth_poses(&self) -> io::Result<PassOver<'a, Pose>> {
+        Ok(match self.truth {
+            TruthSource::File(path) => Box::new(truth_poses(path)?),
+            TruthSource::Poses(poses) => Box::new(poses.iter().map(|p| Ok(*p))),
+        })
     }
 
     /// Every associated pair to `f`, in order ([`super::associate`]'s pairs: the shorter
@@ -84,7 +113,7 @@ impl StreamedEval<'_> {
             .enumerate()
             .map(|(i, r)| r.map(|r| (r.pose.t, (i, r))));
         let truth = self.truth_poses()?.map(|r| r.map(|p| (p.t, p)));
-        if self.truth.poses() < self.est.poses() {
+        if self.truth_scan.poses() < self.est_scan.poses() {
             nearest(truth, est, max_ns, |truth, &(i, est)| {
                 f(Pair {
                     i,
@@ -113,10 +142,10 @@ impl StreamedEval<'_> {
         series: bool,
     ) -> Result<Streamed, StreamedError> {
         self.options.validate()?;
-        self.est.check_finite("estimate")?;
-        self.truth.check_finite("truth")?;
-        self.est.check_sorted("estimate")?;
-        self.truth.check_sorted("truth")?;
+        self.est_scan.check_finite("estimate")?;
+        self.truth_scan.check_finite("truth")?;
+        self.est_scan.check_sorted("estimate")?;
+        self.truth_scan.check_sorted("truth")?;
         let window_ns = (DRIFT_WINDOW_S * NANOS_PER_SEC as f64).round() as i64;
         // Pass 1: count, span and sums of the pairs (all, and those of the first minute).
         let (mut n, mut span, mut matched, mut last_i) = (0, None, 0, None);
@@ -137,8 +166,8 @@ impl StreamedEval<'_> {
         })?;
         let Some((first, last)) = span else {
             return Err(EvalError::NoMatches {
-                est_poses: self.est.poses(),
-                truth_poses: self.truth.poses(),
+                est_poses: self.est_scan.poses(),
+                truth_poses: self.truth_scan.poses(),
                 max_time_diff_s: self.options.max_time_diff_ns() as f64 * 1e-9,
             }
             .into());
@@ -197,16 +226,16 @@ impl StreamedEval<'_> {
             position_error_last_60s_rmse_m: rms(sums.last_minute),
             drift_last_60s_m: first_minute.map(|_| rms(sums.drift)),
             heading_drift_deg_per_min: moments.slope_rad_s.to_degrees() * SECONDS_PER_MINUTE,
-            jumps: self.est.jumps(),
+            jumps: self.est_scan.jumps(),
             rpe_trans_rmse_m: (rpe_trans_sq / rpe_n as f64).sqrt(),
             rpe_rot_rmse_deg: (rpe_rot_sq / rpe_n as f64).sqrt(),
             rpe_delta_frames: delta,
             rpe_pairs: rpe_n,
-            convergence_time_s: time_between(self.truth.first_t(), self.est.first_t()),
+            convergence_time_s: time_between(self.truth_scan.first_t(), self.est_scan.first_t()),
             duration_s: last.secs_since(first),
-            max_speed_m_s: self.truth.max_speed_m_s(),
+            max_speed_m_s: self.truth_scan.max_speed_m_s(),
             poses_evaluated: n,
-            poses_unmatched: self.est.poses() - matched,
+            poses_unmatched: self.est_scan.poses() - matched,
             max_time_diff_s: self.options.max_time_diff_s,
             ap_position_error_m,
             aoa_error_median_deg: None,

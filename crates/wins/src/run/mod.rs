@@ -13,13 +13,12 @@
 
 pub mod coverage;
 pub mod drive;
-mod figure_data;
 pub mod figures;
 pub mod output;
 pub mod replay;
 pub mod run_dir;
 pub mod run_output;
-mod score_spooled;
+mod scoring;
 pub(crate) mod scoring_truth;
 pub mod spool;
 pub mod spooled;
@@ -35,7 +34,7 @@ use self::spool::{ScoringSpool, Spool};
 use crate::config::Config;
 use crate::dataset::DatasetError;
 use crate::dataset::stream::DatasetStream;
-use crate::dataset::truth::{TRUTH_DIR, Truth};
+use crate::dataset::truth::TRUTH_DIR;
 use crate::pipeline::chains::resolves;
 use crate::rig::{ChainCalibration, ImuNoise};
 
@@ -101,7 +100,7 @@ pub fn run_dataset_with(
     let mut run = run_into_sink(path, config, options, &mut sink)?;
     run.frames = sink.frames;
     run.packets = sink.packets;
-    score(&mut run, path, config, !options.no_figures);
+    score(&mut run, path, config, !options.no_figures, None);
     Ok(run)
 }
 
@@ -124,10 +123,13 @@ pub fn run_dataset_into(
     let mut run = run_into_sink(path, config, options, &mut spool)?;
     let (spooled, scoring) = spool.finish_with_scoring().map_err(ReplayError::Output)?;
     run.spooled = Some(spooled);
-    match scoring {
-        Some(files) => score_spooled(&mut run, path, config, !options.no_figures, &files),
-        None => score(&mut run, path, config, !options.no_figures),
-    }
+    score(
+        &mut run,
+        path,
+        config,
+        !options.no_figures,
+        scoring.as_ref(),
+    );
     Ok(run)
 }
 
@@ -180,25 +182,15 @@ fn run_into_sink(
     Ok(run)
 }
 
-/// Scores `run` against the truth of the dataset at `path`, when it has one: a truth that
-/// cannot be read fails the evaluation, not the estimate.
-fn score(run: &mut RunOutput, path: &Path, config: &Config, figures: bool) {
-    if !path.join(TRUTH_DIR).is_dir() {
-        return;
-    }
-    match Truth::load_for_scoring(path) {
-        Ok(truth) => run.score_against_with(&truth, &config.eval, figures),
-        Err(e) => evaluation_failed(run, path, &e),
-    }
-}
-
-/// [`score`] for a spooled run, from its scoring files.
-fn score_spooled(
+/// Scores `run` against the truth of the dataset at `path`, when it has one: from the spool's
+/// `files` for a spooled run, from memory for one held. A truth that cannot be read fails the
+/// evaluation, not the estimate.
+fn score(
     run: &mut RunOutput,
     path: &Path,
     config: &Config,
     figures: bool,
-    files: &ScoringSpool,
+    files: Option<&ScoringSpool>,
 ) {
     if !path.join(TRUTH_DIR).is_dir() {
         return;
@@ -206,8 +198,11 @@ fn score_spooled(
     let scored = ScoringTruth::open(path)
         .map_err(|e| Box::new(e) as Box<dyn std::error::Error>)
         .and_then(|truth| {
-            run.score_spooled(&truth, files, &config.eval, figures)
-                .map_err(Into::into)
+            match files {
+                Some(files) => run.score_spooled(&truth, files, &config.eval, figures),
+                None => run.score_held(&truth, &config.eval, figures),
+            }
+            .map_err(Into::into)
         });
     if let Err(e) = scored {
         evaluation_failed(run, path, e.as_ref());

@@ -23,15 +23,13 @@ use serde::Serialize;
 use super::run_output::RunOutput;
 use super::trajectory::{TrajectoryWriter, pose_of};
 use crate::dataset::checks::InputReport;
-use crate::dataset::truth::{Pose, Truth, write_csv};
-use crate::eval::{
-    EstimatedAp, EvalError, EvalOptions, Metrics, evaluate, position_nees, write_estimated_aps,
-};
+use crate::dataset::truth::{Pose, write_csv};
+use crate::eval::{EstimatedAp, Metrics, write_estimated_aps};
 use crate::fusion::nonlinear::PhaseChange;
 use crate::fusion::pose::PoseEstimate;
 use crate::fusion::stats::EstimatorStats;
 use crate::io_safety::write_atomically;
-use crate::pipeline::{ChainReport, PacketStatus, PipelineStats, StageTiming};
+use crate::pipeline::{ChainReport, PipelineStats, StageTiming};
 use crate::time::NANOS_PER_SEC;
 
 /// Converged trajectory file.
@@ -135,60 +133,6 @@ impl RunOutput {
             coverage: &self.coverage,
             warnings: &self.warnings,
         }
-    }
-
-    /// `(AP, time s, measured AoA °, true AoA °)` of every fed packet that has a truth row.
-    pub fn aoa_vs_truth(&self, truth: &Truth) -> Vec<(usize, f64, f64, f64)> {
-        let pair = |(ap, t_ns, aoa_deg): (usize, i64, Option<f64>)| {
-            let rows = truth.packets.get(ap)?;
-            let i = rows.partition_point(|p| p.t_ns < t_ns - TRUTH_PAIR_NS);
-            let row = rows
-                .get(i)
-                .filter(|p| (p.t_ns - t_ns).abs() <= TRUTH_PAIR_NS)?;
-            Some((ap, t_ns as f64 * 1e-9, aoa_deg?, row.aoa_deg))
-        };
-        self.packets
-            .iter()
-            .filter(|r| r.status == PacketStatus::Fed)
-            .map(|r| (r.ap, r.t_ns, r.aoa_deg))
-            .filter_map(pair)
-            .collect()
-    }
-
-    /// The run scored against `truth`: [`evaluate`] on the converged trajectory, plus the
-    /// run-only fields (AoA median error, packets, real-time factor). A spooled run holds no
-    /// frames: [`super::run_dataset_into`] scores it from its files.
-    pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
-        let poses = self.converged_poses();
-        let mut m = evaluate(
-            &poses,
-            &truth.poses,
-            &self.estimated_aps(),
-            &truth.aps,
-            options,
-        )?;
-        let mut errors: Vec<f64> = self
-            .aoa_vs_truth(truth)
-            .iter()
-            .map(|(_, _, est, tru)| (est - tru).abs())
-            .collect();
-        errors.sort_by(f64::total_cmp);
-        m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
-        let cov: Vec<_> = self
-            .converged_frames()
-            .map(|p| {
-                p.covariance
-                    .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned())
-            })
-            .collect();
-        if let Some(n) = position_nees(&poses, &cov, &truth.poses, options)? {
-            m.position_nees_mean = Some(n.mean);
-            m.position_nees_within_95 = Some(n.within_95);
-        }
-        m.packets_used = Some(self.stats.fed());
-        m.packets_dropped = Some(self.stats.dropped());
-        m.realtime_factor = Some(self.realtime_factor());
-        Ok(m)
     }
 }
 

@@ -4,11 +4,10 @@
 
 use nalgebra::Vector3;
 
-use super::figure_data::RunFigures;
+use super::figures::RunFigures;
 use crate::dataset::DatasetError;
 use crate::dataset::checks::InputReport;
-use crate::dataset::truth::Truth;
-use crate::eval::{EvalOptions, Metrics};
+use crate::eval::Metrics;
 use crate::fusion::nonlinear::PhaseChange;
 use crate::fusion::pose::PoseEstimate;
 use crate::fusion::stats::EstimatorStats;
@@ -126,33 +125,5 @@ impl RunOutput {
     /// Frames after convergence.
     pub fn converged_frames(&self) -> impl Iterator<Item = &PoseEstimate> {
         self.frames.iter().filter(|p| p.converged)
-    }
-
-    /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics and the
-    /// figures' data; when it cannot be scored (it never converged, say), says why in
-    /// `warnings` and `evaluation`.
-    pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
-        self.score_against_with(truth, options, true);
-    }
-
-    /// [`RunOutput::score_against`], the figures' data made only when `figures` is true.
-    pub fn score_against_with(&mut self, truth: &Truth, options: &EvalOptions, figures: bool) {
-        let scored = self.score(truth, options).and_then(|m| {
-            let f = figures
-                .then(|| self.figures(truth, &m, options))
-                .transpose()?;
-            Ok((f, m))
-        });
-        match scored {
-            Ok((figures, metrics)) => {
-                self.metrics = Some(metrics);
-                self.figures = figures;
-                self.evaluation = Evaluation::Scored;
-            }
-            Err(e) => {
-                self.warnings.push(format!("cannot score the run: {e}"));
-                self.evaluation = Evaluation::NotScored(e.to_string());
-            }
-        }
     }
 }

@@ -1,32 +1,68 @@
-//! What scoring a run reads of `truth/`, without holding the poses ([`ScoringTruth`]): the
-//! poses are checked as they are parsed and read again, in passes, by the evaluation
-//! ([`crate::eval::stream`]).
+//! What scoring a run reads of the truth ([`ScoringTruth`]): of a dataset's `truth/` without
+//! holding the poses (they are checked as they are parsed and read again, in passes, by the
+//! evaluation, [`crate::eval::stream`]), or of a [`Truth`] in memory.
 
+use std::borrow::Cow;
 use std::io;
 use std::path::{Path, PathBuf};
 
 use crate::dataset::truth::{
-    ApRow, PacketRow, TRUTH_DIR, TruthError, TruthInfo, packets_file, read_optional, tum_poses,
+    ApRow, PacketRow, Pose, TRUTH_DIR, Truth, TruthError, TruthInfo, packets_file, read_optional,
+    tum_poses,
 };
 use crate::eval::scan::TrajectoryScan;
+use crate::eval::stream::TruthSource;
 
-/// `truth/` as a run's scoring reads it: the poses' file and its scan, the APs, and per AP the
+/// The truth as a run's scoring reads it: the poses and their scan, the APs, and per AP the
 /// time and true AoA of each packet slot.
 #[derive(Clone, Debug)]
-pub(crate) struct ScoringTruth {
-    /// `truth/poses.tum`.
-    pub(crate) poses_path: PathBuf,
-    /// What one pass over it found.
-    pub(crate) poses: TrajectoryScan,
+pub(crate) struct ScoringTruth<'a> {
+    /// The poses.
+    poses: TruthPoses<'a>,
+    /// What one pass over them found.
+    pub(crate) scan: TrajectoryScan,
     /// AP positions.
-    pub(crate) aps: Vec<ApRow>,
+    pub(crate) aps: Cow<'a, [ApRow]>,
     /// Per AP (in `aps` order), every packet slot's `(time ns, true AoA °)`.
     pub(crate) packet_aoa_deg: Vec<Vec<(i64, f64)>>,
 }
 
-impl ScoringTruth {
-    /// Reads `dataset_dir/truth/` as [`crate::dataset::truth::Truth::load_for_scoring`] does, with the
-    /// same errors, keeping of the poses only their scan.
+/// Where the truth's poses are.
+#[derive(Clone, Debug)]
+enum TruthPoses<'a> {
+    /// `truth/poses.tum`.
+    File(PathBuf),
+    /// In memory.
+    Memory(&'a [Pose]),
+}
+
+impl<'a> ScoringTruth<'a> {
+    /// `truth` in memory.
+    pub(crate) fn of(truth: &'a Truth) -> Self {
+        Self {
+            poses: TruthPoses::Memory(&truth.poses),
+            scan: TrajectoryScan::of(&truth.poses),
+            aps: Cow::Borrowed(&truth.aps),
+            packet_aoa_deg: truth
+                .packets
+                .iter()
+                .map(|rows| rows.iter().map(|r| (r.t_ns, r.aoa_deg)).collect())
+                .collect(),
+        }
+    }
+
+    /// Where the evaluation reads the poses from.
+    pub(crate) fn poses(&self) -> TruthSource<'_> {
+        match &self.poses {
+            TruthPoses::File(path) => TruthSource::File(path),
+            TruthPoses::Memory(poses) => TruthSource::Poses(poses),
+        }
+    }
+}
+
+impl ScoringTruth<'static> {
+    /// Reads `dataset_dir/truth/` as [`Truth::load`] does (without the IMU biases, which
+    /// scoring does not read), with the same errors, keeping of the poses only their scan.
     pub(crate) fn open(dataset_dir: &Path) -> Result<Self, TruthError> {
         let dir = dataset_dir.join(TRUTH_DIR);
         let parse_err = |name: &str, reason: String| TruthError::Parse {
@@ -43,9 +79,9 @@ impl ScoringTruth {
                 path: poses_path.clone(),
                 source,
             })?;
-        let mut poses = TrajectoryScan::default();
+        let mut scan = TrajectoryScan::default();
         for p in tum_poses(io::BufReader::new(file)) {
-            poses.push(&p.map_err(|e| parse_err("poses.tum", e))?);
+            scan.push(&p.map_err(|e| parse_err("poses.tum", e))?);
         }
         let aps: Vec<ApRow> = rows_or_empty(&dir, "aps.csv", |r: ApRow| r)?;
         let mut packet_aoa_deg = Vec::with_capacity(aps.len());
@@ -57,9 +93,9 @@ impl ScoringTruth {
             )?);
         }
         Ok(Self {
-            poses_path,
-            poses,
-            aps,
+            poses: TruthPoses::File(poses_path),
+            scan,
+            aps: Cow::Owned(aps),
             packet_aoa_deg,
         })
     }

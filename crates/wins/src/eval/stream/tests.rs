@@ -4,6 +4,7 @@ use nalgebra::{Isometry3, Matrix3, UnitQuaternion, Vector3};
 
 use super::*;
 use crate::dataset::truth::{read_tum, write_tum};
+use crate::eval::evaluate::evaluate_direct;
 use crate::eval::records::RecordWriter;
 use crate::eval::scan::TrajectoryScan;
 use crate::eval::{evaluate, position_error_series, position_nees};
@@ -88,10 +89,10 @@ fn streamed(
     let mut truth_scan = TrajectoryScan::default();
     truth.iter().for_each(|p| truth_scan.push(p));
     let eval = StreamedEval {
-        est_path,
-        est: &est_scan,
-        truth_path,
-        truth: &truth_scan,
+        est: EstSource::File(&est_path),
+        est_scan: &est_scan,
+        truth: TruthSource::File(&truth_path),
+        truth_scan: &truth_scan,
         options,
     };
     let aps = [EstimatedAp {
@@ -110,7 +111,8 @@ fn streamed(
     (out, truth, truth_scan)
 }
 
-/// The streamed evaluation equals the in-memory one bit for bit.
+/// The evaluation read from files equals the direct formulas bit for bit, and the evaluation
+/// of the same trajectories in memory.
 fn check_same(name: &str, est: &[EstRecord], truth: &[Pose], options: &EvalOptions) -> usize {
     let dir = folder(name);
     let (out, truth, truth_scan) = streamed(&dir, est, truth, options);
@@ -128,7 +130,13 @@ fn check_same(name: &str, est: &[EstRecord], truth: &[Pose], options: &EvalOptio
         y_m: 0.5,
         z_m: 2.0,
     }];
-    let expected = evaluate(&poses, &truth, &aps, &truth_aps, options);
+    let expected = evaluate_direct(&poses, &truth, &aps, &truth_aps, options);
+    let in_memory = evaluate(&poses, &truth, &aps, &truth_aps, options);
+    match (&expected, in_memory) {
+        (Ok(a), Ok(b)) => assert_eq!(*a, b, "{name}"),
+        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{name}"),
+        (a, b) => panic!("{name}: {a:?} against {b:?}"),
+    }
     match (out, expected) {
         (Ok(s), Ok(m)) => {
             assert_eq!(s.metrics, m, "{name}");
@@ -145,7 +153,7 @@ fn check_same(name: &str, est: &[EstRecord], truth: &[Pose], options: &EvalOptio
 }
 
 #[test]
-fn the_streamed_evaluation_is_the_in_memory_one_bit_for_bit() {
+fn the_evaluation_in_passes_is_the_direct_formulas_bit_for_bit() {
     let options = EvalOptions::default();
     // Truth at 200 Hz, the estimate at 50 Hz from 3 s on: over two minutes, so the drift from
     // the first minute is scored.

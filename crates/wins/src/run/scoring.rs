@@ -1,0 +1,312 @@
+//! A run scored against its dataset's truth: one scoring for a run held in memory
+//! ([`RunOutput::score_against`]) and a spooled one ([`super::run_dataset_into`]), reading the
+//! estimate and the truth in passes ([`crate::eval::stream`]) from memory or from the spool's
+//! files, so the metrics and figures' data are the same either way and a spooled run holds
+//! neither trajectory.
+
+use std::io;
+use std::path::Path;
+
+use super::figures::{AoaSeries, RunFigures};
+use super::output::TRUTH_PAIR_NS;
+use super::run_output::{Evaluation, RunOutput};
+use super::scoring_truth::ScoringTruth;
+use super::spool::ScoringSpool;
+use super::trajectory::pose_of;
+use crate::dataset::truth::Truth;
+use crate::eval::records::{AoaRecord, EstRecord, read_records};
+use crate::eval::scan::TrajectoryScan;
+use crate::eval::stream::{EstSource, StreamedError, StreamedEval};
+use crate::eval::{EvalError, EvalOptions, Metrics};
+use crate::fusion::pose::PoseEstimate;
+use crate::pipeline::{PacketLog, PacketStatus};
+use crate::time::Timestamp;
+
+/// The poses the merge-join of the estimate and the truth holds: one of the driving trajectory,
+/// and of the other the last before it and the next.
+const POSES_HELD_BY_THE_JOIN: usize = 3;
+
+/// `(AP, time s, measured AoA °, true AoA °)` of a fed packet with a truth row.
+type AoaPair = (usize, f64, f64, f64);
+
+/// What the scoring reads of a run's estimate.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ScoringEstimate<'a> {
+    /// The converged poses with their position covariances, in time order.
+    poses: EstSource<'a>,
+    /// What one pass over them found.
+    scan: &'a TrajectoryScan,
+    /// The fed packets' AoA, in processing order.
+    aoa: AoaSource<'a>,
+}
+
+/// Where the fed packets' AoA are read from.
+#[derive(Clone, Copy, Debug)]
+enum AoaSource<'a> {
+    /// A file of [`AoaRecord`]s, with so many.
+    File(&'a Path, usize),
+    /// Records in memory.
+    Records(&'a [AoaRecord]),
+}
+
+/// The scoring's record of a frame: a converged one's pose and position covariance.
+pub(crate) fn est_record(frame: &PoseEstimate) -> Option<EstRecord> {
+    frame.converged.then(|| EstRecord {
+        pose: pose_of(frame),
+        position_covariance: frame
+            .covariance
+            .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned()),
+    })
+}
+
+/// The scoring's record of a packet row: a fed packet's AoA.
+pub(crate) fn aoa_record(row: &PacketLog) -> Option<AoaRecord> {
+    (row.status == PacketStatus::Fed).then_some(AoaRecord {
+        ap: row.ap,
+        t_ns: row.t_ns,
+        aoa_deg: row.aoa_deg,
+    })
+}
+
+impl<'a> ScoringEstimate<'a> {
+    /// The spool's scoring files.
+    pub(crate) fn spooled(spool: &'a ScoringSpool) -> Self {
+        Self {
+            poses: EstSource::File(&spool.est_path),
+            scan: &spool.est_scan,
+            aoa: AoaSource::File(&spool.aoa_path, spool.aoa_count),
+        }
+    }
+}
+
+impl RunOutput {
+    /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics and the
+    /// figures' data; when it cannot be scored (it never converged, say), says why in
+    /// `warnings` and `evaluation`.
+    pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
+        self.score_against_with(truth, options, true);
+    }
+
+    /// [`RunOutput::score_against`], the figures' data made only when `figures` is true.
+    pub fn score_against_with(&mut self, truth: &Truth, options: &EvalOptions, figures: bool) {
+        if let Err(e) = self.score_held(&ScoringTruth::of(truth), options, figures) {
+            // Records in memory are read again without fail; should one not be, say so.
+            self.not_scored(&e.to_string());
+        }
+    }
+
+    /// Scores the run, held in memory, against `truth` (the figures' data too when
+    /// `figures`); a run that cannot be scored says why in `warnings` and `evaluation`.
+    /// Errors: a truth file that cannot be read again.
+    pub(crate) fn score_held(
+        &mut self,
+        truth: &ScoringTruth<'_>,
+        options: &EvalOptions,
+        figures: bool,
+    ) -> io::Result<()> {
+        let scored = self.in_memory(|run, est| run.scored(&est, truth, options, figures));
+        self.keep(scored)
+    }
+
+    /// The run scored against `truth`: the converged trajectory's metrics ([`crate::eval`]),
+    /// with the run-only fields (AoA median error, position NEES, packets, real-time factor).
+    /// A spooled run holds no frames: [`super::run_dataset_into`] scores it from its files.
+    pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
+        let scored =
+            self.in_memory(|run, est| run.scored(&est, &ScoringTruth::of(truth), options, false));
+        match scored {
+            Ok((metrics, _)) => Ok(metrics),
+            Err(StreamedError::Eval(e)) => Err(e),
+            Err(StreamedError::Read(e)) => Err(EvalError::Read(e.to_string())),
+        }
+    }
+
+    /// Scores the spooled run whose scoring files are `spool` against `truth` (the figures'
+    /// data too when `figures`); a run that cannot be scored says why in `warnings` and
+    /// `evaluation`. Errors: a file that cannot be read again.
+    pub(crate) fn score_spooled(
+        &mut self,
+        truth: &ScoringTruth<'_>,
+        spool: &ScoringSpool,
+        options: &EvalOptions,
+        figures: bool,
+    ) -> io::Result<()> {
+        if let Some(s) = &mut self.spooled {
+            s.scoring_poses_held = spool.est_scan.most_poses_held()
+                + truth.scan.most_poses_held()
+                + POSES_HELD_BY_THE_JOIN;
+        }
+        let scored = self.scored(&ScoringEstimate::spooled(spool), truth, options, figures);
+        self.keep(scored)
+    }
+
+    /// `f` of the run with its estimate held in memory.
+    fn in_memory<T>(&self, f: impl FnOnce(&Self, ScoringEstimate<'_>) -> T) -> T {
+        let poses: Vec<EstRecord> = self.frames.iter().filter_map(est_record).collect();
+        let aoa: Vec<AoaRecord> = self.packets.iter().filter_map(aoa_record).collect();
+        let scan = TrajectoryScan::of(&poses.iter().map(|r| r.pose).collect::<Vec<_>>());
+        f(
+            self,
+            ScoringEstimate {
+                poses: EstSource::Records(&poses),
+                scan: &scan,
+                aoa: AoaSource::Records(&aoa),
+            },
+        )
+    }
+
+    /// Keeps a scoring's outcome: its metrics and figures, or why the run cannot be scored.
+    /// Errors: a trajectory that could not be read again.
+    fn keep(
+        &mut self,
+        scored: Result<(Metrics, Option<RunFigures>), StreamedError>,
+    ) -> io::Result<()> {
+        match scored {
+            Ok((metrics, figures)) => {
+                self.metrics = Some(metrics);
+                self.figures = figures;
+                self.evaluation = Evaluation::Scored;
+                Ok(())
+            }
+            Err(StreamedError::Eval(e)) => {
+                self.not_scored(&e.to_string());
+                Ok(())
+            }
+            Err(StreamedError::Read(e)) => Err(e),
+        }
+    }
+
+    /// The run cannot be scored, for `why`.
+    fn not_scored(&mut self, why: &str) {
+        self.warnings.push(format!("cannot score the run: {why}"));
+        self.evaluation = Evaluation::NotScored(why.to_string());
+    }
+
+    /// The metrics of `est` against `truth`, and the figures' data when `figures`.
+    fn scored(
+        &self,
+        est: &ScoringEstimate<'_>,
+        truth: &ScoringTruth<'_>,
+        options: &EvalOptions,
+        figures: bool,
+    ) -> Result<(Metrics, Option<RunFigures>), StreamedError> {
+        let eval = StreamedEval {
+            est: est.poses,
+            est_scan: est.scan,
+            truth: truth.poses(),
+            truth_scan: &truth.scan,
+            options,
+        };
+        let streamed = eval.evaluate(&self.estimated_aps(), &truth.aps, figures)?;
+        let mut m = streamed.metrics;
+        let (mut errors, pairs) = aoa_errors(est.aoa, truth, figures)?;
+        errors.sort_by(f64::total_cmp);
+        m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
+        drop(errors);
+        if let Some(n) = streamed.nees {
+            m.position_nees_mean = Some(n.mean);
+            m.position_nees_within_95 = Some(n.within_95);
+        }
+        m.packets_used = Some(self.stats.fed());
+        m.packets_dropped = Some(self.stats.dropped());
+        m.realtime_factor = Some(self.realtime_factor());
+        let figures = match streamed.series {
+            Some(series) if figures => Some(self.figures(&eval, truth, &m, &series, &pairs)?),
+            _ => None,
+        };
+        Ok((m, figures))
+    }
+
+    /// The figures' data: `series` is the pairs' position error, `pairs` the fed packets' AoA
+    /// against the truth.
+    fn figures(
+        &self,
+        eval: &StreamedEval<'_>,
+        truth: &ScoringTruth<'_>,
+        metrics: &Metrics,
+        series: &[(Timestamp, f64)],
+        pairs: &[AoaPair],
+    ) -> io::Result<RunFigures> {
+        let align = &metrics.alignment;
+        let t0 = truth.scan.first_t().map_or(0.0, |t| t.as_secs_f64());
+        let xy = |p: &nalgebra::Vector3<f64>| (p.x, p.y);
+        let aoa = self
+            .stats
+            .per_ap
+            .iter()
+            .enumerate()
+            .map(|(l, s)| AoaSeries {
+                name: s.name.clone(),
+                measured: pairs
+                    .iter()
+                    .filter(|p| p.0 == l)
+                    .map(|p| (p.1 - t0, p.2))
+                    .collect(),
+                truth: truth.packet_aoa_deg.get(l).map_or_else(Vec::new, |rows| {
+                    rows.iter()
+                        .map(|&(t_ns, aoa_deg)| (t_ns as f64 * 1e-9 - t0, aoa_deg))
+                        .collect()
+                }),
+            })
+            .collect();
+        Ok(RunFigures {
+            truth_xy: eval
+                .truth_poses()?
+                .map(|p| p.map(|p| xy(&p.p_b_in_w)))
+                .collect::<io::Result<_>>()?,
+            estimate_xy: eval
+                .est_records()?
+                .map(|r| r.map(|r| xy(&align.apply_point(&r.pose.p_b_in_w))))
+                .collect::<io::Result<_>>()?,
+            truth_aps_xy: truth.aps.iter().map(|a| (a.x_m, a.y_m)).collect(),
+            estimated_aps_xy: self
+                .aps
+                .iter()
+                .map(|a| xy(&align.apply_point(&a.p_in_w)))
+                .collect(),
+            position_error: series
+                .iter()
+                .map(|(t, e)| (t.as_secs_f64() - t0, *e))
+                .collect(),
+            converged_s: self.converged_at.map(|t| t.as_secs_f64() - t0),
+            aoa,
+        })
+    }
+
+    /// `(AP, time s, measured AoA °, true AoA °)` of every fed packet that has a truth row.
+    pub fn aoa_vs_truth(&self, truth: &Truth) -> Vec<(usize, f64, f64, f64)> {
+        let aoa: Vec<AoaRecord> = self.packets.iter().filter_map(aoa_record).collect();
+        aoa_errors(AoaSource::Records(&aoa), &ScoringTruth::of(truth), true)
+            .map_or_else(|_| Vec::new(), |(_, pairs)| pairs)
+    }
+}
+
+/// `|AoA − true AoA|` of every fed packet with a truth row (the slot within
+/// [`TRUTH_PAIR_NS`] of the packet's time), and with `keep_pairs` the pairs themselves.
+fn aoa_errors(
+    aoa: AoaSource<'_>,
+    truth: &ScoringTruth<'_>,
+    keep_pairs: bool,
+) -> io::Result<(Vec<f64>, Vec<AoaPair>)> {
+    let (mut errors, mut pairs) = (Vec::new(), Vec::new());
+    let records: Box<dyn Iterator<Item = io::Result<AoaRecord>>> = match aoa {
+        AoaSource::File(path, count) => Box::new(read_records::<AoaRecord>(path, count)?),
+        AoaSource::Records(records) => Box::new(records.iter().map(|r| Ok(*r))),
+    };
+    for r in records {
+        let AoaRecord { ap, t_ns, aoa_deg } = r?;
+        let Some(rows) = truth.packet_aoa_deg.get(ap) else {
+            continue;
+        };
+        let i = rows.partition_point(|p| p.0 < t_ns - TRUTH_PAIR_NS);
+        let row = rows.get(i).filter(|p| (p.0 - t_ns).abs() <= TRUTH_PAIR_NS);
+        let (Some(&(_, true_deg)), Some(est_deg)) = (row, aoa_deg) else {
+            continue;
+        };
+        errors.push((est_deg - true_deg).abs());
+        if keep_pairs {
+            pairs.push((ap, t_ns as f64 * 1e-9, est_deg, true_deg));
+        }
+    }
+    Ok((errors, pairs))
+}
