@@ -88,8 +88,8 @@ pub fn simulate(
     let mut imu = Vec::with_capacity(n_imu);
     let mut imu_biases = Vec::with_capacity(n_imu);
     // The rotors spin from the take-off's start to the landing's end and shake the IMU from
-    // their own stream; without a vibration nothing is drawn or added, so such a flight is what
-    // it was before the vibration model existed.
+    // their own stream; without a vibration nothing is drawn or added, and the IMU samples are
+    // the noisy sensor's alone.
     let mut vibration = scenario
         .imu
         .vibration_model()

@@ -43,7 +43,7 @@
 //! accelerometer vibration on a well-mounted flight controller is of order 10 m/s² (ArduPilot,
 //! "Measuring Vibration": the `VIBE` standard deviation mostly under 15 m/s² on a 3DR IRIS, under
 //! 30 m/s² acceptable; PX4 user guide, "Vibration Isolation" and "Log Analysis using Flight Review
-//! → Vibration"); a 20–30 Hz two-pole filter takes a line near 100 Hz down by 20–25 dB, which
+//! → Vibration"); a 20–30 Hz two-pole filter takes a line near 100 Hz down by 20–30 dB, which
 //! leaves the 0.1–1.0 m/s² and 0.005–0.03 rad/s per axis this model is meant for. The hover rotor
 //! rate, the harmonics' amplitudes and the axis weights are typical values, not measurements.
 
