@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::motion::{BodyState, specific_force_in_b};
+use super::vibration::VibrationConfig;
 pub use crate::imu::ImuBiases;
 use crate::imu::ImuSample;
 pub use crate::rig::ImuNoise;
@@ -77,12 +78,20 @@ pub struct ImuConfig {
     pub rate_hz: f64,
     /// Noise model. Default: the paper's MicroStrain 3DM-GX4-25.
     pub model: ImuModel,
-    /// RMS of the rotors' vibration on each accelerometer axis while they spin (from the
-    /// take-off's start to the landing's end; the whole flight without `[phases]`), m/s²,
-    /// white at the sample rate, from its own random stream. Default 0: none (a flight
-    /// controller's filtered IMU keeps a few tenths of m/s²). The estimator does not model it;
-    /// it is what tells a drone on the ground from one in the air.
+    /// Deprecated: `[imu.vibration]` replaces it. A value above 0 stands for
+    /// `[imu.vibration]` with `accel_rms_m_s2` = this value, `gyro_rms_rad_s` = 0 and every other
+    /// key at its default ([`VibrationConfig::typical`]), m/s²; setting both is an error.
+    /// Default 0 (and then not written out).
+    #[serde(skip_serializing_if = "is_zero")]
     pub vibration_m_s2: f64,
+    /// The rotors' vibration on the accelerometer and the gyro while they spin (from the
+    /// take-off's start to the landing's end; the whole flight without `[phases]`): lines at the
+    /// rotor rate and its harmonics and broadband noise, through the flight controller's
+    /// low-pass, from its own random stream ([`super::vibration`]). Absent (the default): none.
+    /// The estimator does not model it; it is what tells a drone on the ground from one in the
+    /// air.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vibration: Option<VibrationConfig>,
 }
 
 impl Default for ImuConfig {
@@ -91,8 +100,13 @@ impl Default for ImuConfig {
             rate_hz: 200.0,
             model: ImuModel::Microstrain3dmGx4_25,
             vibration_m_s2: 0.0,
+            vibration: None,
         }
     }
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl ImuConfig {
@@ -110,11 +124,37 @@ impl ImuConfig {
                 format!("{} is not in [0, 50] m/s²", self.vibration_m_s2),
             ));
         }
+        if let Some(v) = &self.vibration {
+            if self.vibration_m_s2 > 0.0 {
+                return Err(ConfigError::new(
+                    format!("{field}.vibration_m_s2"),
+                    "deprecated, and [imu.vibration] is set too: move its value to \
+                     [imu.vibration] accel_rms_m_s2 and drop it",
+                ));
+            }
+            v.validate(
+                &format!("{field}.vibration"),
+                self.period_ns() as f64 * 1e-9,
+            )?;
+        }
         let problems = self.model.noise().problems(&format!("{field}.model"));
         if let Some(p) = problems.0.first() {
             return Err(ConfigError::new(p.key.clone(), p.message.clone()));
         }
         Ok(())
+    }
+
+    /// The vibration the flight gets: `[imu.vibration]`, or the deprecated `vibration_m_s2` as
+    /// [`VibrationConfig::typical`] on the accelerometer alone; `None` when neither shakes
+    /// anything (then the flight draws nothing for it).
+    pub fn vibration_model(&self) -> Option<VibrationConfig> {
+        match &self.vibration {
+            Some(v) => v.is_active().then(|| v.clone()),
+            None if self.vibration_m_s2 > 0.0 => {
+                Some(VibrationConfig::typical(self.vibration_m_s2, 0.0))
+            }
+            None => None,
+        }
     }
 
     /// Sample period in integer nanoseconds.
@@ -212,6 +252,7 @@ mod tests {
                 accel_turn_on_bias_m_s2: 10.0 * on,
             }),
             vibration_m_s2: 0.0,
+            vibration: None,
         }
     }
 

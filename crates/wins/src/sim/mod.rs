@@ -26,6 +26,7 @@ pub mod run;
 pub mod scenario;
 pub mod summary;
 pub mod trajectory;
+pub mod vibration;
 pub mod waypoints;
 pub mod write;
 pub mod yaw;

@@ -5,12 +5,13 @@ use nalgebra::{Isometry3, Vector3};
 use super::ConfigError;
 use super::baro::BaroTruth;
 use super::csi::{CsiSynth, PacketTruth};
-use super::imu::{ImuBiases, ImuSimulator, normal3};
-use super::motion::{BodyState, sample};
+use super::imu::{ImuBiases, ImuSimulator};
+use super::motion::{BodyState, sample, specific_force_in_b};
 use super::packets::{self, PacketSlot};
 use super::rng;
 use super::room::{Path, paths_into};
 use super::scenario::{ApConfig, Scenario};
+use super::vibration::VibrationGenerator;
 use crate::aoa::restart_step_rad;
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::wrap;
@@ -86,20 +87,27 @@ pub fn simulate(
     let mut states = Vec::with_capacity(n_imu);
     let mut imu = Vec::with_capacity(n_imu);
     let mut imu_biases = Vec::with_capacity(n_imu);
-    // The rotors spin from the take-off's start to the landing's end (drawn only when there is
-    // a vibration, so that a flight without one is what it was).
-    let mut vibration_rng = rng::stream(seed, rng::VIBRATION_STREAM);
-    let rotors = scenario.phases.as_ref().map_or((0.0, f64::INFINITY), |p| {
-        (p.rest_s, scenario.duration_s - p.final_rest_s)
-    });
+    // The rotors spin from the take-off's start to the landing's end and shake the IMU from
+    // their own stream; without a vibration nothing is drawn or added, and the IMU samples are
+    // the noisy sensor's alone.
+    let mut vibration = scenario
+        .imu
+        .vibration_model()
+        .map(|v| VibrationGenerator::new(&v, period_ns, rng::stream(seed, rng::VIBRATION_STREAM)));
+    let rotors = rotors_interval_s(scenario);
     for k in 0..n_imu {
         let t = Timestamp(k as i64 * period_ns);
         let s = motion_at(t);
         imu_biases.push(imu_sim.biases());
         let mut sample = imu_sim.measure(t, &s, gravity);
         let t_s = t.as_secs_f64();
-        if scenario.imu.vibration_m_s2 > 0.0 && t_s >= rotors.0 && t_s <= rotors.1 {
-            sample.accel_m_s2 += normal3(&mut vibration_rng) * scenario.imu.vibration_m_s2;
+        if let Some(v) = vibration.as_mut()
+            && t_s >= rotors.0
+            && t_s <= rotors.1
+        {
+            let shake = v.next(specific_force_in_b(&s, gravity).norm() / gravity);
+            sample.accel_m_s2 += shake.accel_m_s2;
+            sample.gyro_rad_s += shake.gyro_rad_s;
         }
         imu.push(sample);
         states.push((t, s));
@@ -195,6 +203,14 @@ pub fn simulate(
         imu_biases,
         chain_phase_offsets_rad,
         aps,
+    })
+}
+
+/// When the rotors spin, s: from the take-off's start to the landing's end; the whole flight
+/// without `[phases]`.
+pub fn rotors_interval_s(scenario: &Scenario) -> (f64, f64) {
+    scenario.phases.as_ref().map_or((0.0, f64::INFINITY), |p| {
+        (p.rest_s, scenario.duration_s - p.final_rest_s)
     })
 }
 
