@@ -202,6 +202,17 @@ impl DrawnFlight {
             ("vibration_m_s2", self.vibration_m_s2.to_string()),
         ]
     }
+
+    /// The labels but the family and the seed, in words: `aps 2, imu consumer, …`.
+    pub fn describe(&self) -> String {
+        let labels: Vec<String> = self
+            .labels()
+            .into_iter()
+            .skip(2)
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        labels.join(", ")
+    }
 }
 
 /// A unit enum's serialized name (`tactical`, `ht40`, `figure-eight`).

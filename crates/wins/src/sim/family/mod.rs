@@ -196,26 +196,7 @@ impl Draw {
     /// The scenario as TOML, every field spelt out, after a comment that says where it comes
     /// from and what was drawn: a file `wins simulate --scenario-file` flies again.
     pub fn scenario_toml(&self) -> Result<String, FamilyError> {
-        let f = &self.flight;
-        let mut out = format!(
-            "# A flight drawn from the flight family {:?} with seed {} (wins {}, generator \
-             version {GENERATOR_VERSION}).\n# Drawn: ",
-            f.family.name(),
-            f.seed,
-            env!("CARGO_PKG_VERSION"),
-        );
-        let labels: Vec<String> = f
-            .labels()
-            .into_iter()
-            .skip(2)
-            .map(|(k, v)| format!("{k} {v}"))
-            .collect();
-        out.push_str(&labels.join(", "));
-        out.push_str(
-            ".\n# Every field with its value, defaults included; units are in the names.\n\n",
-        );
-        out.push_str(&self.scenario.to_toml().map_err(ScenarioError::from)?);
-        Ok(out)
+        scenario_toml(&self.scenario, &self.flight)
     }
 
     /// Writes [`SCENARIO_FILE`] and [`DRAWN_FILE`] into `dir` (which must exist); returns their
@@ -234,6 +215,23 @@ impl Draw {
         }
         Ok(written)
     }
+}
+
+/// `scenario` as TOML, every field spelt out, after a comment that says it was drawn, from
+/// which family and seed, and what was drawn (`flight`): a file `wins simulate --scenario-file`
+/// flies again.
+pub fn scenario_toml(scenario: &Scenario, flight: &DrawnFlight) -> Result<String, FamilyError> {
+    let mut out = format!(
+        "# A flight drawn from the flight family {:?} with seed {} (wins {}, generator version \
+         {GENERATOR_VERSION}).\n# Drawn: {}.\n# Every field with its value, defaults included; \
+         units are in the names.\n\n",
+        flight.family.name(),
+        flight.seed,
+        env!("CARGO_PKG_VERSION"),
+        flight.describe(),
+    );
+    out.push_str(&scenario.to_toml().map_err(ScenarioError::from)?);
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -75,8 +75,8 @@ fn check_family(family: Family, expected: &Expected) -> Vec<Draw> {
                     panic!("{} seed {seed}: calibration flight: {e}", family.name())
                 });
         }
-        for k in 0..3 {
-            size[k].0.push(sc.room.size_m[k]);
+        for (seen, &v) in size.iter_mut().zip(&sc.room.size_m) {
+            seen.0.push(v);
         }
         speed.0.push(f.speed_m_s);
         rate.0.push(f.packet_rate_hz);
