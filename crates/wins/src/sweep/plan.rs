@@ -233,7 +233,7 @@ pub struct Plan {
 
 impl Plan {
     /// Resolves `scenarios` (each as [`SweepScenario::resolve`], relative to `base`; airborne
-    /// from t = 0 when `airborne`) and `families` ([`SweepScenario::family`]), checks the
+    /// from t = 0 when `airborne`) and `families` ([`SweepScenario::from_family`]), checks the
     /// duration against every scenario and the settings, and counts the runs.
     pub fn new(
         scenarios: &[String],
@@ -279,7 +279,7 @@ impl Plan {
         }
         let first_seed = seeds.as_slice().first().copied().unwrap_or_default();
         for name in families {
-            let s = SweepScenario::family(name.trim(), first_seed, duration_s, airborne)?;
+            let s = SweepScenario::from_family(name.trim(), first_seed, duration_s, airborne)?;
             if resolved.iter().any(|r| r.label == s.label) {
                 return Err(SweepError::DuplicateScenario { label: s.label });
             }

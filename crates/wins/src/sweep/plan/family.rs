@@ -18,7 +18,7 @@ impl SweepScenario {
     /// The family `name` ([`Family::from_name`]: an unknown name lists the families), checked
     /// by drawing the flight of `first_seed` with the plan's duration and start; a duration
     /// override must leave a flight that starts on the ground its phases.
-    pub fn family(
+    pub fn from_family(
         name: &str,
         first_seed: u64,
         duration_s: Option<f64>,
