@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use wins::config::DEFAULT_TOML;
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
+use wins::sim::family::{FAMILIES, Family};
 use wins::sim::{self, Scenario};
 
 mod aoa_cmd;
@@ -75,10 +76,15 @@ struct SimulateArgs {
     /// Run a scenario TOML file instead (start from `--print-scenario NAME`).
     #[arg(long, value_name = "FILE")]
     scenario_file: Option<PathBuf>,
+    /// Draw the flight from a flight family instead (see --list-families): --seed picks the
+    /// flight (default 1). Its scenario (scenario.toml, which --scenario-file flies again) and
+    /// what was drawn (drawn.toml) are written beside the dataset.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["scenario", "scenario_file"])]
+    family: Option<String>,
     /// Output directory (created; existing files in it are replaced).
-    #[arg(long, short, required_unless_present_any = ["print_scenario", "list"])]
+    #[arg(long, short, required_unless_present_any = ["print_scenario", "list", "list_families"])]
     out: Option<PathBuf>,
-    /// Override the scenario's master seed.
+    /// Override the scenario's master seed (with --family: the seed the flight is drawn from).
     #[arg(long)]
     seed: Option<u64>,
     /// Override the flight duration, s.
@@ -91,9 +97,12 @@ struct SimulateArgs {
     /// Print a built-in scenario's TOML and exit.
     #[arg(long, value_name = "NAME", conflicts_with = "out")]
     print_scenario: Option<String>,
-    /// List the built-in scenarios and exit.
+    /// List the built-in scenarios and the flight families and exit.
     #[arg(long, conflicts_with = "out")]
     list: bool,
+    /// List the flight families and exit.
+    #[arg(long, conflicts_with = "out")]
+    list_families: bool,
 }
 
 #[derive(Subcommand)]
@@ -257,25 +266,45 @@ fn simulate(args: SimulateArgs) -> Result<()> {
             let scenario = Scenario::from_toml(text, name)?;
             writeln!(out, "{name:<24}{}", scenario.description)?;
         }
+        writeln!(out, "\nflight families (--family NAME --seed S):")?;
+    }
+    if args.list || args.list_families {
+        for family in FAMILIES {
+            writeln!(out, "{:<24}{}", family.name(), family.description())?;
+        }
         return Ok(());
     }
     if let Some(name) = &args.print_scenario {
         write!(out, "{}", sim::scenario::printable_toml(name)?)?;
         return Ok(());
     }
-    let mut scenario = match &args.scenario_file {
-        Some(path) => Scenario::from_file(path)?,
-        None => Scenario::built_in(&args.scenario)?,
+    let draw = match &args.family {
+        Some(name) => Some(
+            Family::from_name(name)?
+                .draw(args.seed.unwrap_or(1))?
+                .with_overrides(args.duration, args.airborne)?,
+        ),
+        None => None,
     };
-    if let Some(seed) = args.seed {
-        scenario.seed = seed;
-    }
-    if let Some(d) = args.duration {
-        scenario.duration_s = d;
-    }
-    if args.airborne {
-        scenario = scenario.airborne();
-    }
+    let scenario = match (&draw, &args.scenario_file) {
+        (Some(d), _) => d.scenario.clone(),
+        (None, file) => {
+            let mut scenario = match file {
+                Some(path) => Scenario::from_file(path)?,
+                None => Scenario::built_in(&args.scenario)?,
+            };
+            if let Some(seed) = args.seed {
+                scenario.seed = seed;
+            }
+            if let Some(d) = args.duration {
+                scenario.duration_s = d;
+            }
+            if args.airborne {
+                scenario = scenario.airborne();
+            }
+            scenario
+        }
+    };
     let Some(dir) = args.out else {
         anyhow::bail!("--out is required");
     };
@@ -301,6 +330,12 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         (started.elapsed() - simulated).as_secs_f64()
     )?;
     write!(out, "{}", output.summary())?;
+    if let Some(draw) = &draw {
+        writeln!(out, "drawn: {}", draw.flight.describe())?;
+        for path in draw.write_files(&dir)? {
+            writeln!(out, "wrote {}", path.display())?;
+        }
+    }
     if report.clipped > 0 {
         writeln!(
             out,

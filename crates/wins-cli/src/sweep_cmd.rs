@@ -1,5 +1,5 @@
-//! `wins sweep`: the estimator over many simulated flights (scenarios × seeds), on all cores,
-//! shardable across machines; `wins sweep merge` joins the shards.
+//! `wins sweep`: the estimator over many simulated flights (scenarios and flight families ×
+//! seeds), on all cores, shardable across machines; `wins sweep merge` joins the shards.
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -23,17 +23,21 @@ const FIGURE_HEIGHT_PX: u32 = 550;
 pub struct SweepArgs {
     #[command(subcommand)]
     command: Option<SweepCommand>,
-    /// Plan file (TOML: `scenarios`, `seeds`, optional `duration_s` and `config`), instead of
-    /// --scenario and --seeds.
+    /// Plan file (TOML: `scenarios` and/or `families`, `seeds`, optional `duration_s`, `config`
+    /// and `airborne`), instead of --scenario, --family and --seeds.
     #[arg(
         value_name = "PLAN",
-        conflicts_with_all = ["scenario", "seeds", "duration_s", "config", "airborne"]
+        conflicts_with_all = ["scenario", "family", "seeds", "duration_s", "config", "airborne"]
     )]
     plan: Option<PathBuf>,
     /// Scenarios, comma-separated or repeated: built-in names (`wins simulate --list`) and
     /// scenario files (`*.toml`) side by side.
-    #[arg(long, value_delimiter = ',', required_unless_present = "plan")]
+    #[arg(long, value_delimiter = ',', required_unless_present_any = ["plan", "family"])]
     scenario: Vec<String>,
+    /// Flight families, comma-separated or repeated (`wins simulate --list-families`): each
+    /// seed flies the flight drawn from it; each run's scenario is kept in OUT/scenarios/.
+    #[arg(long, value_delimiter = ',')]
+    family: Vec<String>,
     /// Seeds: `1..20` (inclusive: 20 seeds), a list `1,5,9`, or both `1..10,15`.
     #[arg(long, required_unless_present = "plan")]
     seeds: Option<String>,
@@ -91,6 +95,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
             let seeds = Seeds::parse(args.seeds.as_deref().unwrap_or_default())?;
             Plan::new(
                 &args.scenario,
+                &args.family,
                 seeds,
                 args.duration_s,
                 args.config.as_deref(),
@@ -129,6 +134,10 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     for p in report.files.iter().chain(&figure) {
         writeln!(stdout, "wrote {}", p.display())?;
     }
+    let drawn = out.join(sweep::SCENARIOS_DIR);
+    if drawn.is_dir() {
+        writeln!(stdout, "kept the drawn scenarios in {}", drawn.display())?;
+    }
     if args.keep {
         let kept = out.join(sweep::DATASETS_DIR);
         writeln!(stdout, "kept the datasets in {}", kept.display())?;
@@ -145,6 +154,7 @@ fn merge(args: MergeArgs) -> Result<()> {
         summary,
     } = sweep::merge_dirs(&args.dirs)?;
     let mut files = sweep::write_outputs(&args.out, &record, &columns, &rows, &summary)?;
+    let scenarios = sweep::copy_scenario_files(&args.dirs, &args.out)?;
     files.extend(draw_or_warn(&args.out, &summary, &rows));
     let mut stdout = std::io::stdout().lock();
     writeln!(
@@ -157,6 +167,15 @@ fn merge(args: MergeArgs) -> Result<()> {
     write!(stdout, "{summary}")?;
     for p in &files {
         writeln!(stdout, "wrote {}", p.display())?;
+    }
+    if !scenarios.is_empty() {
+        let dir = args.out.join(sweep::SCENARIOS_DIR);
+        writeln!(
+            stdout,
+            "copied the scenarios of {} drawn flights to {}",
+            scenarios.len(),
+            dir.display()
+        )?;
     }
     Ok(())
 }

@@ -13,6 +13,7 @@
 
 pub mod baro;
 pub mod csi;
+pub mod family;
 pub mod flight;
 pub mod imu;
 mod kinematics;

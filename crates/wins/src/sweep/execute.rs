@@ -1,6 +1,7 @@
 //! Running a plan: each run simulates its flight, writes it as a dataset, runs the pipeline on
 //! the files and scores it, exactly as `wins simulate` then `wins run` do; runs execute on a
-//! rayon pool and their rows come back in canonical order.
+//! rayon pool and their rows come back in canonical order. A family's run first draws its
+//! flight and keeps its scenario in `scenarios/`.
 
 use std::io::Write as _;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -14,8 +15,9 @@ use super::plan::{Plan, RunId, Shard};
 use super::record::PlanRecord;
 use super::summary::{SweepSummary, summarize};
 use super::table::{RunRow, metric_columns, metric_keys, runs_csv};
-use super::{DATASETS_DIR, PLAN_FILE, RUNS_FILE, SUMMARY_FILE, SweepError};
+use super::{DATASETS_DIR, PLAN_FILE, RUNS_FILE, SCENARIOS_DIR, SUMMARY_FILE, SweepError};
 use crate::sim;
+use crate::sim::family;
 use crate::{RunOutput, run_dataset};
 
 /// How to run a plan.
@@ -84,7 +86,8 @@ pub fn prepare_out_dir(out: &Path) -> Result<(), SweepError> {
 
 /// Runs `plan` (the part `options.shard` keeps) into `out`, which must be new or empty:
 /// `runs.csv`, `summary.json` and `plan.json`, each written under a temporary name and renamed
-/// into place once complete. `progress` is called after each run, from the worker threads.
+/// into place once complete, and a family's runs' scenarios in [`SCENARIOS_DIR`]. `progress` is
+/// called after each run, from the worker threads.
 pub fn run_sweep(
     plan: &Plan,
     out: &Path,
@@ -101,29 +104,13 @@ pub fn run_sweep(
             jobs: options.jobs,
             reason: e.to_string(),
         })?;
-    let datasets = out.join(DATASETS_DIR);
     let done = AtomicUsize::new(0);
     let total = runs.len();
-    // The metric columns of each scenario, for its rows that are not scored.
-    let keys: Vec<Vec<String>> = plan
-        .scenarios
-        .iter()
-        .map(|s| {
-            let names: Vec<String> = s.scenario.aps.iter().map(|a| a.name.clone()).collect();
-            metric_keys(&names)
-        })
-        .collect();
     let mut rows: Vec<(RunRow, Option<String>)> = pool.install(|| {
         runs.par_iter()
             .with_max_len(1)
             .map(|run| {
-                let (mut row, warning) = run_one(plan, *run, &datasets, options.keep_datasets);
-                if row.metrics.is_empty() {
-                    row.metrics = keys[run.scenario]
-                        .iter()
-                        .map(|k| (k.clone(), String::new()))
-                        .collect();
-                }
+                let (row, warning) = run_one(plan, *run, out, options.keep_datasets);
                 let done = done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(Progress {
                     done,
@@ -139,6 +126,7 @@ pub fn run_sweep(
     rows.sort_by_key(|(r, _)| (order(r), r.seed));
     let mut warnings: Vec<String> = rows.iter_mut().filter_map(|(_, w)| w.take()).collect();
     let rows: Vec<RunRow> = rows.into_iter().map(|(r, _)| r).collect();
+    let datasets = out.join(DATASETS_DIR);
     if !options.keep_datasets
         && datasets.is_dir()
         && let Err(e) = std::fs::remove_dir(&datasets)
@@ -208,20 +196,55 @@ pub fn dataset_dir(datasets: &Path, label: &str, seed: u64) -> PathBuf {
     datasets.join(format!("{label}-{seed}"))
 }
 
+/// The file a family's run keeps its scenario in: `<out>/scenarios/<label>-<seed>.toml`.
+pub fn scenario_file(out: &Path, label: &str, seed: u64) -> PathBuf {
+    out.join(SCENARIOS_DIR).join(format!("{label}-{seed}.toml"))
+}
+
 /// One run, whatever happens in it: its row, and a warning if its dataset could not be
 /// deleted.
-fn run_one(plan: &Plan, run: RunId, datasets: &Path, keep: bool) -> (RunRow, Option<String>) {
+fn run_one(plan: &Plan, run: RunId, out: &Path, keep: bool) -> (RunRow, Option<String>) {
     let started = Instant::now();
     let s = &plan.scenarios[run.scenario];
-    let dir = dataset_dir(datasets, &s.label, run.seed);
-    let scenario = s.for_run(run.seed, plan.duration_s);
+    let dir = dataset_dir(&out.join(DATASETS_DIR), &s.label, run.seed);
+    let mut row = RunRow::failed(&s.label, run.seed, String::new());
+    let mut ap_names: Vec<String> = s.scenario.aps.iter().map(|a| a.name.clone()).collect();
     // A bug in a stage must cost one row, not the sweep.
-    let outcome = catch_unwind(AssertUnwindSafe(|| fly(&scenario, &dir, plan)))
-        .unwrap_or_else(|panic| Err(format!("panicked: {}", panic_text(panic.as_ref()))));
-    let mut row = match outcome {
-        Ok(output) => row_of(&s.label, run.seed, &output),
-        Err(error) => RunRow::failed(&s.label, run.seed, error),
-    };
+    let outcome = catch_unwind(AssertUnwindSafe(|| {
+        let flight = s
+            .flight(run.seed, plan.duration_s, plan.airborne)
+            .map_err(|e| e.to_string())?;
+        ap_names = flight.scenario.aps.iter().map(|a| a.name.clone()).collect();
+        if let Some(drawn) = &flight.drawn {
+            row.labels = drawn
+                .labels()
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect();
+            let text = family::scenario_toml(&flight.scenario, drawn).map_err(|e| e.to_string())?;
+            let path = scenario_file(out, &s.label, run.seed);
+            std::fs::create_dir_all(out.join(SCENARIOS_DIR))
+                .map_err(|source| SweepError::Write {
+                    path: out.join(SCENARIOS_DIR),
+                    source,
+                })
+                .and_then(|()| write_atomic(&path, text.as_bytes()))
+                .map_err(|e| format!("keeping the drawn scenario: {e}"))?;
+        }
+        fly(&flight.scenario, &dir, plan)
+    }))
+    .unwrap_or_else(|panic| Err(format!("panicked: {}", panic_text(panic.as_ref()))));
+    match outcome {
+        Ok(output) => fill_row(&mut row, &output),
+        Err(error) => row.error = error,
+    }
+    if row.metrics.is_empty() {
+        // Not scored: the columns of its APs, empty.
+        row.metrics = metric_keys(&ap_names)
+            .into_iter()
+            .map(|k| (k, String::new()))
+            .collect();
+    }
     let warning = if keep || !dir.exists() {
         None
     } else {
@@ -242,9 +265,8 @@ fn fly(scenario: &sim::Scenario, dir: &Path, plan: &Plan) -> Result<RunOutput, S
     run_dataset(dir, &plan.config).map_err(|e| format!("pipeline: {e}"))
 }
 
-/// The row of a run that went through the pipeline.
-fn row_of(label: &str, seed: u64, run: &RunOutput) -> RunRow {
-    let mut row = RunRow::failed(label, seed, String::new());
+/// Fills the row of a run that went through the pipeline.
+fn fill_row(row: &mut RunRow, run: &RunOutput) {
     row.converged = run.converged_at.is_some() || run.metrics.is_some();
     row.restarts = Some(run.wins.restarts);
     row.rejected_convergences = Some(run.wins.rejected_convergences);
@@ -266,7 +288,6 @@ fn row_of(label: &str, seed: u64, run: &RunOutput) -> RunRow {
         }
         None => {}
     }
-    row
 }
 
 fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
@@ -279,3 +300,5 @@ fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_family;

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use super::record::PlanRecord;
 use super::summary::{SweepSummary, summarize};
 use super::table::{RunRow, merge_columns, read_runs_csv};
-use super::{PLAN_FILE, RUNS_FILE, SweepError};
+use super::{PLAN_FILE, RUNS_FILE, SCENARIOS_DIR, SweepError};
 
 /// At most this many runs are named in a message; the rest are counted.
 const MAX_NAMED: usize = 10;
@@ -129,6 +129,55 @@ pub fn merge_dirs(dirs: &[PathBuf]) -> Result<Merged, SweepError> {
         rows,
         summary,
     })
+}
+
+/// Copies the scenarios of the flight families' runs (`scenarios/*.toml`) of the sweeps in
+/// `dirs` into `out/scenarios/`, in name order; returns the files written (none when no sweep
+/// flew a family).
+pub fn copy_scenario_files(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, SweepError> {
+    let mut sources: Vec<PathBuf> = Vec::new();
+    for dir in dirs {
+        let from = dir.join(SCENARIOS_DIR);
+        if !from.is_dir() {
+            continue;
+        }
+        let entries = std::fs::read_dir(&from).map_err(|source| SweepError::Read {
+            path: from.clone(),
+            source,
+        })?;
+        for entry in entries {
+            let path = entry
+                .map_err(|source| SweepError::Read {
+                    path: from.clone(),
+                    source,
+                })?
+                .path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                sources.push(path);
+            }
+        }
+    }
+    sources.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    let to = out.join(SCENARIOS_DIR);
+    if !sources.is_empty() {
+        std::fs::create_dir_all(&to).map_err(|source| SweepError::Write {
+            path: to.clone(),
+            source,
+        })?;
+    }
+    let mut written = Vec::with_capacity(sources.len());
+    for from in sources {
+        let Some(name) = from.file_name() else {
+            continue;
+        };
+        let path = to.join(name);
+        std::fs::copy(&from, &path).map_err(|source| SweepError::Write {
+            path: path.clone(),
+            source,
+        })?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 /// The first [`MAX_NAMED`] items, comma-separated, and how many more.

@@ -7,12 +7,13 @@
 //!  shards' runs.csv + plan.json ─► merge ─► the same runs.csv and summary.json as one unsharded run
 //! ```
 //!
-//! What `wins sweep` does, as a library: [`plan`] resolves what to run (built-in scenarios and
-//! scenario files side by side, seeds, shards) and enumerates the runs, [`record`] is
+//! What `wins sweep` does, as a library: [`plan`] resolves what to run (built-in scenarios,
+//! scenario files and flight families side by side, seeds, shards) and enumerates the runs, [`record`] is
 //! `plan.json`, [`execute`] runs them on all cores (a run that fails is a row with its error,
 //! never a panic and never a dropped row), [`table`] flattens each run's
 //! [`crate::eval::Metrics`] into the columns of `runs.csv` generically (new metrics become new
-//! columns), [`summary`] computes the per-scenario statistics and [`merge`] joins shards. The
+//! columns) beside a family's drawn labels, [`summary`] computes the per-scenario statistics
+//! and a family's breakdown by its labels, and [`merge`] joins shards. The
 //! library never prints: progress is a callback, problems are [`SweepError`]s or warnings
 //! returned with the data. The user's guide, with every column and key, is docs/SWEEP.md.
 //!
@@ -31,13 +32,14 @@ pub mod table;
 use std::path::PathBuf;
 
 pub use execute::{Progress, SweepOptions, SweepReport, prepare_out_dir, run_sweep, write_outputs};
-pub use merge::{Merged, merge_dirs, read_plan};
-pub use plan::{Plan, PlanSpec, RunId, Seeds, Shard, SweepScenario};
+pub use merge::{Merged, copy_scenario_files, merge_dirs, read_plan};
+pub use plan::{Plan, PlanSpec, RunFlight, RunId, Seeds, Shard, SweepScenario};
 pub use record::{PlanRecord, PlanScenario};
 pub use summary::{ScenarioSummary, Spread, SweepSummary, percentile, summarize};
 pub use table::{RunRow, read_runs_csv};
 
 use crate::ConfigError;
+use crate::sim::family::FamilyError;
 use crate::sim::scenario::ScenarioError;
 
 /// `runs.csv`: one row per run.
@@ -49,13 +51,19 @@ pub const PLAN_FILE: &str = "plan.json";
 /// The runs' temporary datasets, inside the output directory (one folder per run,
 /// `<scenario>-<seed>`; deleted after each run unless kept).
 pub const DATASETS_DIR: &str = ".datasets";
+/// The scenarios of the runs of flight families, inside the output directory (one file per run,
+/// `<family>-<seed>.toml`, which `wins simulate --scenario-file` flies again).
+pub const SCENARIOS_DIR: &str = "scenarios";
 
 /// Why a sweep (or a merge) cannot be made. A single run that fails is not an error: it is a row
 /// of `runs.csv` with its `error` cell filled.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
     /// No scenario was named.
-    #[error("no scenarios: name built-in ones or scenario files (e.g. --scenario paper-circle)")]
+    #[error(
+        "no scenarios: name built-in ones, scenario files or flight families (e.g. --scenario \
+         paper-circle, --family room)"
+    )]
     NoScenarios,
     /// No seed was given.
     #[error("no seeds: give a range or a list (e.g. --seeds 1..20)")]
@@ -87,6 +95,10 @@ pub enum SweepError {
     /// A scenario cannot be had (unknown name: the message lists the built-in ones).
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
+    /// A flight family cannot be had (unknown name: the message lists the families), or a
+    /// drawn flight cannot be flown with the plan's duration.
+    #[error(transparent)]
+    Family(#[from] FamilyError),
     /// A scenario cannot be flown with the plan's duration override.
     #[error("scenario {label:?} with duration_s = {duration_s}: {source}")]
     Duration {

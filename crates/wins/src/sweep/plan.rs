@@ -1,6 +1,7 @@
-//! What a sweep runs: scenarios (built-in names or scenario files) × seeds, an optional flight
-//! duration, the pipeline's settings; the runs in their canonical order, the shard that keeps a
-//! part of them, and the record of it all written as `plan.json`.
+//! What a sweep runs: scenarios (built-in names or scenario files) and flight families × seeds,
+//! an optional flight duration, the pipeline's settings; the runs in their canonical order, the
+//! shard that keeps a part of them, what each run flies, and the record of it all written as
+//! `plan.json`.
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -12,11 +13,17 @@ use super::record::{PLAN_FORMAT, PLAN_VERSION, PlanRecord, PlanScenario};
 pub use super::shard::Shard;
 use crate::Config;
 use crate::sim::Scenario;
+use crate::sim::family::Family;
+pub use family::RunFlight;
+
+mod family;
 
 /// At most this many runs in one sweep (scenarios × seeds).
 pub const MAX_RUNS: usize = 1_000_000;
 /// `source` of a built-in scenario in `plan.json`.
 pub const BUILT_IN_SOURCE: &str = "built-in";
+/// `source` of a flight family in `plan.json`.
+pub const FAMILY_SOURCE: &str = "family";
 
 /// Distinct seeds in increasing order (the order of the runs of each scenario).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -95,16 +102,19 @@ impl FromStr for Seeds {
     }
 }
 
-/// One scenario of a plan, resolved.
+/// One scenario (or flight family) of a plan, resolved.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SweepScenario {
-    /// Its name in `runs.csv` and `summary.json`: a built-in scenario's name, or a file's name
-    /// without `.toml`.
+    /// Its name in `runs.csv` and `summary.json`: a built-in scenario's name, a file's name
+    /// without `.toml`, or a family's name.
     pub label: String,
-    /// [`BUILT_IN_SOURCE`] or the file as given.
+    /// [`BUILT_IN_SOURCE`], the file as given, or [`FAMILY_SOURCE`].
     pub source: String,
-    /// The scenario as parsed (its own seed and duration; the sweep sets both per run).
+    /// The scenario as parsed (its own seed and duration; the sweep sets both per run); for a
+    /// family, the flight of the plan's first seed (each run draws its own).
     pub scenario: Scenario,
+    /// The family each run's flight is drawn from (`None`: a scenario, flown with each seed).
+    pub family: Option<Family>,
 }
 
 impl SweepScenario {
@@ -119,6 +129,7 @@ impl SweepScenario {
                 label: name.to_string(),
                 source: BUILT_IN_SOURCE.to_string(),
                 scenario: Scenario::built_in(name)?,
+                family: None,
             });
         }
         let path = match base {
@@ -135,6 +146,7 @@ impl SweepScenario {
             label,
             source: path.display().to_string(),
             scenario,
+            family: None,
         })
     }
 
@@ -164,6 +176,7 @@ pub struct RunId {
 ///
 /// ```toml
 /// scenarios = ["paper-circle", "paper-circle-3ap", "my-flights/warehouse.toml"]
+/// families = ["room"]          # optional: flights drawn from families, one per seed
 /// seeds = "1..20"              # or a list: [1, 2, 3]
 /// duration_s = 90.0            # optional: each scenario's own otherwise
 /// config = "pipeline.toml"     # optional: the defaults otherwise
@@ -173,7 +186,11 @@ pub struct RunId {
 #[serde(deny_unknown_fields)]
 pub struct PlanSpec {
     /// Built-in names or scenario files.
+    #[serde(default)]
     pub scenarios: Vec<String>,
+    /// Flight families ([`crate::sim::family`]).
+    #[serde(default)]
+    pub families: Vec<String>,
     /// A range or list as text (`"1..20"`), or an array of seeds.
     pub seeds: SeedsSpec,
     /// Flight duration for every scenario, s.
@@ -200,7 +217,7 @@ pub enum SeedsSpec {
 /// A resolved sweep: what to run, checked before any run starts.
 #[derive(Clone, Debug)]
 pub struct Plan {
-    /// In the order given: the canonical order of the runs.
+    /// In the order given, the scenarios then the families: the canonical order of the runs.
     pub scenarios: Vec<SweepScenario>,
     /// Every scenario is flown with each of these.
     pub seeds: Seeds,
@@ -216,20 +233,21 @@ pub struct Plan {
 
 impl Plan {
     /// Resolves `scenarios` (each as [`SweepScenario::resolve`], relative to `base`; airborne
-    /// from t = 0 when `airborne`), checks the duration against every scenario and the
-    /// settings, and counts the runs.
+    /// from t = 0 when `airborne`) and `families` ([`SweepScenario::from_family`]), checks the
+    /// duration against every scenario and the settings, and counts the runs.
     pub fn new(
         scenarios: &[String],
+        families: &[String],
         seeds: Seeds,
         duration_s: Option<f64>,
         config_path: Option<&Path>,
         base: Option<&Path>,
         airborne: bool,
     ) -> Result<Self, SweepError> {
-        if scenarios.is_empty() {
+        if scenarios.is_empty() && families.is_empty() {
             return Err(SweepError::NoScenarios);
         }
-        let mut resolved: Vec<SweepScenario> = Vec::with_capacity(scenarios.len());
+        let mut resolved: Vec<SweepScenario> = Vec::with_capacity(scenarios.len() + families.len());
         for name in scenarios {
             let mut s = SweepScenario::resolve(name.trim(), base)?;
             if airborne {
@@ -256,6 +274,14 @@ impl Plan {
                         duration_s: d,
                         source,
                     })?;
+            }
+            resolved.push(s);
+        }
+        let first_seed = seeds.as_slice().first().copied().unwrap_or_default();
+        for name in families {
+            let s = SweepScenario::from_family(name.trim(), first_seed, duration_s, airborne)?;
+            if resolved.iter().any(|r| r.label == s.label) {
+                return Err(SweepError::DuplicateScenario { label: s.label });
             }
             resolved.push(s);
         }
@@ -307,6 +333,7 @@ impl Plan {
         let base = path.parent().filter(|p| !p.as_os_str().is_empty());
         Self::new(
             &spec.scenarios,
+            &spec.families,
             seeds,
             spec.duration_s,
             spec.config.as_deref(),
@@ -342,13 +369,17 @@ impl Plan {
     pub fn record(&self, shard: Option<Shard>) -> Result<PlanRecord, SweepError> {
         let mut scenarios = Vec::with_capacity(self.scenarios.len());
         for s in &self.scenarios {
-            scenarios.push(PlanScenario {
-                label: s.label.clone(),
-                source: s.source.clone(),
-                toml: s
+            let toml = match s.family {
+                Some(family) => family.plan_toml(),
+                None => s
                     .scenario
                     .to_toml()
                     .map_err(crate::sim::scenario::ScenarioError::from)?,
+            };
+            scenarios.push(PlanScenario {
+                label: s.label.clone(),
+                source: s.source.clone(),
+                toml,
             });
         }
         let config_toml = toml::to_string(&self.config).map_err(|e| SweepError::Malformed {

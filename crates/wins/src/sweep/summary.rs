@@ -1,6 +1,6 @@
 //! `summary.json` and the printed table: per scenario, how many runs converged, never
 //! converged or failed, and the median, 90th percentile and worst of the main errors over the
-//! converged runs.
+//! converged runs; the same per group of a flight family's runs, grouped by what was drawn.
 
 use std::fmt;
 
@@ -8,6 +8,9 @@ use serde::{Deserialize, Serialize};
 
 use super::RunRow;
 use crate::eval::mean_nees_band;
+pub use breakdown::{Breakdown, GroupSummary, breakdowns};
+
+mod breakdown;
 
 /// `format` of `summary.json`.
 pub const SUMMARY_FORMAT: &str = "wins-sweep-summary";
@@ -131,6 +134,10 @@ pub struct SweepSummary {
     pub error_threshold_m: f64,
     /// Per scenario, in the plan's order.
     pub scenarios: Vec<ScenarioSummary>,
+    /// Per flight family, in the plan's order, its runs broken down by each label of
+    /// [`crate::sim::family::BREAKDOWNS`] (absent: no family).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub breakdowns: Vec<Breakdown>,
 }
 
 /// How a row counts.
@@ -157,7 +164,8 @@ impl Outcome {
     }
 }
 
-/// The statistics of `rows` per scenario of `labels` (in that order), for the plan `plan_id`.
+/// The statistics of `rows` per scenario of `labels` (in that order), for the plan `plan_id`,
+/// and each flight family's breakdown by its drawn labels ([`breakdowns`]).
 pub fn summarize(
     plan_id: &str,
     wins_version: &str,
@@ -168,48 +176,7 @@ pub fn summarize(
         .iter()
         .map(|label| {
             let mine: Vec<&RunRow> = rows.iter().filter(|r| &r.scenario == label).collect();
-            let count = |o: Outcome| mine.iter().filter(|r| Outcome::of(r) == o).count();
-            let converged: Vec<&RunRow> = mine
-                .iter()
-                .copied()
-                .filter(|r| Outcome::of(r) == Outcome::Converged)
-                .collect();
-            let nees: Vec<f64> = converged
-                .iter()
-                .filter_map(|r| r.metric("position_nees_mean"))
-                .filter(|x| x.is_finite())
-                .collect();
-            let spread = |f: &dyn Fn(&RunRow) -> Option<f64>| {
-                Spread::of(converged.iter().filter_map(|r| f(r)))
-            };
-            ScenarioSummary {
-                scenario: label.clone(),
-                runs: mine.len(),
-                converged: converged.len(),
-                never_converged: count(Outcome::NeverConverged),
-                failed: count(Outcome::Failed),
-                error_over_2m_after_convergence: converged
-                    .iter()
-                    .filter(|r| {
-                        r.max_error_after_convergence_m
-                            .is_some_and(|e| e > ERROR_THRESHOLD_M)
-                    })
-                    .count(),
-                lost: converged
-                    .iter()
-                    .filter(|r| r.pose_coverage.is_some_and(|c| c < COVERAGE_THRESHOLD))
-                    .count(),
-                ate_rmse_m: spread(&|r| r.metric("ate_rmse_m")),
-                attitude_error_rmse_deg: spread(&|r| r.metric("attitude_error_rmse_deg")),
-                ap_position_error_max_m: spread(&|r| r.ap_position_error_max_m),
-                convergence_time_s: spread(&|r| r.metric("convergence_time_s")),
-                position_nees_mean: spread(&|r| r.metric("position_nees_mean")),
-                position_nees_mean_over_runs: mean_over(&nees),
-                position_nees_band: (!nees.is_empty()).then(|| {
-                    let (lo, hi) = mean_nees_band(nees.len());
-                    [lo, hi]
-                }),
-            }
+            summarize_runs(label, &mine)
         })
         .collect();
     SweepSummary {
@@ -219,6 +186,52 @@ pub fn summarize(
         statistics_over: STATISTICS_OVER.to_string(),
         error_threshold_m: ERROR_THRESHOLD_M,
         scenarios,
+        breakdowns: breakdowns(labels, rows),
+    }
+}
+
+/// The statistics of the runs `mine`, under the name `label`.
+pub fn summarize_runs(label: &str, mine: &[&RunRow]) -> ScenarioSummary {
+    let count = |o: Outcome| mine.iter().filter(|r| Outcome::of(r) == o).count();
+    let converged: Vec<&RunRow> = mine
+        .iter()
+        .copied()
+        .filter(|r| Outcome::of(r) == Outcome::Converged)
+        .collect();
+    let nees: Vec<f64> = converged
+        .iter()
+        .filter_map(|r| r.metric("position_nees_mean"))
+        .filter(|x| x.is_finite())
+        .collect();
+    let spread =
+        |f: &dyn Fn(&RunRow) -> Option<f64>| Spread::of(converged.iter().filter_map(|r| f(r)));
+    ScenarioSummary {
+        scenario: label.to_string(),
+        runs: mine.len(),
+        converged: converged.len(),
+        never_converged: count(Outcome::NeverConverged),
+        failed: count(Outcome::Failed),
+        error_over_2m_after_convergence: converged
+            .iter()
+            .filter(|r| {
+                r.max_error_after_convergence_m
+                    .is_some_and(|e| e > ERROR_THRESHOLD_M)
+            })
+            .count(),
+        lost: converged
+            .iter()
+            .filter(|r| r.pose_coverage.is_some_and(|c| c < COVERAGE_THRESHOLD))
+            .count(),
+        ate_rmse_m: spread(&|r| r.metric("ate_rmse_m")),
+        attitude_error_rmse_deg: spread(&|r| r.metric("attitude_error_rmse_deg")),
+        ap_position_error_max_m: spread(&|r| r.ap_position_error_max_m),
+        convergence_time_s: spread(&|r| r.metric("convergence_time_s")),
+        position_nees_mean: spread(&|r| r.metric("position_nees_mean")),
+        position_nees_mean_over_runs: mean_over(&nees),
+        position_nees_band: (!nees.is_empty()).then(|| {
+            let (lo, hi) = mean_nees_band(nees.len());
+            [lo, hi]
+        }),
     }
 }
 
@@ -250,8 +263,80 @@ fn spread_cell(s: &Spread, digits: usize) -> String {
     format!("{} / {} / {}", f(s.median), f(s.p90), f(s.worst))
 }
 
+/// The columns of the printed table after the first.
+const TABLE_HEADER: [&str; 11] = [
+    "runs",
+    "conv",
+    "never",
+    "failed",
+    ">2 m",
+    "lost",
+    "ATE RMSE (m)",
+    "attitude RMSE (deg)",
+    "AP error max (m)",
+    "convergence (s)",
+    "NEES [95 % band]",
+];
+
+/// One line of statistics per `(name, summary)` under a header whose first column is `first`,
+/// the columns aligned.
+fn write_table(
+    f: &mut fmt::Formatter<'_>,
+    first: &str,
+    lines: &[(String, &ScenarioSummary)],
+) -> fmt::Result {
+    let mut header = [first; 12];
+    header[1..].copy_from_slice(&TABLE_HEADER);
+    let rows: Vec<[String; 12]> = lines
+        .iter()
+        .map(|(name, s)| {
+            [
+                name.clone(),
+                s.runs.to_string(),
+                s.converged.to_string(),
+                s.never_converged.to_string(),
+                s.failed.to_string(),
+                s.error_over_2m_after_convergence.to_string(),
+                s.lost.to_string(),
+                spread_cell(&s.ate_rmse_m, 3),
+                spread_cell(&s.attitude_error_rmse_deg, 2),
+                spread_cell(&s.ap_position_error_max_m, 3),
+                spread_cell(&s.convergence_time_s, 1),
+                nees_cell(s),
+            ]
+        })
+        .collect();
+    let mut width = header.map(|h| h.chars().count());
+    for r in &rows {
+        for (w, c) in width.iter_mut().zip(r) {
+            *w = (*w).max(c.chars().count());
+        }
+    }
+    let line = |f: &mut fmt::Formatter<'_>, cells: &[&str]| -> fmt::Result {
+        let mut text = String::new();
+        for (k, (c, w)) in cells.iter().zip(width).enumerate() {
+            let pad = w - c.chars().count();
+            if k == 0 {
+                text.push_str(c);
+                text.push_str(&" ".repeat(pad));
+            } else {
+                text.push_str("  ");
+                text.push_str(&" ".repeat(pad));
+                text.push_str(c);
+            }
+        }
+        writeln!(f, "{}", text.trim_end())
+    };
+    line(f, &header)?;
+    for r in &rows {
+        line(f, &r.each_ref().map(String::as_str))?;
+    }
+    Ok(())
+}
+
 impl fmt::Display for SweepSummary {
-    /// The table `wins sweep` prints: one line per scenario.
+    /// The table `wins sweep` prints: one line per scenario; then, per flight family, one line
+    /// per group of its breakdowns.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
@@ -263,64 +348,27 @@ impl fmt::Display for SweepSummary {
              band that mean lies in then",
             COVERAGE_THRESHOLD * 100.0
         )?;
-        let header = [
-            "scenario",
-            "runs",
-            "conv",
-            "never",
-            "failed",
-            ">2 m",
-            "lost",
-            "ATE RMSE (m)",
-            "attitude RMSE (deg)",
-            "AP error max (m)",
-            "convergence (s)",
-            "NEES [95 % band]",
-        ];
-        let rows: Vec<[String; 12]> = self
+        let lines: Vec<(String, &ScenarioSummary)> = self
             .scenarios
             .iter()
-            .map(|s| {
-                [
-                    s.scenario.clone(),
-                    s.runs.to_string(),
-                    s.converged.to_string(),
-                    s.never_converged.to_string(),
-                    s.failed.to_string(),
-                    s.error_over_2m_after_convergence.to_string(),
-                    s.lost.to_string(),
-                    spread_cell(&s.ate_rmse_m, 3),
-                    spread_cell(&s.attitude_error_rmse_deg, 2),
-                    spread_cell(&s.ap_position_error_max_m, 3),
-                    spread_cell(&s.convergence_time_s, 1),
-                    nees_cell(s),
-                ]
-            })
+            .map(|s| (s.scenario.clone(), s))
             .collect();
-        let mut width = header.map(|h| h.chars().count());
-        for r in &rows {
-            for (w, c) in width.iter_mut().zip(r) {
-                *w = (*w).max(c.chars().count());
+        write_table(f, "scenario", &lines)?;
+        for family in self.scenarios.iter().map(|s| &s.scenario) {
+            let lines: Vec<(String, &ScenarioSummary)> = self
+                .breakdowns
+                .iter()
+                .filter(|b| &b.scenario == family)
+                .flat_map(|b| {
+                    b.groups
+                        .iter()
+                        .map(move |g| (format!("{} {}", b.label, g.value), &g.summary))
+                })
+                .collect();
+            if !lines.is_empty() {
+                writeln!(f, "\n{family}, by what was drawn:")?;
+                write_table(f, "group", &lines)?;
             }
-        }
-        let line = |f: &mut fmt::Formatter<'_>, cells: &[&str]| -> fmt::Result {
-            let mut text = String::new();
-            for (k, (c, w)) in cells.iter().zip(width).enumerate() {
-                let pad = w - c.chars().count();
-                if k == 0 {
-                    text.push_str(c);
-                    text.push_str(&" ".repeat(pad));
-                } else {
-                    text.push_str("  ");
-                    text.push_str(&" ".repeat(pad));
-                    text.push_str(c);
-                }
-            }
-            writeln!(f, "{}", text.trim_end())
-        };
-        line(f, &header)?;
-        for r in &rows {
-            line(f, &r.each_ref().map(String::as_str))?;
         }
         Ok(())
     }

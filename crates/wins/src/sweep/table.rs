@@ -7,6 +7,10 @@
 //! here. Numbers are written as `serde_json` writes them (the shortest text that reads back to
 //! the same `f64`, bit for bit), null as an empty cell. Metrics measured on the wall clock
 //! ([`WALL_CLOCK_METRICS`]) are left out: the row would change from one sweep to the next.
+//!
+//! A run of a flight family also has the labels of its drawn flight
+//! ([`crate::sim::family::DrawnFlight::labels`]), each a column `drawn.<label>` between the
+//! leading columns and the metrics; a sweep with no family has no such column.
 
 mod flatten;
 
@@ -33,6 +37,8 @@ pub const LEADING_COLUMNS: [&str; 5] = [
     "restarts",
     "rejected_convergences",
 ];
+/// Prefix of the columns of a family's drawn labels.
+pub const LABEL_PREFIX: &str = "drawn.";
 /// Columns after the metrics.
 pub const TRAILING_COLUMNS: [&str; 5] = [
     "ap_position_error_max_m",
@@ -49,6 +55,9 @@ pub struct RunRow {
     pub scenario: String,
     /// The seed.
     pub seed: u64,
+    /// For a flight family's run, the drawn flight's labels, `(label, value)` in the record's
+    /// order ([`crate::sim::family::DrawnFlight::labels`]); empty for a scenario's run.
+    pub labels: Vec<(String, String)>,
     /// Whether the estimator converged (the pipeline reported a convergence, or wrote
     /// converged poses); false for a run that failed before.
     pub converged: bool,
@@ -81,6 +90,7 @@ impl RunRow {
         Self {
             scenario: scenario.to_string(),
             seed,
+            labels: Vec::new(),
             converged: false,
             restarts: None,
             rejected_convergences: None,
@@ -91,6 +101,14 @@ impl RunRow {
             wall_s: 0.0,
             error,
         }
+    }
+
+    /// The drawn label `name` (`None`: no such label, as for a scenario's run).
+    pub fn label(&self, name: &str) -> Option<&str> {
+        self.labels
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
     }
 
     /// The metric in column `key` as a number (`None`: absent, empty or not a number).
@@ -224,19 +242,31 @@ pub fn metric_columns(rows: &[RunRow]) -> Vec<String> {
     merge_columns(lists.iter().map(Vec::as_slice))
 }
 
-/// `runs.csv` as bytes: the header ([`LEADING_COLUMNS`], `columns`, [`TRAILING_COLUMNS`]) and
-/// one line per row, in the order given.
+/// The label columns of `rows` (without [`LABEL_PREFIX`]): every label of any row, in the
+/// rows' order.
+pub fn label_columns(rows: &[RunRow]) -> Vec<String> {
+    let lists: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| r.labels.iter().map(|(k, _)| k.clone()).collect())
+        .collect();
+    merge_columns(lists.iter().map(Vec::as_slice))
+}
+
+/// `runs.csv` as bytes: the header ([`LEADING_COLUMNS`], the rows' labels each prefixed with
+/// [`LABEL_PREFIX`], `columns`, [`TRAILING_COLUMNS`]) and one line per row, in the order given.
 pub fn runs_csv(columns: &[String], rows: &[RunRow]) -> Result<Vec<u8>, SweepError> {
     let malformed = |e: csv::Error| SweepError::Malformed {
         path: super::RUNS_FILE.into(),
         reason: e.to_string(),
     };
     let mut w = csv::Writer::from_writer(Vec::new());
+    let labels = label_columns(rows);
     let header = LEADING_COLUMNS
         .iter()
-        .copied()
-        .chain(columns.iter().map(String::as_str))
-        .chain(TRAILING_COLUMNS);
+        .map(|c| c.to_string())
+        .chain(labels.iter().map(|l| format!("{LABEL_PREFIX}{l}")))
+        .chain(columns.iter().cloned())
+        .chain(TRAILING_COLUMNS.iter().map(|c| c.to_string()));
     w.write_record(header).map_err(malformed)?;
     for r in rows {
         let by_key: BTreeMap<&str, &str> = r
@@ -252,6 +282,7 @@ pub fn runs_csv(columns: &[String], rows: &[RunRow]) -> Result<Vec<u8>, SweepErr
             opt(r.restarts),
             opt(r.rejected_convergences),
         ];
+        record.extend(labels.iter().map(|l| r.label(l).unwrap_or("").to_string()));
         record.extend(
             columns
                 .iter()
@@ -301,7 +332,16 @@ pub fn read_runs_csv(path: &Path) -> Result<(Vec<String>, Vec<RunRow>), SweepErr
             TRAILING_COLUMNS.join(",")
         )));
     }
-    let columns: Vec<String> = header[lead..header.len() - trail].to_vec();
+    let middle = lead..header.len() - trail;
+    // (index in the header, name without the prefix) of the label columns, then the metrics'.
+    let labels: Vec<(usize, String)> = middle
+        .clone()
+        .filter_map(|j| Some((j, header[j].strip_prefix(LABEL_PREFIX)?.to_string())))
+        .collect();
+    let metric_at: Vec<usize> = middle
+        .filter(|&j| !header[j].starts_with(LABEL_PREFIX))
+        .collect();
+    let columns: Vec<String> = metric_at.iter().map(|&j| header[j].clone()).collect();
     let mut rows = Vec::new();
     for (i, record) in r.records().enumerate() {
         let line = i + 2;
@@ -329,6 +369,12 @@ pub fn read_runs_csv(path: &Path) -> Result<(Vec<String>, Vec<RunRow>), SweepErr
         let row = RunRow {
             scenario: at(0).to_string(),
             seed: whole(1)?.ok_or_else(|| bad(format!("line {line}: no seed")))?,
+            // A scenario's run beside a family's has empty label cells: no labels.
+            labels: labels
+                .iter()
+                .filter(|(j, _)| !at(*j).is_empty())
+                .map(|(j, name)| (name.clone(), at(*j).to_string()))
+                .collect(),
             converged: match at(2) {
                 "true" => true,
                 "false" => false,
@@ -336,10 +382,9 @@ pub fn read_runs_csv(path: &Path) -> Result<(Vec<String>, Vec<RunRow>), SweepErr
             },
             restarts: whole(3)?,
             rejected_convergences: whole(4)?,
-            metrics: columns
+            metrics: metric_at
                 .iter()
-                .enumerate()
-                .map(|(j, c)| (c.clone(), at(lead + j).to_string()))
+                .map(|&j| (header[j].clone(), at(j).to_string()))
                 .collect(),
             ap_position_error_max_m: real(t)?,
             max_error_after_convergence_m: real(t + 1)?,

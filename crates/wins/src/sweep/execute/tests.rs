@@ -10,6 +10,7 @@ fn small_plan() -> Plan {
     let names = vec!["hover".to_string()];
     Plan::new(
         &names,
+        &[],
         Seeds::parse("1..2").unwrap(),
         Some(20.0),
         None,

@@ -9,6 +9,7 @@ fn plan_and_rows(seeds: &str) -> (Plan, Vec<RunRow>) {
     let names = vec!["hover".to_string(), "paper-circle".to_string()];
     let plan = Plan::new(
         &names,
+        &[],
         Seeds::parse(seeds).unwrap(),
         None,
         None,

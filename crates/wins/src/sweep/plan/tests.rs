@@ -74,6 +74,7 @@ fn runs_are_scenario_major_then_seed() {
     let names = ["hover".to_string(), "paper-circle".to_string()];
     let plan = Plan::new(
         &names,
+        &[],
         Seeds::parse("3,1,2").unwrap(),
         None,
         None,
@@ -157,6 +158,7 @@ fn plans_that_cannot_run_are_refused_before_any_run() {
         let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
         Plan::new(
             &names,
+            &[],
             Seeds::parse("1").unwrap(),
             duration_s,
             None,
@@ -183,12 +185,21 @@ fn plans_that_cannot_run_are_refused_before_any_run() {
     let two = ["hover".to_string(), "paper-circle".to_string()];
     let half = format!("1..{}", MAX_RUNS / 2 + 1);
     assert!(matches!(
-        Plan::new(&two, Seeds::parse(&half).unwrap(), None, None, None, false),
+        Plan::new(
+            &two,
+            &[],
+            Seeds::parse(&half).unwrap(),
+            None,
+            None,
+            None,
+            false
+        ),
         Err(SweepError::TooManyRuns { .. })
     ));
     let names = vec!["hover".to_string()];
     let missing = Plan::new(
         &names,
+        &[],
         Seeds::parse("1").unwrap(),
         None,
         Some(Path::new("/nonexistent/pipeline.toml")),

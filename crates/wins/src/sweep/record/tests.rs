@@ -5,6 +5,7 @@ fn plan(names: &[&str], seeds: &str) -> Plan {
     let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
     Plan::new(
         &names,
+        &[],
         Seeds::parse(seeds).unwrap(),
         None,
         None,

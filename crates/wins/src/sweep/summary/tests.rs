@@ -132,3 +132,50 @@ fn never_converged_and_failed_runs_are_counted_not_averaged() {
             .any(|l| l.starts_with("b ") && l.contains("– / – / –"))
     );
 }
+
+#[test]
+fn a_familys_runs_break_down_by_their_labels() {
+    let m = sample_metrics();
+    let row = |seed: u64, aps: &str, rate: &str, converged: bool| {
+        let mut r = converged_row("room", seed, &m);
+        r.converged = converged;
+        if !converged {
+            r.metrics.clear();
+        }
+        r.labels = vec![
+            ("aps".to_string(), aps.to_string()),
+            ("imu".to_string(), "consumer".to_string()),
+            ("packet_rate_hz".to_string(), rate.to_string()),
+        ];
+        r
+    };
+    let rows = vec![
+        row(1, "10", "12", true),
+        row(2, "2", "99", false),
+        row(3, "2", "30", true),
+        converged_row("hover", 1, &m),
+    ];
+    let labels = ["hover".to_string(), "room".to_string()];
+    let s = summarize("id", "v", &labels, &rows);
+    // Only the family is broken down, by every label of BREAKDOWNS (absent ones: no group).
+    assert!(s.breakdowns.iter().all(|b| b.scenario == "room"));
+    let by = |label: &str| s.breakdowns.iter().find(|b| b.label == label).unwrap();
+    let aps = by("aps");
+    let values: Vec<&str> = aps.groups.iter().map(|g| g.value.as_str()).collect();
+    assert_eq!(values, ["2", "10"], "numbers sort as numbers");
+    let two = &aps.groups[0].summary;
+    assert_eq!((two.runs, two.converged, two.never_converged), (2, 1, 1));
+    let rate = by("packet_rate_hz");
+    let values: Vec<&str> = rate.groups.iter().map(|g| g.value.as_str()).collect();
+    assert_eq!(values, ["10–25", "25–50", "50–100"]);
+    assert!(by("start").groups.is_empty());
+    let table = s.to_string();
+    assert!(table.contains("room, by what was drawn:"), "{table}");
+    assert!(table.contains("\npacket_rate_hz 50–100 "), "{table}");
+    assert!(table.contains("\nimu consumer "), "{table}");
+    // A sweep without a family writes no breakdowns at all.
+    let plain = summarize("id", "v", &labels[..1], &rows[3..]);
+    assert!(!plain.to_json().contains("breakdowns"));
+    let back: SweepSummary = serde_json::from_str(&s.to_json()).unwrap();
+    assert_eq!(back, s);
+}

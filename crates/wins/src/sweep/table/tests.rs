@@ -235,3 +235,39 @@ fn rows_that_were_not_scored_get_the_columns_of_a_scored_run() {
     assert!(none.contains(&"ate_rmse_m".to_string()));
     assert!(!none.iter().any(|k| k.starts_with("ap_position_error_m.")));
 }
+
+#[test]
+fn drawn_labels_are_columns_of_their_own_and_read_back() {
+    let m = sample_metrics();
+    let mut drawn = converged_row("room", 3, &m);
+    drawn.labels = vec![
+        ("family".to_string(), "room".to_string()),
+        ("aps".to_string(), "2".to_string()),
+        ("packet_rate_hz".to_string(), "37".to_string()),
+    ];
+    let plain = converged_row("hover", 1, &m);
+    let rows = vec![plain.clone(), drawn.clone()];
+    let columns = metric_columns(&rows);
+    let bytes = runs_csv(&columns, &rows).unwrap();
+    let text = String::from_utf8(bytes.clone()).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    assert_eq!(
+        header[LEADING_COLUMNS.len()..LEADING_COLUMNS.len() + 3],
+        ["drawn.family", "drawn.aps", "drawn.packet_rate_hz"]
+    );
+    assert_eq!(header[LEADING_COLUMNS.len() + 3], columns[0]);
+
+    let dir = crate::sweep::plan::tests::temp_dir("labels-csv");
+    std::fs::write(dir.join("runs.csv"), &bytes).unwrap();
+    let (read_columns, read) = read_runs_csv(&dir.join("runs.csv")).unwrap();
+    assert_eq!(read_columns, columns);
+    assert!(read[0].labels.is_empty(), "a scenario's run has no labels");
+    assert_eq!(read[1].labels, drawn.labels);
+    assert_eq!(read[1].label("aps"), Some("2"));
+    assert_eq!(read[1].metric("ate_rmse_m"), drawn.metric("ate_rmse_m"));
+    assert_eq!(runs_csv(&read_columns, &read).unwrap(), bytes);
+    // Without a family, no label column at all.
+    let text = String::from_utf8(runs_csv(&columns, &[plain]).unwrap()).unwrap();
+    assert!(!text.contains(LABEL_PREFIX));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
