@@ -9,7 +9,7 @@ use super::{
     Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics, associate, umeyama,
 };
 #[cfg(test)]
-use super::{aps, drift, metrics, relative_pose_errors};
+use super::{SentMetrics, aps, drift, metrics, relative_pose_errors};
 use crate::dataset::truth::{ApRow, Pose};
 use crate::time::Timestamp;
 
@@ -110,6 +110,7 @@ pub(crate) fn evaluate_direct(
         packets_used: None,
         packets_dropped: None,
         realtime_factor: None,
+        sent: SentMetrics::default(),
         alignment,
     })
 }

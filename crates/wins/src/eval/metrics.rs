@@ -120,8 +120,35 @@ pub struct Metrics {
     /// Run only: seconds of flight processed per second of wall-clock time (> 1: faster than
     /// real time).
     pub realtime_factor: Option<f64>,
+    /// Run only: the poses a flight controller is sent, as `wins live` sends them (the causal
+    /// estimate, `trajectory_sent.tum`), scored as a trajectory of their own. The other fields
+    /// score every converged pose, including those made in hindsight.
+    #[serde(default)]
+    pub sent: SentMetrics,
     /// The alignment `truth_world_from_est_world` applied: `p_truth ≈ R·p_est + t`.
     pub alignment: Alignment,
+}
+
+/// The poses a run sends a flight controller, scored alone (its own alignment: what
+/// `evo_ape tum truth/poses.tum trajectory_sent.tum -a` reports). Null fields: not a run, no pose
+/// sent, or too few to score.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SentMetrics {
+    /// Poses sent.
+    pub poses: usize,
+    /// From the truth's first pose to the first pose sent, s: what a flight controller waits.
+    pub time_to_first_s: Option<f64>,
+    /// ATE RMSE of the poses sent, m.
+    pub ate_rmse_m: Option<f64>,
+    /// Median aligned position error of the poses sent, m.
+    pub position_error_median_m: Option<f64>,
+    /// Largest aligned position error of the poses sent, m.
+    pub position_error_max_m: Option<f64>,
+    /// Attitude error RMSE of the poses sent, deg.
+    pub attitude_error_rmse_deg: Option<f64>,
+    /// Mean position NEES of the poses sent (3 when the covariance sent is honest).
+    pub position_nees_mean: Option<f64>,
 }
 
 impl Metrics {
@@ -207,6 +234,16 @@ impl Metrics {
         }
         if !run.is_empty() {
             let _ = writeln!(s, "run        {}", run.join("; "));
+        }
+        let sent = &self.sent;
+        if let (Some(first), Some(ate)) = (sent.time_to_first_s, sent.ate_rmse_m) {
+            let _ = writeln!(
+                s,
+                "sent       {} poses to the flight controller, the first after {first:.1} s: \
+                 ATE {ate:.3} m, median {:.3} m",
+                sent.poses,
+                sent.position_error_median_m.unwrap_or(f64::NAN)
+            );
         }
         s
     }

@@ -33,7 +33,7 @@ pub use aps::{EstimatedAp, read_estimated_aps, write_estimated_aps};
 pub use associate::{Association, associate};
 pub use drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
 pub use evaluate::{evaluate, position_error_rms_from, position_error_series};
-pub use metrics::Metrics;
+pub use metrics::{Metrics, SentMetrics};
 pub use nees::{NEES_95_3DOF, NeesSummary, mean_nees_band, position_nees};
 pub use rpe::{RelativePoseError, relative_pose_errors};
 

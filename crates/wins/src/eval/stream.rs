@@ -18,7 +18,7 @@ use super::metrics;
 use super::nees::{NEES_95_3DOF, NeesSummary, nees};
 use super::records::{EstRecord, read_records};
 use super::scan::TrajectoryScan;
-use super::{Alignment, EstimatedAp, EvalError, EvalOptions, Metrics, aps};
+use super::{Alignment, EstimatedAp, EvalError, EvalOptions, Metrics, SentMetrics, aps};
 use crate::dataset::truth::{ApRow, Pose, tum_poses};
 use crate::time::{NANOS_PER_SEC, Timestamp};
 
@@ -244,6 +244,7 @@ impl<'a> StreamedEval<'a> {
             packets_used: None,
             packets_dropped: None,
             realtime_factor: None,
+            sent: SentMetrics::default(),
             alignment,
         };
         Ok(Streamed {

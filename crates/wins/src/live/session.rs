@@ -54,8 +54,7 @@ pub enum SessionError {
 /// 41 ms late: the connection's set-up; from the third on, within 0.2 ms).
 pub const CLOCK_WARMUP_RECORDS: u64 = 5;
 
-/// How old a frame may be, behind the newest IMU sample, to be sent, ns.
-pub const FRESH_NS: i64 = 250_000_000;
+pub use crate::pipeline::FRESH_NS;
 
 /// A frame to send, with what the message needs beside the pose.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,9 +63,9 @@ pub struct LiveFrame {
     pub pose: PoseEstimate,
     /// Bumped at every restart of the estimate (wraps at 256, as the message's field).
     pub reset_counter: u8,
-    /// Whether it is new enough to be worth sending: at most [`FRESH_NS`] older than the newest
-    /// IMU sample (the frames the chain-offset resolution holds come out in a burst once it
-    /// decides; the flight controller has no use for the old ones).
+    /// Whether it is new enough to be worth sending ([`Released::is_fresh`]: the frames the
+    /// chain-offset resolution holds come out in a burst once it decides; the flight controller
+    /// has no use for the old ones).
     pub fresh: bool,
 }
 
@@ -313,7 +312,6 @@ impl LiveSession {
         emit(
             &mut self.stats,
             &mut self.reset_counter,
-            self.imu_last,
             released,
             restarts,
             frames,
@@ -338,7 +336,6 @@ impl LiveSession {
             emit(
                 &mut self.stats,
                 &mut self.reset_counter,
-                self.imu_last,
                 done.released,
                 restarts,
                 &mut frames,
@@ -401,7 +398,6 @@ impl LiveSession {
 fn emit(
     stats: &mut LiveStats,
     reset_counter: &mut u8,
-    imu_last: Option<Timestamp>,
     released: Released,
     restarts: u64,
     frames: &mut Vec<LiveFrame>,
@@ -410,12 +406,16 @@ fn emit(
         *reset_counter = reset_counter.wrapping_add((restarts - stats.restarts) as u8);
         stats.restarts = restarts;
     }
-    let newest = imu_last.unwrap_or(Timestamp(i64::MIN));
-    for pose in released.frames {
+    let fresh: Vec<bool> = released
+        .frames
+        .iter()
+        .map(|f| released.is_fresh(f))
+        .collect();
+    for (pose, fresh) in released.frames.into_iter().zip(fresh) {
         stats.frames += 1;
         stats.frames_converged += u64::from(pose.converged);
         frames.push(LiveFrame {
-            fresh: newest.as_nanos().saturating_sub(pose.t.as_nanos()) <= FRESH_NS,
+            fresh,
             pose,
             reset_counter: *reset_counter,
         });

@@ -47,7 +47,7 @@ mod settings;
 use self::inputs::{Input, append, feed};
 use self::second_pass::History;
 
-pub use self::settings::{ChainReport, Finished, Released, resolves};
+pub use self::settings::{ChainReport, FRESH_NS, Finished, Released, resolves};
 use super::{Pipeline, PipelineError, StageTiming};
 use crate::aoa::{AoaEstimator, ChainCurvature, raw_csi};
 #[cfg(doc)]
@@ -94,6 +94,8 @@ pub struct ChainResolver {
     report: ChainReport,
     first_imu: Option<Timestamp>,
     last_imu: Option<Timestamp>,
+    /// The newest IMU sample pushed (what [`Released::is_fresh`] measures against).
+    newest_imu: Option<Timestamp>,
     dropped_timing: StageTiming,
     /// Every input since the start, kept until the decision to fly the kept step again from the
     /// start (without a prior; `None` once longer than [`ChainOffsetsConfig::second_pass_max_s`]).
@@ -153,6 +155,7 @@ impl ChainResolver {
             report,
             first_imu: None,
             last_imu: None,
+            newest_imu: None,
             dropped_timing: StageTiming::default(),
             history: History::new(resolve && !had_calibration, &config.pipeline.chains),
             step_rad: 0.0,
@@ -176,12 +179,26 @@ impl ChainResolver {
     /// Integrates one IMU sample ([`Pipeline::push_imu`]).
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Released, PipelineError> {
         self.first_imu.get_or_insert(s.t);
-        self.remember(Input::Imu(*s))
+        self.newest_imu = Some(self.newest_imu.map_or(s.t, |t| t.max(s.t)));
+        let released = self.remember(Input::Imu(*s));
+        self.stamped(released)
+    }
+
+    /// `released`, with the newest IMU sample pushed.
+    fn stamped(
+        &self,
+        released: Result<Released, PipelineError>,
+    ) -> Result<Released, PipelineError> {
+        released.map(|r| Released {
+            newest_imu: self.newest_imu,
+            ..r
+        })
     }
 
     /// Queues a barometer altitude ([`Pipeline::push_baro`]); a refused one is counted there.
     pub fn push_baro(&mut self, t: Timestamp, altitude_m: f64) -> Result<Released, PipelineError> {
-        self.remember(Input::Baro(t, altitude_m))
+        let released = self.remember(Input::Baro(t, altitude_m));
+        self.stamped(released)
     }
 
     /// Processes one packet ([`Pipeline::push_csi`]).
@@ -215,7 +232,8 @@ impl ChainResolver {
         if let Stage::Measuring { packets, .. } = &mut self.stage {
             *packets += 1;
         }
-        self.remember(Input::Csi(ap, t, Box::new(record.clone())))
+        let released = self.remember(Input::Csi(ap, t, Box::new(record.clone())));
+        self.stamped(released)
     }
 
     /// Keeps `input` for the second pass ([`History`]) and forwards it.
@@ -269,6 +287,7 @@ impl ChainResolver {
             self.report.flown_deg = self.report.chosen_deg.map(|_| flown.to_degrees());
             self.report.refined_deg = self.report.chosen_deg.map(|_| refined.to_degrees());
         }
+        released.newest_imu = self.newest_imu;
         match self.stage {
             Stage::Decided(pipeline) => Ok(Finished {
                 pipeline: *pipeline,

@@ -15,8 +15,9 @@ use crate::time::{NANOS_PER_SEC, Timestamp};
 
 /// Where a replay's frames and packet rows go, as they are produced, in order.
 pub trait RunSink {
-    /// One solved frame.
-    fn frame(&mut self, frame: PoseEstimate) -> io::Result<()>;
+    /// One solved frame; `sent`: whether a flight controller is sent it
+    /// ([`Released::is_sent`]).
+    fn frame(&mut self, frame: PoseEstimate, sent: bool) -> io::Result<()>;
     /// One packet's row.
     fn packet(&mut self, row: PacketLog) -> io::Result<()>;
 }
@@ -26,13 +27,16 @@ pub trait RunSink {
 pub struct Collected {
     /// Every frame, in order.
     pub frames: Vec<PoseEstimate>,
+    /// Beside `frames`: whether each was sent.
+    pub sent: Vec<bool>,
     /// Every packet row, in order.
     pub packets: Vec<PacketLog>,
 }
 
 impl RunSink for Collected {
-    fn frame(&mut self, frame: PoseEstimate) -> io::Result<()> {
+    fn frame(&mut self, frame: PoseEstimate, sent: bool) -> io::Result<()> {
         self.frames.push(frame);
+        self.sent.push(sent);
         Ok(())
     }
 
@@ -53,8 +57,8 @@ pub(crate) struct Flight<'a> {
 }
 
 /// Runs a pipeline for `rig` over the inputs `push` pushes (one per call, `None` after the
-/// last), handing what is released to `sink`. The output's `frames` and `packets` are empty, its
-/// `warnings` too.
+/// last), handing what is released to `sink`, each frame marked sent or not as `wins live`
+/// marks it. The output's `frames`, `sent` and `packets` are empty, its `warnings` too.
 pub(crate) fn drive(
     config: &Config,
     rig: Rig,
@@ -66,12 +70,17 @@ pub(crate) fn drive(
     let mut pipeline = ChainResolver::new(config, rig, flight.has_baro)?;
     let mut imu_refused = 0;
     let mut coverage = CoverageCheck::default();
+    let mut first_sent = None;
     let mut keep = |r: Released| -> io::Result<()> {
-        for f in r.frames {
+        let sent: Vec<bool> = r.frames.iter().map(|f| r.is_sent(f)).collect();
+        for (f, sent) in r.frames.into_iter().zip(sent) {
             if f.converged {
                 coverage.push(f.t);
             }
-            sink.frame(f)?;
+            if sent {
+                first_sent.get_or_insert(f.t);
+            }
+            sink.frame(f, sent)?;
         }
         for p in r.packets {
             sink.packet(p)?;
@@ -106,9 +115,11 @@ pub(crate) fn drive(
         .collect();
     Ok(RunOutput {
         frames: Vec::new(),
+        sent: Vec::new(),
         packets: Vec::new(),
         aps,
         converged_at: wins.converged_at(),
+        first_sent,
         stats: done.pipeline.stats().clone(),
         wins: wins.stats(),
         phases: wins.timeline().to_vec(),

@@ -99,6 +99,7 @@ pub fn run_dataset_with(
     let mut sink = Collected::default();
     let mut run = run_into_sink(path, config, options, &mut sink)?;
     run.frames = sink.frames;
+    run.sent = sink.sent;
     run.packets = sink.packets;
     score(&mut run, path, config, !options.no_figures, None);
     Ok(run)

@@ -4,6 +4,7 @@
 //! |---|---|
 //! | `trajectory.tum` | body poses in `w` at every frame after convergence (TUM: `t x y z qx qy qz qw`) |
 //! | `trajectory_all.tum` | the same from the first frame (before convergence `w` is not yet fixed) |
+//! | `trajectory_sent.tum` | the poses a flight controller is sent, as `wins live` sends them: the causal estimate ([`crate::pipeline::Released::is_sent`]) |
 //! | `covariance.csv` | the covariance reported with each pose of `trajectory.tum` ([`write_covariance`]) |
 //! | `aps.csv` | estimated AP positions in `w` (`crate::eval::aps` format) |
 //! | `aoa.csv` | one row per packet ([`crate::pipeline::PacketLog`]) |
@@ -36,6 +37,8 @@ use crate::time::NANOS_PER_SEC;
 pub const TRAJECTORY_FILE: &str = "trajectory.tum";
 /// Whole trajectory file.
 pub const TRAJECTORY_ALL_FILE: &str = "trajectory_all.tum";
+/// The poses a flight controller is sent, as `wins live` sends them (the causal estimate).
+pub const TRAJECTORY_SENT_FILE: &str = "trajectory_sent.tum";
 /// Covariance of the converged poses.
 pub const COVARIANCE_FILE: &str = "covariance.csv";
 /// Estimated APs.
@@ -64,10 +67,14 @@ pub struct RunStats<'a> {
     pub realtime_factor: f64,
     /// Convergence, s on the IMU clock (null if never).
     pub converged_at_s: Option<f64>,
+    /// The first pose a flight controller is sent, s on the IMU clock (null if none).
+    pub first_sent_at_s: Option<f64>,
     /// Frames solved / after convergence.
     pub frames: usize,
     /// Frames after convergence.
     pub frames_converged: usize,
+    /// Frames a flight controller is sent (`trajectory_sent.tum`).
+    pub frames_sent: usize,
     /// Wall time per stage, s.
     pub timing: StageTiming,
     /// Packets per AP and why they were dropped.
@@ -115,6 +122,7 @@ impl RunOutput {
             wall_s: self.wall_s,
             realtime_factor: self.realtime_factor(),
             converged_at_s: self.converged_at.map(|t| t.as_secs_f64()),
+            first_sent_at_s: self.first_sent.map(|t| t.as_secs_f64()),
             frames: self
                 .spooled
                 .as_ref()
@@ -123,6 +131,10 @@ impl RunOutput {
                 .spooled
                 .as_ref()
                 .map_or_else(|| self.converged_frames().count(), |s| s.frames_converged),
+            frames_sent: self
+                .spooled
+                .as_ref()
+                .map_or_else(|| self.sent_frames().count(), |s| s.frames_sent),
             timing: self.timing,
             packets: &self.stats,
             estimator: self.wins,
@@ -175,6 +187,11 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
             tum.frames(&run.frames)?;
             tum.finish().map(drop)
         })?;
+        put(TRAJECTORY_SENT_FILE, &mut |w| {
+            let mut tum = TrajectoryWriter::new(w)?;
+            tum.frames(run.sent_frames())?;
+            tum.finish().map(drop)
+        })?;
     }
     put(APS_FILE, &mut |w| {
         write_estimated_aps(w, &run.estimated_aps())
@@ -191,7 +208,7 @@ fn write_run(dir: &Path, run: &RunOutput, metrics: Option<&Metrics>) -> io::Resu
     }
     // The files in the order of the module's table: the spooled packet log after the APs.
     let mut all = spooled;
-    let aoa = (all.len() == 4).then(|| all.pop()).flatten();
+    let aoa = (all.len() == 5).then(|| all.pop()).flatten();
     let mut rest = written.into_iter();
     all.extend(rest.next());
     all.extend(aoa);

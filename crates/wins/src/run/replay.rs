@@ -68,6 +68,7 @@ pub fn replay(dataset: &Dataset, rig: Rig, config: &Config) -> Result<RunOutput,
         &mut sink,
     )?;
     run.frames = sink.frames;
+    run.sent = sink.sent;
     run.packets = sink.packets;
     Ok(run)
 }

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::output::{
     AOA_FILE, APS_FILE, COVARIANCE_FILE, METRICS_FILE, REPORT_FILE, STATS_FILE,
-    TRAJECTORY_ALL_FILE, TRAJECTORY_FILE,
+    TRAJECTORY_ALL_FILE, TRAJECTORY_FILE, TRAJECTORY_SENT_FILE,
 };
 use super::run_output::RunOutput;
 use super::spool::SPOOL_PREFIX;
@@ -41,9 +41,10 @@ pub const POSITION_ERROR_PNG: &str = "position_error.png";
 pub const AOA_PNG: &str = "aoa.png";
 
 /// Every file a run may write besides its manifest.
-pub const RUN_FILES: [&str; 11] = [
+pub const RUN_FILES: [&str; 12] = [
     TRAJECTORY_FILE,
     TRAJECTORY_ALL_FILE,
+    TRAJECTORY_SENT_FILE,
     COVARIANCE_FILE,
     APS_FILE,
     AOA_FILE,

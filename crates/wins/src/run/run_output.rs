@@ -50,12 +50,19 @@ pub struct ApEstimate {
 pub struct RunOutput {
     /// The pose of every solved frame, in time order (`converged` says which are usable).
     pub frames: Vec<PoseEstimate>,
+    /// Beside `frames`: whether each is one a flight controller is sent (converged, and fresh
+    /// when it was released: [`crate::pipeline::Released::is_sent`]), as `wins live` sends
+    /// them. Those are the causal estimate; the converged frames also hold what was made in
+    /// hindsight (the chain-offset resolution's held and flown-again frames).
+    pub sent: Vec<bool>,
     /// One row per packet, in processing order.
     pub packets: Vec<PacketLog>,
     /// The APs at the end of the run (in `w` of the last frame).
     pub aps: Vec<ApEstimate>,
     /// When the window reported convergence.
     pub converged_at: Option<Timestamp>,
+    /// The time of the first frame a flight controller is sent (`None`: none).
+    pub first_sent: Option<Timestamp>,
     /// Packet counters.
     pub stats: PipelineStats,
     /// The estimator's counters.
@@ -125,5 +132,14 @@ impl RunOutput {
     /// Frames after convergence.
     pub fn converged_frames(&self) -> impl Iterator<Item = &PoseEstimate> {
         self.frames.iter().filter(|p| p.converged)
+    }
+
+    /// The frames a flight controller is sent ([`RunOutput::sent`]).
+    pub fn sent_frames(&self) -> impl Iterator<Item = &PoseEstimate> {
+        self.frames
+            .iter()
+            .zip(&self.sent)
+            .filter(|(_, sent)| **sent)
+            .map(|(f, _)| f)
     }
 }

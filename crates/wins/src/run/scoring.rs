@@ -17,7 +17,7 @@ use crate::dataset::truth::Truth;
 use crate::eval::records::{AoaRecord, EstRecord, read_records};
 use crate::eval::scan::TrajectoryScan;
 use crate::eval::stream::{EstSource, StreamedError, StreamedEval};
-use crate::eval::{EvalError, EvalOptions, Metrics};
+use crate::eval::{EvalError, EvalOptions, Metrics, SentMetrics};
 use crate::fusion::pose::PoseEstimate;
 use crate::pipeline::{PacketLog, PacketStatus};
 use crate::time::Timestamp;
@@ -36,6 +36,10 @@ pub(crate) struct ScoringEstimate<'a> {
     poses: EstSource<'a>,
     /// What one pass over them found.
     scan: &'a TrajectoryScan,
+    /// The poses sent to a flight controller, in time order.
+    sent: EstSource<'a>,
+    /// What one pass over them found.
+    sent_scan: &'a TrajectoryScan,
     /// The fed packets' AoA, in processing order.
     aoa: AoaSource<'a>,
 }
@@ -74,6 +78,8 @@ impl<'a> ScoringEstimate<'a> {
         Self {
             poses: EstSource::File(&spool.est_path),
             scan: &spool.est_scan,
+            sent: EstSource::File(&spool.sent_path),
+            sent_scan: &spool.sent_scan,
             aoa: AoaSource::File(&spool.aoa_path, spool.aoa_count),
         }
     }
@@ -143,13 +149,18 @@ impl RunOutput {
     /// `f` of the run with its estimate held in memory.
     fn in_memory<T>(&self, f: impl FnOnce(&Self, ScoringEstimate<'_>) -> T) -> T {
         let poses: Vec<EstRecord> = self.frames.iter().filter_map(est_record).collect();
+        let sent: Vec<EstRecord> = self.sent_frames().filter_map(est_record).collect();
         let aoa: Vec<AoaRecord> = self.packets.iter().filter_map(aoa_record).collect();
-        let scan = TrajectoryScan::of(&poses.iter().map(|r| r.pose).collect::<Vec<_>>());
+        let scan_of =
+            |r: &[EstRecord]| TrajectoryScan::of(&r.iter().map(|r| r.pose).collect::<Vec<_>>());
+        let (scan, sent_scan) = (scan_of(&poses), scan_of(&sent));
         f(
             self,
             ScoringEstimate {
                 poses: EstSource::Records(&poses),
                 scan: &scan,
+                sent: EstSource::Records(&sent),
+                sent_scan: &sent_scan,
                 aoa: AoaSource::Records(&aoa),
             },
         )
@@ -210,6 +221,7 @@ impl RunOutput {
         m.packets_used = Some(self.stats.fed());
         m.packets_dropped = Some(self.stats.dropped());
         m.realtime_factor = Some(self.realtime_factor());
+        m.sent = sent_metrics(est, truth, options)?;
         let figures = match streamed.series {
             Some(series) if figures => Some(self.figures(&eval, truth, &m, &series, &pairs)?),
             _ => None,
@@ -279,6 +291,43 @@ impl RunOutput {
         aoa_errors(AoaSource::Records(&aoa), &ScoringTruth::of(truth), true)
             .map_or_else(|_| Vec::new(), |(_, pairs)| pairs)
     }
+}
+
+/// The poses sent scored alone ([`SentMetrics`]); too few to score leaves the errors null.
+/// Errors: a file that cannot be read again.
+fn sent_metrics(
+    est: &ScoringEstimate<'_>,
+    truth: &ScoringTruth<'_>,
+    options: &EvalOptions,
+) -> Result<SentMetrics, StreamedError> {
+    let eval = StreamedEval {
+        est: est.sent,
+        est_scan: est.sent_scan,
+        truth: truth.poses(),
+        truth_scan: &truth.scan,
+        options,
+    };
+    let mut sent = SentMetrics {
+        poses: est.sent_scan.poses(),
+        time_to_first_s: est
+            .sent_scan
+            .first_t()
+            .zip(truth.scan.first_t())
+            .map(|(first_sent, first_truth)| first_sent.secs_since(first_truth)),
+        ..SentMetrics::default()
+    };
+    match eval.evaluate(&[], &[], false) {
+        Ok(s) => {
+            sent.ate_rmse_m = Some(s.metrics.ate_rmse_m);
+            sent.position_error_median_m = Some(s.metrics.position_error_median_m);
+            sent.position_error_max_m = Some(s.metrics.position_error_max_m);
+            sent.attitude_error_rmse_deg = Some(s.metrics.attitude_error_rmse_deg);
+            sent.position_nees_mean = s.nees.map(|n| n.mean);
+        }
+        Err(StreamedError::Eval(_)) => {}
+        Err(e) => return Err(e),
+    }
+    Ok(sent)
 }
 
 /// `|AoA − true AoA|` of every fed packet with a truth row (the slot within

@@ -13,29 +13,34 @@ use std::sync::Arc;
 
 use super::drive::RunSink;
 use super::output::{
-    AOA_FILE, COVARIANCE_FILE, TRAJECTORY_ALL_FILE, TRAJECTORY_FILE, write_covariance_header,
-    write_covariance_row,
+    AOA_FILE, COVARIANCE_FILE, TRAJECTORY_ALL_FILE, TRAJECTORY_FILE, TRAJECTORY_SENT_FILE,
+    write_covariance_header, write_covariance_row,
 };
+use super::scoring::{aoa_record, est_record};
 use super::spooled::SpoolFiles;
 pub use super::spooled::Spooled;
 use super::trajectory::{TrajectoryWriter, pose_of};
-use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
+use crate::eval::records::RecordWriter;
 use crate::eval::scan::TrajectoryScan;
 use crate::fusion::pose::PoseEstimate;
-use crate::pipeline::{PacketLog, PacketStatus};
+use crate::pipeline::PacketLog;
 
 /// Prefix of a spool file in the output folder.
 pub const SPOOL_PREFIX: &str = ".wins-spool-";
 
-/// What scoring reads of a spooled run, in two more spool files (removed when this is
-/// dropped): per converged frame its pose and position covariance, per fed packet its AoA
-/// ([`crate::eval::records`]).
+/// What scoring reads of a spooled run, in three more spool files (removed when this is
+/// dropped): per converged frame its pose and position covariance, the same of the frames sent,
+/// per fed packet its AoA ([`crate::eval::records`]).
 #[derive(Debug)]
 pub(crate) struct ScoringSpool {
     /// The converged frames' records.
     pub(crate) est_path: PathBuf,
     /// What one pass over them found.
     pub(crate) est_scan: TrajectoryScan,
+    /// The sent frames' records.
+    pub(crate) sent_path: PathBuf,
+    /// What one pass over them found.
+    pub(crate) sent_scan: TrajectoryScan,
     /// The fed packets' records.
     pub(crate) aoa_path: PathBuf,
     /// How many.
@@ -45,6 +50,7 @@ pub(crate) struct ScoringSpool {
 impl Drop for ScoringSpool {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.est_path);
+        let _ = std::fs::remove_file(&self.sent_path);
         let _ = std::fs::remove_file(&self.aoa_path);
     }
 }
@@ -54,6 +60,7 @@ impl Drop for ScoringSpool {
 struct ScoringWriters {
     files: ScoringSpool,
     est: RecordWriter<BufWriter<File>>,
+    sent: RecordWriter<BufWriter<File>>,
     aoa: RecordWriter<BufWriter<File>>,
 }
 
@@ -63,6 +70,7 @@ pub struct Spool {
     trajectory: TrajectoryWriter<BufWriter<File>>,
     covariance: BufWriter<File>,
     trajectory_all: TrajectoryWriter<BufWriter<File>>,
+    trajectory_sent: TrajectoryWriter<BufWriter<File>>,
     aoa: csv::Writer<BufWriter<File>>,
     kept: Spooled,
     scoring: Option<ScoringWriters>,
@@ -77,6 +85,7 @@ impl Spool {
             TRAJECTORY_FILE,
             COVARIANCE_FILE,
             TRAJECTORY_ALL_FILE,
+            TRAJECTORY_SENT_FILE,
             AOA_FILE,
         ];
         let id = std::process::id();
@@ -88,7 +97,8 @@ impl Spool {
         };
         let open = |k: usize| File::create(&files.files[k].0).map(BufWriter::new);
         let (trajectory, mut covariance, trajectory_all) = (open(0)?, open(1)?, open(2)?);
-        let aoa = csv::Writer::from_writer(open(3)?);
+        let trajectory_sent = TrajectoryWriter::new(open(3)?)?;
+        let aoa = csv::Writer::from_writer(open(4)?);
         let trajectory = TrajectoryWriter::new(trajectory)?;
         write_covariance_header(&mut covariance)?;
         let trajectory_all = TrajectoryWriter::new(trajectory_all)?;
@@ -98,6 +108,8 @@ impl Spool {
                 let files = ScoringSpool {
                     est_path: path("eval-poses.bin"),
                     est_scan: TrajectoryScan::default(),
+                    sent_path: path("eval-sent.bin"),
+                    sent_scan: TrajectoryScan::default(),
                     aoa_path: path("eval-aoa.bin"),
                     aoa_count: 0,
                 };
@@ -105,6 +117,7 @@ impl Spool {
                     |p: &Path| File::create(p).map(|f| RecordWriter::new(BufWriter::new(f)));
                 Ok::<_, io::Error>(ScoringWriters {
                     est: create(&files.est_path)?,
+                    sent: create(&files.sent_path)?,
                     aoa: create(&files.aoa_path)?,
                     files,
                 })
@@ -114,6 +127,7 @@ impl Spool {
             trajectory,
             covariance,
             trajectory_all,
+            trajectory_sent,
             aoa,
             kept: Spooled {
                 files: Some(Arc::new(files)),
@@ -133,10 +147,12 @@ impl Spool {
         self.trajectory.flush()?;
         self.covariance.flush()?;
         self.trajectory_all.flush()?;
+        self.trajectory_sent.flush()?;
         self.aoa.flush()?;
         let scoring = match self.scoring {
             Some(mut w) => {
                 w.est.flush()?;
+                w.sent.flush()?;
                 w.aoa.flush()?;
                 w.files.aoa_count = w.aoa.written();
                 Some(w.files)
@@ -148,7 +164,7 @@ impl Spool {
 }
 
 impl RunSink for Spool {
-    fn frame(&mut self, frame: PoseEstimate) -> io::Result<()> {
+    fn frame(&mut self, frame: PoseEstimate, sent: bool) -> io::Result<()> {
         let pose = pose_of(&frame);
         self.trajectory_all.pose(&pose)?;
         self.kept.frames += 1;
@@ -156,14 +172,19 @@ impl RunSink for Spool {
             self.trajectory.pose(&pose)?;
             write_covariance_row(&mut self.covariance, &frame)?;
             self.kept.frames_converged += 1;
-            if let Some(w) = &mut self.scoring {
-                w.files.est_scan.push(&pose);
-                w.est.push(&EstRecord {
-                    pose,
-                    position_covariance: frame
-                        .covariance
-                        .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned()),
-                })?;
+        }
+        if sent {
+            self.trajectory_sent.pose(&pose)?;
+            self.kept.frames_sent += 1;
+        }
+        if let Some(w) = &mut self.scoring
+            && let Some(record) = est_record(&frame)
+        {
+            w.files.est_scan.push(&pose);
+            w.est.push(&record)?;
+            if sent {
+                w.files.sent_scan.push(&pose);
+                w.sent.push(&record)?;
             }
         }
         Ok(())
@@ -172,13 +193,9 @@ impl RunSink for Spool {
     fn packet(&mut self, row: PacketLog) -> io::Result<()> {
         self.aoa.serialize(&row).map_err(io::Error::other)?;
         if let Some(w) = &mut self.scoring
-            && row.status == PacketStatus::Fed
+            && let Some(record) = aoa_record(&row)
         {
-            w.aoa.push(&AoaRecord {
-                ap: row.ap,
-                t_ns: row.t_ns,
-                aoa_deg: row.aoa_deg,
-            })?;
+            w.aoa.push(&record)?;
         }
         Ok(())
     }

@@ -29,6 +29,8 @@ pub struct Spooled {
     pub frames: usize,
     /// Frames after convergence.
     pub frames_converged: usize,
+    /// Frames a flight controller is sent.
+    pub frames_sent: usize,
     /// The most poses the scoring against a truth held at once, of the estimate and the truth
     /// together (0 when not scored): it reads both trajectories from files in passes, so this
     /// does not grow with the flight.

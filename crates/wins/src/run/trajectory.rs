@@ -1,4 +1,5 @@
-//! The one writer of a run's trajectories, `trajectory.tum` and `trajectory_all.tum`
+//! The one writer of a run's trajectories, `trajectory.tum`, `trajectory_all.tum` and
+//! `trajectory_sent.tum`
 //! ([`TrajectoryWriter`]): a comment header, then one TUM line per pose (`t x y z qx qy qz qw`,
 //! the format of [`crate::dataset::truth::write_tum`]), written as the poses come and flushed
 //! explicitly at the end, so that a failed write is an error and not lost when a buffer is

@@ -208,6 +208,28 @@ fn the_recording_replays_to_the_same_trajectory_and_packets_land_within_a_millis
         assert_eq!(a.p_b_in_w, b.pose.p_b_in_w);
         assert_eq!(a.world_from_body, b.pose.world_from_body);
     }
+    // What went to the flight controller is what `wins run` calls sent: the same first pose and
+    // the same poses (so the same causal figures), and none before the chain offsets' decision
+    // released the held frames in a burst.
+    let live_sent: Vec<Timestamp> = frames
+        .iter()
+        .filter(|f| f.pose.converged && f.fresh)
+        .map(|f| f.pose.t)
+        .collect();
+    let run_sent: Vec<Timestamp> = run.sent_frames().map(|f| f.t).collect();
+    assert!(live_sent.len() > 400, "{} poses sent", live_sent.len());
+    assert_eq!(run_sent, live_sent);
+    assert_eq!(run.first_sent, live_sent.first().copied());
+    let decided_s = run.chains.decided_at_s.expect("the offsets were decided");
+    let first_sent_s = live_sent[0].as_secs_f64() - run.inputs.imu.span_s.unwrap().0;
+    assert!(
+        first_sent_s >= decided_s - 0.25,
+        "first pose sent at {first_sent_s:.2} s, the offsets decided at {decided_s:.2} s"
+    );
+    assert!(
+        offline[0].t < live_sent[0],
+        "the hindsight trajectory starts before the first pose sent"
+    );
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&rec);
 }

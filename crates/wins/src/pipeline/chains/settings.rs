@@ -7,6 +7,7 @@ use crate::config::Config;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::pose::PoseEstimate;
 use crate::rig::ArrayGeometry;
+use crate::time::Timestamp;
 
 /// What the resolution did (in `stats.json` as `chain_offsets`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -65,6 +66,11 @@ pub struct Finished {
     pub timing: StageTiming,
 }
 
+/// How old a frame may be, behind the newest IMU sample pushed when it is released, to be sent
+/// to a flight controller, ns: the frames the chain-offset resolution holds come out in a burst
+/// once it decides, and a flight controller has no use for the old ones.
+pub const FRESH_NS: i64 = 250_000_000;
+
 /// What a push released: the winner's frames and packet rows (held until the decision), and
 /// IMU samples the estimator refused.
 #[derive(Clone, Debug, Default)]
@@ -75,6 +81,24 @@ pub struct Released {
     pub packets: Vec<PacketLog>,
     /// IMU samples refused.
     pub imu_refused: u64,
+    /// The newest IMU sample pushed when these were released.
+    pub newest_imu: Option<Timestamp>,
+}
+
+impl Released {
+    /// Whether `frame` (one of `frames`) is fresh: at most [`FRESH_NS`] behind the newest IMU
+    /// sample pushed when it was released.
+    pub fn is_fresh(&self, frame: &PoseEstimate) -> bool {
+        self.newest_imu
+            .is_some_and(|t| t.as_nanos().saturating_sub(frame.t.as_nanos()) <= FRESH_NS)
+    }
+
+    /// Whether `frame` (one of `frames`) is what a flight controller is sent: converged and
+    /// fresh. The poses sent are the causal estimate: each made from the inputs before it and
+    /// sent as it was made.
+    pub fn is_sent(&self, frame: &PoseEstimate) -> bool {
+        frame.converged && self.is_fresh(frame)
+    }
 }
 
 /// Whether the offsets are resolved from the flight for `config` on an array `geometry`: asked

@@ -10,11 +10,10 @@
 //! coefficients; the racks (which rows, depth, height, attenuation, where the long rows start);
 //! the AP count, then each AP; the mission; the heading; the rig.
 
-use super::mission::{FlightBox, MissionLimits, draw_mission, draw_yaw};
-use super::rig::{self, draw_rig, on_wall, wall_length};
+use super::mission::{FlightBox, MissionLimits};
+use super::rig::{self, on_wall, wall_length};
 use super::sampler::{Sampler, round_to};
 use crate::sim::Scenario;
-use crate::sim::baro::BaroConfig;
 use crate::sim::room::{ObstacleConfig, RoomConfig};
 use crate::sim::scenario::ApConfig;
 
@@ -26,8 +25,6 @@ pub(super) const APS: (usize, usize) = (1, 3);
 pub(super) const AP_Z_M: (f64, f64) = (3.0, 10.0);
 /// Share of the APs hung from the roof (the others on one of the four walls).
 const HUNG_AP_SHARE: f64 = 0.25;
-/// A wall AP's antenna stands this far off the wall, m.
-const AP_WALL_OFFSET_M: f64 = 0.05;
 /// Racks stand this far from the walls, m.
 const RACK_WALL_GAP_M: f64 = 0.3;
 /// Depth of a row of racks, m.
@@ -115,30 +112,15 @@ pub(super) fn draw(seed: u64) -> Scenario {
             FLIGHT_Z_M.1,
         ],
     };
-    let mission = draw_mission(&mut s, &flight_box, &LIMITS);
-    let target = rig::toward(&aps[0], size_m, AP_WALL_OFFSET_M);
-    let (yaw, _) = draw_yaw(&mut s, mission.kind, target);
-    let rig = draw_rig(&mut s);
-    Scenario {
-        name: format!("hall-{seed}"),
-        description: format!(
-            "a flight drawn from the hall family with seed {seed} (wins simulate --family hall \
-             --seed {seed})"
-        ),
-        seed,
-        duration_s: rig.duration_s,
-        phases: rig.phases,
-        trajectory: mission.trajectory,
-        yaw,
-        imu: rig.imu,
-        radio: rig.radio,
+    let place = rig::Place {
+        family: "hall",
         room,
-        obstacle: None,
         obstacles: racks,
-        baro: Some(BaroConfig::default()),
         aps,
-        ..Scenario::default()
-    }
+        flight_box,
+        limits: LIMITS,
+    };
+    rig::flight_in(&mut s, seed, place)
 }
 
 /// An AP 3–10 m up (and at most 0.3 m under the roof): on a wall, anywhere along it but its
@@ -155,5 +137,5 @@ fn draw_ap(s: &mut Sampler, size_m: [f64; 3]) -> [f64; 3] {
     let wall = s.index(4);
     let along = s.uniform_rounded(1.0, wall_length(wall, size_m) - 1.0, 100.0);
     let z = s.uniform_rounded(AP_Z_M.0, top, 100.0);
-    on_wall(wall, along, z, size_m, AP_WALL_OFFSET_M)
+    on_wall(wall, along, z, size_m, rig::AP_WALL_OFFSET_M)
 }

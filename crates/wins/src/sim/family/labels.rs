@@ -177,7 +177,10 @@ impl DrawnFlight {
             speed_m_s,
             duration_s: scenario.duration_s,
             obstacles: scenario.all_obstacles().len(),
-            vibration_m_s2: scenario.imu.vibration_m_s2,
+            vibration_m_s2: scenario
+                .imu
+                .vibration_model()
+                .map_or(0.0, |v| v.accel_rms_m_s2),
         }
     }
 

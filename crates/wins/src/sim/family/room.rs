@@ -5,11 +5,10 @@
 //! then each board; the mission ([`super::mission::draw_mission`]); the heading; the rig
 //! ([`super::rig::draw_rig`]).
 
-use super::mission::{FlightBox, MissionLimits, draw_mission, draw_yaw};
-use super::rig::{self, draw_rig, on_wall, wall_length};
+use super::mission::{FlightBox, MissionLimits};
+use super::rig::{self, on_wall, wall_length};
 use super::sampler::{Sampler, round_to};
 use crate::sim::Scenario;
-use crate::sim::baro::BaroConfig;
 use crate::sim::room::{ObstacleConfig, RoomConfig};
 use crate::sim::scenario::ApConfig;
 
@@ -21,8 +20,6 @@ pub(super) const APS: (usize, usize) = (1, 3);
 const CEILING_AP_SHARE: f64 = 1.0 / 3.0;
 /// An AP on the ceiling hangs this far below it, m.
 pub(super) const CEILING_AP_DROP_M: (f64, f64) = (0.05, 0.3);
-/// A wall AP's antenna stands this far off the wall, m.
-const AP_WALL_OFFSET_M: f64 = 0.05;
 /// Wall APs are at least this high, m, and this far under the ceiling.
 const WALL_AP_Z_M: (f64, f64) = (0.5, 0.1);
 /// Boards per flight.
@@ -76,30 +73,15 @@ pub(super) fn draw(seed: u64) -> Scenario {
             size_m[2] - FLIGHT_CEILING_MARGIN_M,
         ],
     };
-    let mission = draw_mission(&mut s, &flight_box, &LIMITS);
-    let target = rig::toward(&aps[0], size_m, AP_WALL_OFFSET_M);
-    let (yaw, _) = draw_yaw(&mut s, mission.kind, target);
-    let rig = draw_rig(&mut s);
-    Scenario {
-        name: format!("room-{seed}"),
-        description: format!(
-            "a flight drawn from the room family with seed {seed} (wins simulate --family room \
-             --seed {seed})"
-        ),
-        seed,
-        duration_s: rig.duration_s,
-        phases: rig.phases,
-        trajectory: mission.trajectory,
-        yaw,
-        imu: rig.imu,
-        radio: rig.radio,
+    let place = rig::Place {
+        family: "room",
         room,
-        obstacle: None,
         obstacles: boards,
-        baro: Some(BaroConfig::default()),
         aps,
-        ..Scenario::default()
-    }
+        flight_box,
+        limits: LIMITS,
+    };
+    rig::flight_in(&mut s, seed, place)
 }
 
 /// An AP on the ceiling (hung 0.05–0.3 m under it) or on a wall (0.5 m up to 0.1 m under the
@@ -116,7 +98,7 @@ fn draw_ap(s: &mut Sampler, size_m: [f64; 3]) -> [f64; 3] {
     let wall = s.index(4);
     let along = s.uniform_rounded(0.3, wall_length(wall, size_m) - 0.3, 100.0);
     let z = s.uniform_rounded(WALL_AP_Z_M.0, h - WALL_AP_Z_M.1, 100.0);
-    on_wall(wall, along, z, size_m, AP_WALL_OFFSET_M)
+    on_wall(wall, along, z, size_m, rig::AP_WALL_OFFSET_M)
 }
 
 /// A board in front of the AP at `ap_m`: for a wall AP, upright and parallel to its wall,
@@ -131,7 +113,7 @@ fn board(s: &mut Sampler, ap_m: [f64; 3], size_m: [f64; 3]) -> ObstacleConfig {
     let [x, y, z] = ap_m;
     let span = |c: f64, half: f64, axis: usize| ((c - half).max(0.0), (c + half).min(size_m[axis]));
     let gaps = [x, size_m[0] - x, y, size_m[1] - y];
-    let wall = (0..4).find(|&k| gaps[k] <= AP_WALL_OFFSET_M + 1e-9);
+    let wall = (0..4).find(|&k| gaps[k] <= rig::AP_WALL_OFFSET_M + 1e-9);
     let (min_m, max_m) = match wall {
         Some(w) => {
             let axis = w / 2;

@@ -83,7 +83,16 @@ fn check_family(family: Family, expected: &Expected) -> Vec<Draw> {
         loss.0.push(f.loss_probability);
         duration.0.push(f.duration_s);
         vibration.0.push(f.vibration_m_s2);
-        assert_eq!(sc.imu.vibration_m_s2, f.vibration_m_s2);
+        let model = sc
+            .imu
+            .vibration_model()
+            .expect("every drawn flight vibrates");
+        assert_eq!(model.accel_rms_m_s2, f.vibration_m_s2);
+        assert!(
+            (0.005..=0.03).contains(&model.gyro_rms_rad_s),
+            "gyro vibration {} rad/s",
+            model.gyro_rms_rad_s
+        );
         airborne += usize::from(f.start == Start::Air);
         assert_eq!(f.start == Start::Ground, sc.phases.is_some());
         for (k, v) in f.labels() {
