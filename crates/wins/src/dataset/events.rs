@@ -139,6 +139,19 @@ impl<'a> Events<'a> {
     }
 }
 
+impl super::Dataset {
+    /// The kept IMU samples, barometer readings (when `with_baro`) and CSI records, merged by
+    /// time as [`super::stream::DatasetStream::events`] merges them from the files.
+    pub fn events(&self, with_baro: bool) -> Events<'_> {
+        let baro = if with_baro {
+            self.baro.clone()
+        } else {
+            Vec::new()
+        };
+        Events::new(Box::new(InMemory::new(self)), baro)
+    }
+}
+
 /// A dataset in memory as [`Sources`]: each AP's records by time, then in their order in the
 /// log (the order a log read as it is consumed releases them from its reorder buffer).
 #[derive(Debug)]

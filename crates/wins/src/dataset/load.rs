@@ -5,10 +5,8 @@ use std::path::{Path, PathBuf};
 use super::baro_csv::{BaroCsvError, BaroSample};
 pub use super::checks::CsiPacket;
 use super::checks::{InputError, InputReport};
-use super::events::{Events, InMemory};
 use super::imu_csv::ImuCsvError;
 use super::manifest::{FORMAT, Manifest, VERSION};
-use super::stream::DatasetStream;
 use crate::csi::intel5300::{ReadError, Skip};
 use crate::imu::ImuSample;
 use crate::rig::{CalibrationError, ChainCalibration};
@@ -109,26 +107,6 @@ pub struct Dataset {
     pub baro: Vec<BaroSample>,
     /// What the input checks dropped, counted and found ([`super::checks`]).
     pub inputs: InputReport,
-}
-
-impl Dataset {
-    /// Loads `dir/dataset.toml` and everything it names: the checks of
-    /// [`DatasetStream::open`] (its errors, its report), then the kept samples and records read
-    /// into memory ([`DatasetStream::into_memory`]).
-    pub fn load(dir: impl AsRef<Path>) -> Result<Self, DatasetError> {
-        DatasetStream::open(dir)?.into_memory()
-    }
-
-    /// The kept IMU samples, barometer readings (when `with_baro`) and CSI records, merged by
-    /// time as [`DatasetStream::events`] merges them from the files ([`super::events`]).
-    pub fn events(&self, with_baro: bool) -> Events<'_> {
-        let baro = if with_baro {
-            self.baro.clone()
-        } else {
-            Vec::new()
-        };
-        Events::new(Box::new(InMemory::new(self)), baro)
-    }
 }
 
 /// Reads and checks `dir/dataset.toml`.

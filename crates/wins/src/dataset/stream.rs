@@ -52,6 +52,15 @@ pub struct DatasetStream {
     pub imu_span: (Timestamp, Timestamp),
 }
 
+impl Dataset {
+    /// Loads `dir/dataset.toml` and everything it names: the checks of
+    /// [`DatasetStream::open`] (its errors, its report), then the kept samples and records read
+    /// into memory ([`DatasetStream::into_memory`]).
+    pub fn load(dir: impl AsRef<Path>) -> Result<Self, DatasetError> {
+        DatasetStream::open(dir)?.into_memory()
+    }
+}
+
 impl DatasetStream {
     /// Reads `dir/dataset.toml` and checks everything it names (module docs); the same errors,
     /// in the same order, as [`super::Dataset::load`].

@@ -1,7 +1,7 @@
 //! Time association of estimated and truth poses: nearest timestamp within a tolerance, with no
 //! interpolation, as evo's `sync.associate_trajectories` does (`--t_max_diff`).
 
-use super::EvalError;
+use super::{Alignment, EvalError, EvalOptions, umeyama};
 use crate::dataset::truth::Pose;
 use crate::time::Timestamp;
 
@@ -91,6 +91,37 @@ fn nearest_matches(a: &[Timestamp], b: &[Timestamp], max_ns: i64) -> Vec<(usize,
         }
     }
     out
+}
+
+/// The association of `est` with `truth` and the alignment of the pairs' positions, after
+/// the options and both trajectories are checked.
+pub(super) fn associate_and_align(
+    est: &[Pose],
+    truth: &[Pose],
+    options: &EvalOptions,
+) -> Result<(Association, Alignment), EvalError> {
+    options.validate()?;
+    check_finite(est, "estimate")?;
+    check_finite(truth, "truth")?;
+    let association = associate(est, truth, options.max_time_diff_ns())?;
+    let (est_p, truth_p): (Vec<_>, Vec<_>) = association
+        .pairs
+        .iter()
+        .map(|&(i, j)| (est[i].p_b_in_w, truth[j].p_b_in_w))
+        .unzip();
+    let alignment = umeyama(&est_p, &truth_p)?;
+    Ok((association, alignment))
+}
+
+fn check_finite(poses: &[Pose], trajectory: &'static str) -> Result<(), EvalError> {
+    let bad = |p: &Pose| {
+        !(p.p_b_in_w.iter().all(|x| x.is_finite())
+            && p.world_from_body.coords.iter().all(|x| x.is_finite()))
+    };
+    match poses.iter().position(bad) {
+        Some(index) => Err(EvalError::NonFinite { trajectory, index }),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]

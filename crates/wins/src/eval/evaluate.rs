@@ -2,12 +2,11 @@
 
 use nalgebra::Vector3;
 
+use super::associate::associate_and_align;
 use super::records::EstRecord;
 use super::scan::TrajectoryScan;
 use super::stream::{EstSource, StreamedError, StreamedEval, TruthSource};
-use super::{
-    Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics, associate, umeyama,
-};
+use super::{Alignment, Association, EstimatedAp, EvalError, EvalOptions, Metrics};
 #[cfg(test)]
 use super::{SentMetrics, aps, drift, metrics, relative_pose_errors};
 use crate::dataset::truth::{ApRow, Pose};
@@ -166,35 +165,6 @@ fn aligned_errors(
         .iter()
         .map(|&(i, j)| iso.transform_point(&est[i].p_b_in_w.into()).coords - truth[j].p_b_in_w)
         .collect()
-}
-
-pub(super) fn associate_and_align(
-    est: &[Pose],
-    truth: &[Pose],
-    options: &EvalOptions,
-) -> Result<(Association, Alignment), EvalError> {
-    options.validate()?;
-    check_finite(est, "estimate")?;
-    check_finite(truth, "truth")?;
-    let association = associate(est, truth, options.max_time_diff_ns())?;
-    let (est_p, truth_p): (Vec<_>, Vec<_>) = association
-        .pairs
-        .iter()
-        .map(|&(i, j)| (est[i].p_b_in_w, truth[j].p_b_in_w))
-        .unzip();
-    let alignment = umeyama(&est_p, &truth_p)?;
-    Ok((association, alignment))
-}
-
-fn check_finite(poses: &[Pose], trajectory: &'static str) -> Result<(), EvalError> {
-    let bad = |p: &Pose| {
-        !(p.p_b_in_w.iter().all(|x| x.is_finite())
-            && p.world_from_body.coords.iter().all(|x| x.is_finite()))
-    };
-    match poses.iter().position(bad) {
-        Some(index) => Err(EvalError::NonFinite { trajectory, index }),
-        None => Ok(()),
-    }
 }
 
 #[cfg(test)]

@@ -18,7 +18,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{EvalError, EvalOptions, evaluate::associate_and_align};
+use super::associate::associate_and_align;
+use super::{EvalError, EvalOptions};
 use crate::chi2::chi2_upper;
 use crate::dataset::truth::Pose;
 

@@ -11,15 +11,12 @@ use super::figures::{AoaSeries, RunFigures};
 use super::output::TRUTH_PAIR_NS;
 use super::run_output::{Evaluation, RunOutput};
 use super::scoring_truth::ScoringTruth;
-use super::spool::ScoringSpool;
-use super::trajectory::pose_of;
+use super::spool::{ScoringSpool, aoa_record, est_record};
 use crate::dataset::truth::Truth;
 use crate::eval::records::{AoaRecord, EstRecord, read_records};
 use crate::eval::scan::TrajectoryScan;
 use crate::eval::stream::{EstSource, StreamedError, StreamedEval};
 use crate::eval::{EvalError, EvalOptions, Metrics, SentMetrics};
-use crate::fusion::pose::PoseEstimate;
-use crate::pipeline::{PacketLog, PacketStatus};
 use crate::time::Timestamp;
 
 /// The poses the merge-join of the estimate and the truth holds: one of the driving trajectory,
@@ -51,25 +48,6 @@ enum AoaSource<'a> {
     File(&'a Path, usize),
     /// Records in memory.
     Records(&'a [AoaRecord]),
-}
-
-/// The scoring's record of a frame: a converged one's pose and position covariance.
-pub(crate) fn est_record(frame: &PoseEstimate) -> Option<EstRecord> {
-    frame.converged.then(|| EstRecord {
-        pose: pose_of(frame),
-        position_covariance: frame
-            .covariance
-            .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned()),
-    })
-}
-
-/// The scoring's record of a packet row: a fed packet's AoA.
-pub(crate) fn aoa_record(row: &PacketLog) -> Option<AoaRecord> {
-    (row.status == PacketStatus::Fed).then_some(AoaRecord {
-        ap: row.ap,
-        t_ns: row.t_ns,
-        aoa_deg: row.aoa_deg,
-    })
 }
 
 impl<'a> ScoringEstimate<'a> {

@@ -16,14 +16,13 @@ use super::output::{
     AOA_FILE, COVARIANCE_FILE, TRAJECTORY_ALL_FILE, TRAJECTORY_FILE, TRAJECTORY_SENT_FILE,
     write_covariance_header, write_covariance_row,
 };
-use super::scoring::{aoa_record, est_record};
 use super::spooled::SpoolFiles;
 pub use super::spooled::Spooled;
 use super::trajectory::{TrajectoryWriter, pose_of};
-use crate::eval::records::RecordWriter;
+use crate::eval::records::{AoaRecord, EstRecord, RecordWriter};
 use crate::eval::scan::TrajectoryScan;
 use crate::fusion::pose::PoseEstimate;
-use crate::pipeline::PacketLog;
+use crate::pipeline::{PacketLog, PacketStatus};
 
 /// Prefix of a spool file in the output folder.
 pub const SPOOL_PREFIX: &str = ".wins-spool-";
@@ -161,6 +160,25 @@ impl Spool {
         };
         Ok((self.kept, scoring))
     }
+}
+
+/// The scoring's record of a frame: a converged one's pose and position covariance.
+pub(crate) fn est_record(frame: &PoseEstimate) -> Option<EstRecord> {
+    frame.converged.then(|| EstRecord {
+        pose: pose_of(frame),
+        position_covariance: frame
+            .covariance
+            .map(|c| c.fixed_view::<3, 3>(3, 3).into_owned()),
+    })
+}
+
+/// The scoring's record of a packet row: a fed packet's AoA.
+pub(crate) fn aoa_record(row: &PacketLog) -> Option<AoaRecord> {
+    (row.status == PacketStatus::Fed).then_some(AoaRecord {
+        ap: row.ap,
+        t_ns: row.t_ns,
+        aoa_deg: row.aoa_deg,
+    })
 }
 
 impl RunSink for Spool {
