@@ -49,14 +49,14 @@ impl SlidingWindow {
     pub(super) fn gyro_active(&self) -> bool {
         self.config.estimate_gyro_bias
             && self.config.adaptive_weights
-            && self.converged_at.is_some()
+            && self.health.converged_at.is_some()
     }
 
     /// Where frame `f`'s rows to AP `l` are linearized (module doc of [`super`]): the algebraic
     /// row with the initial range until converged, then the angle at the current solution.
     fn aoa_point(&self, f: &Frame, l: usize) -> AoaPoint {
         let c = &self.config;
-        if self.converged_at.is_none() || !c.adaptive_weights {
+        if self.health.converged_at.is_none() || !c.adaptive_weights {
             return AoaPoint::Range(c.initial_range_m);
         }
         let ap = self.border.fixed_rows::<3>(ap_offset(l));
@@ -160,7 +160,7 @@ impl SlidingWindow {
         if n == 0 {
             return sys;
         }
-        sys.add_prior(&self.prior_h, &self.prior_b);
+        sys.add_prior(&self.prior.h, &self.prior.b);
         let last = if only_first { 1 } else { n };
         for k in 0..last {
             if k + 1 < n

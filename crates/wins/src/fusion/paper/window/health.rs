@@ -32,7 +32,7 @@ impl SlidingWindow {
             self.border.fixed_rows_mut::<3>(ap_offset(l)).copy_from(a);
         }
         self.solved_once = true;
-        self.converged_at = self.frames.back().map(|f| f.t);
+        self.health.converged_at = self.frames.back().map(|f| f.t);
         self.iterate(iterations.max(1))
     }
 
@@ -49,7 +49,7 @@ impl SlidingWindow {
             self.gyro_bias_rad_s,
         );
         let t = self.frames.back().map(|f| f.t);
-        self.converged_at = t;
+        self.health.converged_at = t;
         let result = self.iterate(self.config.iterations_at_convergence.max(1));
         if result.is_ok() && self.plausible() {
             return Ok(());
@@ -61,13 +61,13 @@ impl SlidingWindow {
         self.border = border;
         self.border_covariance = cov;
         self.gyro_bias_rad_s = gyro;
-        self.converged_at = None;
-        self.rejected_candidates += 1;
+        self.health.converged_at = None;
+        self.health.rejected_candidates += 1;
         let c = &self.config;
-        let doublings = self.rejected_candidates.saturating_sub(2).min(16) as i32;
+        let doublings = self.health.rejected_candidates.saturating_sub(2).min(16) as i32;
         let wait_s = (c.convergence_retry_s * 2f64.powi(doublings))
             .min(c.convergence_retry_max_s.max(c.convergence_retry_s));
-        self.retry_after = t.map(|t| Timestamp(t.0 + (wait_s * 1e9).round() as i64));
+        self.health.retry_after = t.map(|t| Timestamp(t.0 + (wait_s * 1e9).round() as i64));
         result
     }
 
@@ -104,13 +104,14 @@ impl SlidingWindow {
     /// Whether the converged estimate has been lost (see [`super::WindowConfig::lost_residual_rms`]);
     /// checked after every solve, the caller starts a new window.
     pub fn is_lost(&self) -> bool {
-        self.converged_at.is_some() && self.misfit_in_row >= self.config.lost_after_frames.max(1)
+        self.health.converged_at.is_some()
+            && self.health.misfit_in_row >= self.config.lost_after_frames.max(1)
     }
 
     /// Converged frames in a row, up to now, whose bearings did not fit (0 when the last one
     /// did; see [`super::WindowConfig::lost_residual_rms`]).
     pub fn misfit_frames(&self) -> usize {
-        self.misfit_in_row
+        self.health.misfit_in_row
     }
 
     /// Updates the lost test after a converged solve.
@@ -123,20 +124,20 @@ impl SlidingWindow {
                 .all(|f| f.x.iter().all(|v| v.is_finite()));
         let in_range = self.ap_ranges_m().iter().all(|r| *r <= c.range_limits_m.1);
         if !finite || !in_range {
-            self.misfit_in_row = usize::MAX;
+            self.health.misfit_in_row = usize::MAX;
         } else if self
             .aoa_residual_rms()
             .is_some_and(|rms| rms > c.lost_residual_rms)
         {
-            self.misfit_in_row = self.misfit_in_row.saturating_add(1);
+            self.health.misfit_in_row = self.health.misfit_in_row.saturating_add(1);
         } else {
-            self.misfit_in_row = 0;
+            self.health.misfit_in_row = 0;
         }
     }
 
     /// Candidate convergences rejected as implausible so far.
     pub fn rejected_candidates(&self) -> u64 {
-        self.rejected_candidates
+        self.health.rejected_candidates
     }
 
     /// Root mean square of the AoA rows' residuals over the window, each in units of its σ, as

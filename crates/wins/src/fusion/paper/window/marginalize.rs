@@ -30,8 +30,8 @@ impl SlidingWindow {
         let k = h0r.transpose() * &inv00;
         let mut new_h = hrr - &k * &h0r;
         new_h = (&new_h + new_h.transpose()) * 0.5;
-        self.prior_b = br - &k * b0;
-        self.prior_h = new_h;
+        self.prior.b = br - &k * b0;
+        self.prior.h = new_h;
         self.frames.pop_front();
         self.marginalized += 1;
     }

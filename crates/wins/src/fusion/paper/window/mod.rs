@@ -94,21 +94,36 @@ pub struct SlidingWindow {
     frames: VecDeque<Frame>,
     num_aps: usize,
     /// Prior over `[first frame, border]` in information form (border may be shorter than now).
-    prior_h: DMatrix<f64>,
-    prior_b: DVector<f64>,
+    prior: InformationPrior,
     border: DVector<f64>,
     border_covariance: DMatrix<f64>,
     gyro_bias_rad_s: Vector3<f64>,
     solved_once: bool,
+    /// Convergence and its checks.
+    health: Health,
+    /// Frames added since the last solve (before convergence not every frame is solved).
+    unsolved_frames: usize,
+    marginalized: usize,
+}
+
+/// A prior in information form: `H`, `b`.
+#[derive(Clone, Debug)]
+struct InformationPrior {
+    h: DMatrix<f64>,
+    b: DVector<f64>,
+}
+
+/// The window's convergence and its checks.
+#[derive(Clone, Debug, Default)]
+struct Health {
+    /// When the window converged.
     converged_at: Option<Timestamp>,
     /// No candidate convergence before this (after a rejected one).
     retry_after: Option<Timestamp>,
+    /// Candidate convergences rejected.
     rejected_candidates: u64,
-    /// Frames added since the last solve (before convergence not every frame is solved).
-    unsolved_frames: usize,
     /// Converged frames in a row whose bearings did not fit (see `lost_residual_rms`).
     misfit_in_row: usize,
-    marginalized: usize,
 }
 
 impl SlidingWindow {
@@ -119,16 +134,15 @@ impl SlidingWindow {
             start: None,
             frames: VecDeque::new(),
             num_aps: 0,
-            prior_h: DMatrix::zeros(0, 0),
-            prior_b: DVector::zeros(0),
+            prior: InformationPrior {
+                h: DMatrix::zeros(0, 0),
+                b: DVector::zeros(0),
+            },
             border: DVector::zeros(BIAS_DIM),
             border_covariance: DMatrix::zeros(BIAS_DIM, BIAS_DIM),
             gyro_bias_rad_s: Vector3::zeros(),
             solved_once: false,
-            converged_at: None,
-            retry_after: None,
-            rejected_candidates: 0,
-            misfit_in_row: 0,
+            health: Health::default(),
             unsolved_frames: 0,
             marginalized: 0,
         }
@@ -172,25 +186,25 @@ impl SlidingWindow {
         let first = self.frames.is_empty() && self.marginalized == 0;
         if first {
             let dim = FRAME_DIM + BIAS_DIM;
-            self.prior_h = DMatrix::zeros(dim, dim);
-            self.prior_b = DVector::zeros(dim);
+            self.prior.h = DMatrix::zeros(dim, dim);
+            self.prior.b = DVector::zeros(dim);
             let c = &self.config;
             for i in 0..3 {
-                self.prior_h[(i, i)] = c.gauge_sigma_m.powi(-2);
-                self.prior_h[(3 + i, 3 + i)] = c.prior_velocity_sigma_m_s.powi(-2);
-                self.prior_h[(6 + i, 6 + i)] = c.prior_gravity_sigma_m_s2.powi(-2);
-                self.prior_h[(9 + i, 9 + i)] = c.prior_accel_bias_sigma_m_s2.powi(-2);
-                self.prior_h[(12 + i, 12 + i)] = c.prior_gyro_bias_sigma_rad_s.powi(-2);
+                self.prior.h[(i, i)] = c.gauge_sigma_m.powi(-2);
+                self.prior.h[(3 + i, 3 + i)] = c.prior_velocity_sigma_m_s.powi(-2);
+                self.prior.h[(6 + i, 6 + i)] = c.prior_gravity_sigma_m_s2.powi(-2);
+                self.prior.h[(9 + i, 9 + i)] = c.prior_accel_bias_sigma_m_s2.powi(-2);
+                self.prior.h[(12 + i, 12 + i)] = c.prior_gyro_bias_sigma_rad_s.powi(-2);
             }
             if let Some(s) = self.start {
                 for i in 0..3 {
                     let hv = s.velocity_sigma_m_s.powi(-2);
                     let hg = s.gravity_sigma_m_s2.powi(-2);
-                    self.prior_h[(3 + i, 3 + i)] = hv;
-                    self.prior_h[(6 + i, 6 + i)] = hg;
-                    self.prior_b[3 + i] = hv * s.velocity_in_b0[i];
-                    self.prior_b[6 + i] = hg * s.gravity_in_b0[i];
-                    self.prior_b[12 + i] = self.prior_h[(12 + i, 12 + i)] * s.gyro_bias_rad_s[i];
+                    self.prior.h[(3 + i, 3 + i)] = hv;
+                    self.prior.h[(6 + i, 6 + i)] = hg;
+                    self.prior.b[3 + i] = hv * s.velocity_in_b0[i];
+                    self.prior.b[6 + i] = hg * s.gravity_in_b0[i];
+                    self.prior.b[12 + i] = self.prior.h[(12 + i, 12 + i)] * s.gyro_bias_rad_s[i];
                 }
                 self.border
                     .fixed_rows_mut::<3>(3)
@@ -235,12 +249,12 @@ impl SlidingWindow {
 
     fn add_ap(&mut self) {
         self.num_aps += 1;
-        let old = self.prior_h.nrows();
+        let old = self.prior.h.nrows();
         let new = old + 3;
-        self.prior_h = self.prior_h.clone().resize(new, new, 0.0);
-        self.prior_b = self.prior_b.clone().resize_vertically(new, 0.0);
+        self.prior.h = self.prior.h.clone().resize(new, new, 0.0);
+        self.prior.b = self.prior.b.clone().resize_vertically(new, 0.0);
         for i in old..new {
-            self.prior_h[(i, i)] = self.config.prior_ap_sigma_m.powi(-2);
+            self.prior.h[(i, i)] = self.config.prior_ap_sigma_m.powi(-2);
         }
         self.border = self
             .border
@@ -252,7 +266,7 @@ impl SlidingWindow {
     /// convergence and [`WindowConfig::converged_solve_every`] after), then marginalizes frames
     /// beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), FrameError> {
-        let was_converged = self.converged_at.is_some();
+        let was_converged = self.health.converged_at.is_some();
         // Every `startup_solve_every` frames, and at most once per 2 % of the window's length
         // (a long startup would otherwise cost O(n²)).
         let every = self
@@ -284,7 +298,7 @@ impl SlidingWindow {
             && !was_converged
             && self.num_aps > 0
             && self.max_ap_sigma_m() < self.config.converged_ap_sigma_m
-            && t.zip(self.retry_after).is_none_or(|(t, r)| t >= r)
+            && t.zip(self.health.retry_after).is_none_or(|(t, r)| t >= r)
         {
             result = self.try_converge();
         }
@@ -296,7 +310,7 @@ impl SlidingWindow {
     /// Marginalizes the oldest frames beyond the window's length (the startup's while not
     /// converged).
     fn trim(&mut self) {
-        let keep = if self.converged_at.is_some() {
+        let keep = if self.health.converged_at.is_some() {
             self.config.max_frames
         } else {
             self.config.max_startup_frames.max(self.config.max_frames)

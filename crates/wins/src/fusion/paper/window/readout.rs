@@ -27,7 +27,7 @@ impl SlidingWindow {
 
     /// When the estimate first converged (module doc), if it has.
     pub fn converged_at(&self) -> Option<Timestamp> {
-        self.converged_at
+        self.health.converged_at
     }
 
     /// Frames in the window, oldest first.
