@@ -1,6 +1,8 @@
 //! Time association of estimated and truth poses: nearest timestamp within a tolerance, with no
 //! interpolation, as evo's `sync.associate_trajectories` does (`--t_max_diff`).
 
+use std::io;
+
 use super::{Alignment, EvalError, EvalOptions, umeyama};
 use crate::dataset::truth::Pose;
 use crate::time::Timestamp;
@@ -122,6 +124,44 @@ fn check_finite(poses: &[Pose], trajectory: &'static str) -> Result<(), EvalErro
         Some(index) => Err(EvalError::NonFinite { trajectory, index }),
         None => Ok(()),
     }
+}
+
+/// For each item of `a` (in time order), the item of `b` (in time order) nearest in time when at
+/// most `max_ns` away, to `f`: [`super::associate`]'s rule (the later neighbour only when
+/// strictly nearer), reading `b` once alongside `a`: the association of the evaluation in passes.
+pub(super) fn nearest<A, B>(
+    a: impl Iterator<Item = io::Result<(Timestamp, A)>>,
+    b: impl Iterator<Item = io::Result<(Timestamp, B)>>,
+    max_ns: i64,
+    mut f: impl FnMut(&A, &B),
+) -> io::Result<()> {
+    let mut b = b.peekable();
+    let mut lower: Option<(Timestamp, B)> = None;
+    for item in a {
+        let (t, x) = item?;
+        while let Some(next) = b.next_if(|r| matches!(r, Ok((tb, _)) if *tb <= t)) {
+            lower = Some(next?);
+        }
+        let upper = match b.peek() {
+            Some(Ok(u)) => Some(u),
+            Some(Err(_)) => return b.next().map_or(Ok(()), |r| r.map(|_| ())),
+            None => None,
+        };
+        let diff_lower = lower.as_ref().map(|(tb, _)| t.0 - tb.0);
+        let diff_upper = upper.map(|(tb, _)| tb.0 - t.0);
+        let best = match (diff_lower, diff_upper) {
+            (Some(lo), Some(up)) if up < lo => upper.map(|(_, y)| (y, up)),
+            (Some(lo), _) => lower.as_ref().map(|(_, y)| (y, lo)),
+            (None, Some(up)) => upper.map(|(_, y)| (y, up)),
+            (None, None) => None,
+        };
+        if let Some((y, diff)) = best
+            && diff <= max_ns
+        {
+            f(&x, y);
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

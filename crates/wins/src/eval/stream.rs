@@ -13,6 +13,7 @@ use std::path::Path;
 use nalgebra::{Isometry3, Translation3};
 
 use super::align::{UmeyamaCross, UmeyamaMeans};
+use super::associate::nearest;
 use super::drift::{DRIFT_WINDOW_S, SECONDS_PER_MINUTE, heading_error_rad, unwrap_step};
 use super::metrics;
 use super::nees::{NEES_95_3DOF, NeesSummary, nees};
@@ -415,44 +416,6 @@ pub(crate) fn truth_poses(path: &Path) -> io::Result<impl Iterator<Item = io::Re
     let name = path.display().to_string();
     Ok(tum_poses(io::BufReader::new(file))
         .map(move |r| r.map_err(|e| io::Error::other(format!("{name}: {e}")))))
-}
-
-/// For each item of `a` (in time order), the item of `b` (in time order) nearest in time when at
-/// most `max_ns` away, to `f`: [`super::associate`]'s rule (the later neighbour only when
-/// strictly nearer), reading `b` once alongside `a`.
-fn nearest<A, B>(
-    a: impl Iterator<Item = io::Result<(Timestamp, A)>>,
-    b: impl Iterator<Item = io::Result<(Timestamp, B)>>,
-    max_ns: i64,
-    mut f: impl FnMut(&A, &B),
-) -> io::Result<()> {
-    let mut b = b.peekable();
-    let mut lower: Option<(Timestamp, B)> = None;
-    for item in a {
-        let (t, x) = item?;
-        while let Some(next) = b.next_if(|r| matches!(r, Ok((tb, _)) if *tb <= t)) {
-            lower = Some(next?);
-        }
-        let upper = match b.peek() {
-            Some(Ok(u)) => Some(u),
-            Some(Err(_)) => return b.next().map_or(Ok(()), |r| r.map(|_| ())),
-            None => None,
-        };
-        let diff_lower = lower.as_ref().map(|(tb, _)| t.0 - tb.0);
-        let diff_upper = upper.map(|(tb, _)| tb.0 - t.0);
-        let best = match (diff_lower, diff_upper) {
-            (Some(lo), Some(up)) if up < lo => upper.map(|(_, y)| (y, up)),
-            (Some(lo), _) => lower.as_ref().map(|(_, y)| (y, lo)),
-            (None, Some(up)) => upper.map(|(_, y)| (y, up)),
-            (None, None) => None,
-        };
-        if let Some((y, diff)) = best
-            && diff <= max_ns
-        {
-            f(&x, y);
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]
