@@ -288,22 +288,11 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     };
     let scenario = match (&draw, &args.scenario_file) {
         (Some(d), _) => d.scenario.clone(),
-        (None, file) => {
-            let mut scenario = match file {
-                Some(path) => Scenario::from_file(path)?,
-                None => Scenario::built_in(&args.scenario)?,
-            };
-            if let Some(seed) = args.seed {
-                scenario.seed = seed;
-            }
-            if let Some(d) = args.duration {
-                scenario.duration_s = d;
-            }
-            if args.airborne {
-                scenario = scenario.airborne();
-            }
-            scenario
+        (None, file) => match file {
+            Some(path) => Scenario::from_file(path)?,
+            None => Scenario::built_in(&args.scenario)?,
         }
+        .with_overrides(args.seed, args.duration, args.airborne),
     };
     let Some(dir) = args.out else {
         anyhow::bail!("--out is required");

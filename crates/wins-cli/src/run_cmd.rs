@@ -88,16 +88,8 @@ pub fn run(args: RunArgs) -> Result<()> {
 }
 
 pub fn demo(args: DemoArgs) -> Result<()> {
-    let mut scenario = Scenario::built_in(&args.scenario)?;
-    if let Some(seed) = args.seed {
-        scenario.seed = seed;
-    }
-    if let Some(d) = args.duration {
-        scenario.duration_s = d;
-    }
-    if args.airborne {
-        scenario = scenario.airborne();
-    }
+    let scenario =
+        Scenario::built_in(&args.scenario)?.with_overrides(args.seed, args.duration, args.airborne);
     let data_dir = args.out.join("dataset");
     let config = load_config(args.config.as_deref())?;
     let inputs = RunInputs {

@@ -147,13 +147,14 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
 
 fn merge(args: MergeArgs) -> Result<()> {
     sweep::prepare_out_dir(&args.out)?;
+    let merged = sweep::merge_dirs(&args.dirs)?;
+    let mut files = merged.write(&args.out)?;
     let Merged {
         record,
-        columns,
         rows,
         summary,
-    } = sweep::merge_dirs(&args.dirs)?;
-    let mut files = sweep::write_outputs(&args.out, &record, &columns, &rows, &summary)?;
+        ..
+    } = merged;
     let scenarios = sweep::copy_scenario_files(&args.dirs, &args.out)?;
     files.extend(draw_or_warn(&args.out, &summary, &rows));
     let mut stdout = std::io::stdout().lock();

@@ -204,6 +204,23 @@ impl Scenario {
         self
     }
 
+    /// The scenario with a user's overrides: its master `seed` and `duration_s` when given, and
+    /// started in the air ([`Scenario::airborne`]) when `airborne`.
+    pub fn with_overrides(
+        mut self,
+        seed: Option<u64>,
+        duration_s: Option<f64>,
+        airborne: bool,
+    ) -> Self {
+        if let Some(seed) = seed {
+            self.seed = seed;
+        }
+        if let Some(d) = duration_s {
+            self.duration_s = d;
+        }
+        if airborne { self.airborne() } else { self }
+    }
+
     /// The built-in scenario `name`, parsed and validated.
     pub fn built_in(name: &str) -> Result<Self, ScenarioError> {
         let text = built_in_toml(name)?;

@@ -38,6 +38,14 @@ pub fn read_plan(dir: &Path) -> Result<PlanRecord, SweepError> {
     })
 }
 
+impl Merged {
+    /// Writes the merged sweep's outputs into `out` ([`super::write_outputs`]); returns the files
+    /// written.
+    pub fn write(&self, out: &Path) -> Result<Vec<PathBuf>, SweepError> {
+        super::write_outputs(out, &self.record, &self.columns, &self.rows, &self.summary)
+    }
+}
+
 /// Joins the sweeps in `dirs` (each with `plan.json` and `runs.csv`). Refuses directories of
 /// different plans (saying what differs), a run found twice (and where), a run not in the
 /// plan, and runs of the plan found nowhere (which, and which shards would have run them).

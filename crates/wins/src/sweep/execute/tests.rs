@@ -101,14 +101,7 @@ fn a_sweep_gives_the_same_rows_on_any_threads_and_shards() {
     let merged = merge_dirs(&shards).unwrap();
     let out = root.join("merged");
     prepare_out_dir(&out).unwrap();
-    write_outputs(
-        &out,
-        &merged.record,
-        &merged.columns,
-        &merged.rows,
-        &merged.summary,
-    )
-    .unwrap();
+    merged.write(&out).unwrap();
     assert_eq!(without_wall(&one), without_wall(&out));
     assert_eq!(summary(&one), summary(&out));
     std::fs::remove_dir_all(&root).unwrap();

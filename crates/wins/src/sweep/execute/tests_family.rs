@@ -115,14 +115,7 @@ fn a_family_sweep_writes_its_labels_scenarios_and_breakdowns() {
     let merged = merge_dirs(&shards).unwrap();
     let out = root.join("merged");
     prepare_out_dir(&out).unwrap();
-    write_outputs(
-        &out,
-        &merged.record,
-        &merged.columns,
-        &merged.rows,
-        &merged.summary,
-    )
-    .unwrap();
+    merged.write(&out).unwrap();
     let copied = copy_scenario_files(&shards, &out).unwrap();
     assert_eq!(
         copied,

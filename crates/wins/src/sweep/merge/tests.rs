@@ -84,14 +84,7 @@ fn shards_merge_into_the_unsharded_outputs() {
     assert_eq!(merged.record.shard, None);
     assert_eq!(merged.rows.len(), 10);
     let out = temp_dir("merge-out");
-    write_outputs(
-        &out,
-        &merged.record,
-        &merged.columns,
-        &merged.rows,
-        &merged.summary,
-    )
-    .unwrap();
+    merged.write(&out).unwrap();
     for file in [RUNS_FILE, super::super::SUMMARY_FILE, PLAN_FILE] {
         let a = std::fs::read(whole.join(file)).unwrap();
         let b = std::fs::read(out.join(file)).unwrap();
