@@ -129,8 +129,11 @@ impl RunOutput {
         let poses: Vec<EstRecord> = self.frames.iter().filter_map(est_record).collect();
         let sent: Vec<EstRecord> = self.sent_frames().filter_map(est_record).collect();
         let aoa: Vec<AoaRecord> = self.packets.iter().filter_map(aoa_record).collect();
-        let scan_of =
-            |r: &[EstRecord]| TrajectoryScan::of(&r.iter().map(|r| r.pose).collect::<Vec<_>>());
+        let scan_of = |records: &[EstRecord]| {
+            let mut scan = TrajectoryScan::default();
+            records.iter().for_each(|r| scan.push(&r.pose));
+            scan
+        };
         let (scan, sent_scan) = (scan_of(&poses), scan_of(&sent));
         f(
             self,

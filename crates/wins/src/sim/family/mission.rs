@@ -38,6 +38,16 @@ impl FlightBox {
     fn extent(&self, axis: usize) -> f64 {
         self.max_m[axis] - self.min_m[axis]
     }
+
+    /// A centre drawn for a path reaching `half_x`, `half_y` from it: inside the box by those in
+    /// x and y, anywhere in z (x, then y, then z drawn).
+    fn centre(&self, s: &mut Sampler, half_x: f64, half_y: f64) -> [f64; 3] {
+        [
+            s.uniform_rounded(self.min_m[0] + half_x, self.max_m[0] - half_x, 100.0),
+            s.uniform_rounded(self.min_m[1] + half_y, self.max_m[1] - half_y, 100.0),
+            s.uniform_rounded(self.min_m[2], self.max_m[2], 100.0),
+        ]
+    }
 }
 
 /// What a family allows a mission.
@@ -89,11 +99,7 @@ fn circle(s: &mut Sampler, b: &FlightBox, lim: &MissionLimits, speed: f64) -> Tr
     let r_need = ceil_to(speed * speed / lim.accel_m_s2, 100.0);
     let radius_m = s.uniform_rounded(r_need.max(lim.radius_m.0), r_fit, 100.0);
     TrajectoryConfig::Circle {
-        center_m: [
-            s.uniform_rounded(b.min_m[0] + radius_m, b.max_m[0] - radius_m, 100.0),
-            s.uniform_rounded(b.min_m[1] + radius_m, b.max_m[1] - radius_m, 100.0),
-            s.uniform_rounded(b.min_m[2], b.max_m[2], 100.0),
-        ],
+        center_m: b.centre(s, radius_m, radius_m),
         radius_m,
         speed_m_s: speed,
         start_angle_deg: s.uniform_rounded(0.0, 359.0, 1.0),
@@ -101,8 +107,9 @@ fn circle(s: &mut Sampler, b: &FlightBox, lim: &MissionLimits, speed: f64) -> Tr
     }
 }
 
-/// A figure-eight: half-length `L` along x (at least twice the smallest radius), half-width `W` in [0.3, 0.6]·L; its period from the
-/// drawn peak speed `ω·√(L² + 4W²)`, lowered when `ω²·√(L² + 16W²)` would pass the cap.
+/// A figure-eight: half-length `L` along x (at least twice the smallest radius), half-width `W`
+/// in [0.3, 0.6]·L; its period from the drawn peak speed `ω·√(L² + 4W²)`, lowered when
+/// `ω²·√(L² + 16W²)` would pass the cap.
 fn figure_eight(
     s: &mut Sampler,
     b: &FlightBox,
@@ -118,13 +125,8 @@ fn figure_eight(
     let path_scale = (l2 + 4.0 * w2).sqrt();
     let speed_cap = (lim.accel_m_s2 * (l2 + 4.0 * w2) / (l2 + 16.0 * w2).sqrt()).sqrt();
     let speed = speed.min(speed_cap);
-    let (ox, oy) = (half_length_m, half_width_m);
     TrajectoryConfig::FigureEight {
-        center_m: [
-            s.uniform_rounded(b.min_m[0] + ox, b.max_m[0] - ox, 100.0),
-            s.uniform_rounded(b.min_m[1] + oy, b.max_m[1] - oy, 100.0),
-            s.uniform_rounded(b.min_m[2], b.max_m[2], 100.0),
-        ],
+        center_m: b.centre(s, half_length_m, half_width_m),
         half_length_m,
         half_width_m,
         // Rounded up: the flown speed is at most the drawn one.
