@@ -82,7 +82,7 @@ struct SimulateArgs {
     #[arg(long, value_name = "NAME", conflicts_with_all = ["scenario", "scenario_file"])]
     family: Option<String>,
     /// Output directory (created; existing files in it are replaced).
-    #[arg(long, short, required_unless_present_any = ["print_scenario", "list", "list_families"])]
+    #[arg(long, short, required_unless_present_any = ["print_scenario", "print", "list", "list_families"])]
     out: Option<PathBuf>,
     /// Override the scenario's master seed (with --family: the seed the flight is drawn from).
     #[arg(long)]
@@ -97,6 +97,10 @@ struct SimulateArgs {
     /// Print a built-in scenario's TOML and exit.
     #[arg(long, value_name = "NAME", conflicts_with = "out")]
     print_scenario: Option<String>,
+    /// Print the scenario this command would fly (the built-in, the file, or the family's draw
+    /// for --seed, with --duration and --airborne applied) as TOML, and exit.
+    #[arg(long, conflicts_with_all = ["out", "print_scenario"])]
+    print: bool,
     /// List the built-in scenarios and the flight families and exit.
     #[arg(long, conflicts_with = "out")]
     list: bool,
@@ -294,6 +298,13 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         }
         .with_overrides(args.seed, args.duration, args.airborne),
     };
+    if args.print {
+        match &draw {
+            Some(d) => write!(out, "{}", d.scenario_toml()?)?,
+            None => write!(out, "{}", scenario.to_toml()?)?,
+        }
+        return Ok(());
+    }
     let Some(dir) = args.out else {
         anyhow::bail!("--out is required");
     };

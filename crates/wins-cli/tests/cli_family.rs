@@ -83,6 +83,24 @@ fn a_drawn_flight_flies_again_from_its_scenario_file() {
     for (path, bytes) in &first {
         assert!(&second[path] == bytes, "{} differs", path.display());
     }
+    // `--print` prints the same scenario file without simulating it.
+    let printed = wins(
+        &root,
+        &[
+            "simulate",
+            "--family",
+            "room",
+            "--seed",
+            "11",
+            "--duration",
+            "20",
+            "--print",
+        ],
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&printed.stdout),
+        std::fs::read_to_string(&scenario).unwrap()
+    );
 
     // The families are listed; an unknown one is refused with them.
     let list = wins(&root, &["simulate", "--list-families"]);

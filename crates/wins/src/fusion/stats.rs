@@ -2,7 +2,7 @@
 //! estimator.
 
 /// What the estimator has seen and skipped.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct EstimatorStats {
     /// IMU samples integrated.
     pub imu_samples: u64,
@@ -31,4 +31,9 @@ pub struct EstimatorStats {
     /// Keyframes held at zero velocity: taken while the IMU was still, on the ground
     /// ([`crate::fusion::nonlinear::start::still`]).
     pub still_keyframes: u64,
+    /// The largest accelerometer white density integrated with, m/s²/√Hz: the dataset's, or
+    /// what the samples showed when more ([`crate::imu::noise_meter`]); 0 when not measured.
+    pub imu_accel_density_max_m_s2_sqrt_hz: f64,
+    /// The same for the gyro, rad/s/√Hz.
+    pub imu_gyro_density_max_rad_s_sqrt_hz: f64,
 }

@@ -3,11 +3,13 @@
 
 pub(crate) mod biases;
 pub mod gap;
+pub mod noise_meter;
 pub mod preintegration;
 pub(crate) mod sample;
 
 pub use biases::ImuBiases;
 pub use gap::ImuGap;
+pub use noise_meter::NoiseMeter;
 pub use preintegration::{Preintegrated, PreintegrationError, Preintegrator};
 pub use sample::ImuSample;
 

@@ -267,6 +267,17 @@ impl Preintegrator {
         gap.is_gap(s.t.secs_since(last.t)).then_some(last.t)
     }
 
+    /// Sets the white-noise densities, used from the next sample on (the covariance already
+    /// integrated keeps the densities it was integrated with); the random walks are not used here.
+    pub fn set_noise(&mut self, noise: ImuNoise) {
+        self.noise = noise;
+    }
+
+    /// The noise densities in use.
+    pub fn noise(&self) -> &ImuNoise {
+        &self.noise
+    }
+
     /// The bias estimate used from the next interval on.
     pub fn bias(&self) -> ImuBiases {
         self.bias

@@ -204,6 +204,14 @@ impl Scenario {
         self
     }
 
+    /// The same flight without rotor vibration on its IMU (`[imu.vibration]` and the deprecated
+    /// `vibration_m_s2` dropped): the IMU's own noise alone, for checks of one component.
+    pub fn without_vibration(mut self) -> Self {
+        self.imu.vibration = None;
+        self.imu.vibration_m_s2 = 0.0;
+        self
+    }
+
     /// The scenario with a user's overrides: its master `seed` and `duration_s` when given, and
     /// started in the air ([`Scenario::airborne`]) when `airborne`.
     pub fn with_overrides(

@@ -38,7 +38,8 @@ struct Flight {
 fn paper_circle(duration_s: f64) -> Flight {
     let mut s = Scenario::built_in("paper-circle")
         .expect("built in")
-        .airborne();
+        .airborne()
+        .without_vibration();
     s.duration_s = duration_s;
     s.imu.rate_hz = IMU_RATE_HZ;
     s.imu.model = ImuModel::Ideal;

@@ -220,7 +220,10 @@ fn max_position_error(w: &NonlinearWindow, truth: &[NavState]) -> f64 {
 }
 
 fn airborne(name: &str) -> Scenario {
-    Scenario::built_in(name).unwrap().airborne()
+    Scenario::built_in(name)
+        .unwrap()
+        .airborne()
+        .without_vibration()
 }
 
 #[test]

@@ -227,7 +227,10 @@ impl Run {
 }
 
 fn scenario(name: &str, seconds: f64) -> Scenario {
-    let mut s = Scenario::built_in(name).unwrap().airborne();
+    let mut s = Scenario::built_in(name)
+        .unwrap()
+        .airborne()
+        .without_vibration();
     s.duration_s = seconds;
     s
 }
@@ -450,7 +453,10 @@ fn outages_and_a_still_start_stay_finite_and_recover() {
     assert!(e.position_mean_m <= 0.2, "{}", e.position_mean_m);
     // A still start: the built-in hover never moves, so nothing is observable; the estimate must
     // stay finite (asserted per frame in `run`) and must not claim convergence.
-    let mut hover = Scenario::built_in("hover").unwrap().airborne();
+    let mut hover = Scenario::built_in("hover")
+        .unwrap()
+        .airborne()
+        .without_vibration();
     hover.duration_s = 5.0;
     let r = run(&hover, 2.0, 14, true, |_| true);
     assert!(r.wins.window().converged_at().is_none());

@@ -9,22 +9,23 @@ use crate::pipeline_run::{median, metrics_over_seeds, worst};
 /// One AP heard at 10 packets/s (it is busy with other clients), from the ground, 60 s, seeds
 /// 1–3. The tracks learn the translation part of the angle's change, so the PAoA window keeps on
 /// the AP between packets 0.1 s apart (without it a third of the packets fell outside the window
-/// and no seed converged). Today (docs/ESTIMATOR.md): every seed converges at 22.2–22.6 s,
-/// position mean 0.17–0.69 m (median 0.46). Bounds: every seed converges, the median +20 %, the
-/// worst run +50 %.
+/// and no seed converged). Today, with the built-ins' rotor vibration: every seed converges at
+/// 10.5–12.9 s, position mean 0.52–0.75 m (median 0.72). Bounds: every seed converges, the
+/// median +20 %, the worst run +50 %, the latest convergence +20 %.
 #[test]
 fn nonlinear_busy_ap_converges_over_three_seeds() {
     let runs = metrics_over_seeds("busy-ap", 60.0, &[1, 2, 3], false, &Config::default());
     let position = median(&runs, |m| m.position_error_mean_m);
-    assert!(position <= 0.55, "median position {position} m");
+    assert!(position <= 0.87, "median position {position} m");
     let worst_position = worst(&runs, |m| m.position_error_mean_m);
-    assert!(worst_position <= 1.04, "worst position {worst_position} m");
+    assert!(worst_position <= 1.12, "worst position {worst_position} m");
     let converged = worst(&runs, |m| m.convergence_time_s);
-    assert!(converged <= 27.0, "latest convergence {converged} s");
+    assert!(converged <= 15.5, "latest convergence {converged} s");
 }
 
 /// `use_barometer = false` runs on the cones and the IMU alone and says so in the warnings; the
-/// paper's flight still converges without it (today position mean 0.60 m on seed 1; bound +20 %).
+/// paper's flight still converges without it (today position mean 1.41 m on seed 1, 40 s, with
+/// the built-ins' rotor vibration; bound +20 %).
 #[test]
 fn without_the_barometer_the_run_says_so_and_converges() {
     let dir = std::env::temp_dir().join(format!("wins-it-no-baro-{}", std::process::id()));
@@ -47,5 +48,5 @@ fn without_the_barometer_the_run_says_so_and_converges() {
     );
     assert!(!with.warnings.iter().any(|w| w.contains("barometer")));
     let error = without.metrics.as_ref().map(|m| m.position_error_mean_m);
-    assert!(error.is_some_and(|e| e < 0.72), "{error:?}");
+    assert!(error.is_some_and(|e| e < 1.69), "{error:?}");
 }

@@ -11,7 +11,10 @@ use wins::sim::imu::ImuModel;
 use wins::sim::{Scenario, SimOutput, simulate, write_dataset};
 
 fn scenario(name: &str) -> Scenario {
-    Scenario::built_in(name).unwrap().airborne()
+    Scenario::built_in(name)
+        .unwrap()
+        .airborne()
+        .without_vibration()
 }
 
 fn run(s: &Scenario) -> SimOutput {

@@ -68,8 +68,12 @@ pub struct NonlinearConfig {
     /// Motion (after a rest, or from the start) for at least this long before the first start
     /// attempt, s.
     pub start_after_motion_s: f64,
-    /// Time between start attempts, s.
+    /// Time between start attempts, s, at least.
     pub start_retry_s: f64,
+    /// … and at least this share of the start window's span: an attempt costs in proportion to
+    /// the window, and a long window gains little from one more second, so a start that keeps
+    /// failing spends a bounded share of the flight's time on its attempts.
+    pub start_retry_share: f64,
     /// The inertial start (the IMU's dead reckoning from the rest or the last good state, the APs
     /// triangulated against it) is tried up to this long after that state, s; then only the
     /// linear window's proposal.
@@ -82,6 +86,11 @@ pub struct NonlinearConfig {
     /// outage), s; past it the window ends and restarts at the next bearings, placed by its APs
     /// (docs/CONFIG.md `[imu_gap]`).
     pub max_dead_reckoning_s: f64,
+    /// Measure the IMU's white noise from its samples and integrate with the larger of it and
+    /// the dataset's densities ([`crate::imu::noise_meter`]); off: the dataset's densities only.
+    pub imu_noise_from_data: bool,
+    /// The measured noise follows the samples with this time constant, s.
+    pub imu_noise_time_constant_s: f64,
 }
 
 impl Default for NonlinearConfig {
@@ -96,8 +105,8 @@ impl Default for NonlinearConfig {
             baro_offset_walk_m_sqrt_s: 0.04,
             sin_bias_sigma: 0.0,
             chi2_significance: 1e-3,
-            max_ap_sigma_m: 0.5,
-            max_ap_sigma_fraction: 0.1,
+            max_ap_sigma_m: 1.0,
+            max_ap_sigma_fraction: 0.2,
             rest_max_gyro_rad_s: 0.05,
             rest_max_accel_deviation_m_s2: 0.3,
             rest_min_s: 1.0,
@@ -108,10 +117,13 @@ impl Default for NonlinearConfig {
             still_max_noise_ratio: 3.0,
             start_after_motion_s: 4.0,
             start_retry_s: 1.0,
+            start_retry_share: 0.1,
             inertial_start_max_s: 25.0,
             max_start_window_s: 30.0,
             loss_window_s: 2.0,
             max_dead_reckoning_s: 10.0,
+            imu_noise_from_data: true,
+            imu_noise_time_constant_s: 1.0,
         }
     }
 }
@@ -227,6 +239,20 @@ impl NonlinearConfig {
             600.0,
         );
         p.in_range(prefix, "start_retry_s", self.start_retry_s, 0.05, 600.0);
+        p.in_range(
+            prefix,
+            "start_retry_share",
+            self.start_retry_share,
+            0.0,
+            1.0,
+        );
+        p.in_range(
+            prefix,
+            "imu_noise_time_constant_s",
+            self.imu_noise_time_constant_s,
+            0.1,
+            600.0,
+        );
         p.in_range(
             prefix,
             "inertial_start_max_s",

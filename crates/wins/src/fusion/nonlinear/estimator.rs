@@ -37,7 +37,9 @@ use crate::fusion::nonlinear::start::still::StillDetector;
 use crate::fusion::pose::{PoseEstimate, Step};
 use crate::fusion::proposal::StartSolverFactory;
 use crate::fusion::stats::EstimatorStats;
-use crate::imu::{ImuBiases, ImuSample, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2};
+use crate::imu::{
+    ImuBiases, ImuSample, NoiseMeter, Preintegrated, Preintegrator, STANDARD_GRAVITY_M_S2,
+};
 use crate::time::Timestamp;
 
 /// A frame waiting for the IMU to pass it.
@@ -52,6 +54,8 @@ struct PendingFrame {
 #[derive(Clone, Debug)]
 pub(super) struct Inputs {
     pub(super) pre: Preintegrator,
+    /// The IMU's noise as its samples show it.
+    meter: NoiseMeter,
     pending: VecDeque<PendingFrame>,
     /// How long the IMU gaps since the last frame lasted, s (`holes`).
     imu_gap_s: f64,
@@ -109,6 +113,7 @@ impl NonlinearEstimator {
             inputs: Inputs {
                 pre: Preintegrator::new(sensors.imu_noise.clone(), ImuBiases::zero())
                     .with_gap(sensors.imu_gap),
+                meter: NoiseMeter::new(config.imu_noise_time_constant_s),
                 pending: VecDeque::new(),
                 imu_gap_s: 0.0,
             },
@@ -253,6 +258,16 @@ impl NonlinearEstimator {
         if let Some(gap_s) = drop_frames_in_gap(&mut inputs.pending, |p| p.t, &inputs.pre, s, stats)
         {
             inputs.imu_gap_s += gap_s;
+        }
+        if self.config.imu_noise_from_data && inputs.meter.push(s) {
+            let noise = inputs.meter.effective(&self.sensors.imu_noise);
+            stats.imu_accel_density_max_m_s2_sqrt_hz = stats
+                .imu_accel_density_max_m_s2_sqrt_hz
+                .max(noise.accel_noise_density_m_s2_sqrt_hz);
+            stats.imu_gyro_density_max_rad_s_sqrt_hz = stats
+                .imu_gyro_density_max_rad_s_sqrt_hz
+                .max(noise.gyro_noise_density_rad_s_sqrt_hz);
+            inputs.pre.set_noise(noise);
         }
         let mut step = Step::default();
         if self.config.zero_velocity {

@@ -191,10 +191,12 @@ impl NonlinearEstimator {
         let Some(start) = self.phase.start() else {
             return;
         };
+        let retry_s = self
+            .config
+            .start_retry_s
+            .max(self.config.start_retry_share * start.span_s());
         if t.secs_since(start.since) < self.config.start_after_motion_s
-            || start
-                .last_try
-                .is_some_and(|l| t.secs_since(l) < self.config.start_retry_s)
+            || start.last_try.is_some_and(|l| t.secs_since(l) < retry_s)
         {
             return;
         }

@@ -82,6 +82,14 @@ impl Start {
         });
     }
 
+    /// The time from the oldest keyframe to the newest, s (0 without two).
+    pub(super) fn span_s(&self) -> f64 {
+        match (self.keyframes.front(), self.keyframes.back()) {
+            (Some(a), Some(b)) => b.t.secs_since(a.t),
+            _ => 0.0,
+        }
+    }
+
     /// Appends a keyframe, dropping those older than `max_window_s`.
     pub(super) fn push_keyframe(&mut self, k: StartKeyframe, max_window_s: f64) {
         let t = k.t;
