@@ -45,20 +45,16 @@ fn files(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
 fn a_drawn_flight_flies_again_from_its_scenario_file() {
     let root = common::fresh_dir("family", "simulate");
     let (drawn, again) = (root.join("drawn"), root.join("again"));
-    let out = wins(
-        &root,
-        &[
-            "simulate",
-            "--family",
-            "room",
-            "--seed",
-            "11",
-            "--duration",
-            "20",
-            "-o",
-            s(&drawn),
-        ],
-    );
+    let draw = [
+        "simulate",
+        "--family",
+        "room",
+        "--seed",
+        "11",
+        "--duration",
+        "20",
+    ];
+    let out = wins(&root, &[&draw[..], &["-o", s(&drawn)]].concat());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("drawn: aps "), "{text}");
     let scenario = drawn.join("scenario.toml");
@@ -84,19 +80,7 @@ fn a_drawn_flight_flies_again_from_its_scenario_file() {
         assert!(&second[path] == bytes, "{} differs", path.display());
     }
     // `--print` prints the same scenario file without simulating it.
-    let printed = wins(
-        &root,
-        &[
-            "simulate",
-            "--family",
-            "room",
-            "--seed",
-            "11",
-            "--duration",
-            "20",
-            "--print",
-        ],
-    );
+    let printed = wins(&root, &[&draw[..], &["--print"]].concat());
     assert_eq!(
         String::from_utf8_lossy(&printed.stdout),
         std::fs::read_to_string(&scenario).unwrap()
