@@ -22,8 +22,11 @@ def fmt(x, digits):
 
 
 def row(label, path):
-    with open(path, newline="") as f:
-        runs = list(csv.DictReader(f))
+    try:
+        with open(path, newline="") as f:
+            runs = list(csv.DictReader(f))
+    except OSError as e:
+        sys.exit(f"{path}: {e.strerror}")
     n = len(runs)
     if n == 0:
         sys.exit(f"{path}: no runs")
@@ -51,15 +54,14 @@ def row(label, path):
 def main():
     if len(sys.argv) < 2 or any("=" not in a for a in sys.argv[1:]):
         sys.exit(__doc__)
+    rows = [row(*arg.split("=", 1)) for arg in sys.argv[1:]]
     print(
         "| | flights | converged | a pose sent | sent ATE < 0.5 m | < 1 m | < 2 m "
         "| sent ATE median / p90 (m) | first sent, median (s) | NEES, median run |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
-    for arg in sys.argv[1:]:
-        label, path = arg.split("=", 1)
-        print(row(label, path))
-
+    for r in rows:
+        print(r)
 
 if __name__ == "__main__":
     main()
