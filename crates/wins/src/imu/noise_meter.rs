@@ -113,6 +113,7 @@ impl NoiseMeter {
         let span_s = last.t.secs_since(t0);
         let period_s = span_s / (n - 1) as f64;
         let t: Vec<f64> = self.block.iter().map(|s| s.t.secs_since(t0)).collect();
+        let basis = parabola_basis(&t);
         let mut v = [0.0; 2];
         for c in 0..6 {
             let x: Vec<f64> = self
@@ -126,7 +127,7 @@ impl NoiseMeter {
                     }
                 })
                 .collect();
-            v[c / 3] += curve_scatter(&t, &x) / 3.0;
+            v[c / 3] += scatter(&basis, x) / 3.0;
         }
         if !(v[0].is_finite() && v[1].is_finite() && period_s > 0.0) {
             return false;
@@ -146,11 +147,10 @@ impl NoiseMeter {
     }
 }
 
-/// The scatter of `x` about its least-squares parabola in `t`, `Σ r² / (n − 3)`: the residual of
-/// the projection onto `1, t, t²`, orthonormalized over the block's own times (Gram–Schmidt).
-fn curve_scatter(t: &[f64], x: &[f64]) -> f64 {
-    let n = t.len();
-    let tm = t.iter().sum::<f64>() / n as f64;
+/// An orthonormal basis of `1, t, t²` over the block's own times (Gram–Schmidt, `t` centred);
+/// fewer vectors when the times do not span them.
+fn parabola_basis(t: &[f64]) -> Vec<Vec<f64>> {
+    let tm = t.iter().sum::<f64>() / t.len() as f64;
     let mut basis: Vec<Vec<f64>> = Vec::with_capacity(3);
     for power in 0..3 {
         let mut v: Vec<f64> = t.iter().map(|ti| (ti - tm).powi(power)).collect();
@@ -164,12 +164,17 @@ fn curve_scatter(t: &[f64], x: &[f64]) -> f64 {
             basis.push(v);
         }
     }
-    let mut r = x.to_vec();
-    for q in &basis {
-        let d: f64 = r.iter().zip(q).map(|(a, b)| a * b).sum();
-        r.iter_mut().zip(q).for_each(|(a, b)| *a -= d * b);
+    basis
+}
+
+/// The scatter of `x` about its least-squares fit in `basis` ([`parabola_basis`]),
+/// `Σ r² / (n − dim)`: the residual of the projection.
+fn scatter(basis: &[Vec<f64>], mut x: Vec<f64>) -> f64 {
+    for q in basis {
+        let d: f64 = x.iter().zip(q).map(|(a, b)| a * b).sum();
+        x.iter_mut().zip(q).for_each(|(a, b)| *a -= d * b);
     }
-    r.iter().map(|a| a * a).sum::<f64>() / (n - basis.len()) as f64
+    x.iter().map(|a| a * a).sum::<f64>() / (x.len() - basis.len()) as f64
 }
 
 #[cfg(test)]

@@ -273,11 +273,6 @@ impl Preintegrator {
         self.noise = noise;
     }
 
-    /// The noise densities in use.
-    pub fn noise(&self) -> &ImuNoise {
-        &self.noise
-    }
-
     /// The bias estimate used from the next interval on.
     pub fn bias(&self) -> ImuBiases {
         self.bias

@@ -9,7 +9,8 @@
 //!    [`NonlinearConfig::inertial_start_max_s`]. Without such a state (a flight started in the
 //!    air) a start solver (the paper's linear window, [`crate::fusion::proposal`]) solves
 //!    positions, velocities, gravity and APs from zeros and proposes its solution. Every
-//!    [`NonlinearConfig::start_retry_s`] a proposal initializes the nonlinear window over the
+//!    [`NonlinearConfig::start_retry_s`] (or [`NonlinearConfig::start_retry_share`] of the start
+//!    window's span, when longer) a proposal initializes the nonlinear window over the
 //!    whole start (one keyframe per [`NonlinearConfig::keyframe_period_s`]), which is iterated
 //!    and accepted only when its residuals pass the χ² test at
 //!    [`NonlinearConfig::chi2_significance`] and every placed AP's horizontal σ is within
