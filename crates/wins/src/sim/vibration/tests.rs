@@ -4,7 +4,6 @@ use super::butterworth::Butterworth2;
 use super::*;
 use crate::sim::rng;
 use crate::sim::run::rotors_interval_s;
-use crate::sim::scenario::built_in_toml;
 use crate::sim::{Scenario, simulate};
 
 /// 200 Hz, as the scenarios' IMU.
@@ -244,39 +243,18 @@ fn the_rotor_rate_follows_the_thrust() {
     assert!((peak as f64 * 0.2 - aliased_hz(114.0, IMU_HZ)).abs() <= 1.0);
 }
 
-/// The built-in `name` (seed 1) without its `[imu.vibration]`, with `imu_keys` added to its
-/// `[imu]` table and `tables` appended.
+/// The built-in `name` (seed 1) without its vibration ([`Scenario::without_vibration`]), with
+/// `imu_keys` added to its `[imu]` table and `tables` appended.
 fn scenario_with(name: &str, imu_keys: &str, tables: &str) -> Scenario {
-    let text = without_vibration(built_in_toml(name).unwrap());
-    let text = if text.contains("\n[imu]\n") {
-        text.replace("\n[imu]\n", &format!("\n[imu]\n{imu_keys}"))
-    } else {
-        text.replace(
-            "\n[imu.model]\n",
-            &format!("\n[imu]\n{imu_keys}\n[imu.model]\n"),
-        )
-    };
+    let text = Scenario::built_in(name)
+        .unwrap()
+        .without_vibration()
+        .to_toml()
+        .unwrap()
+        .replacen("\n[imu]\n", &format!("\n[imu]\n{imu_keys}"), 1);
     let mut s = Scenario::from_toml(&format!("{text}\n{tables}"), name).unwrap();
     s.seed = 1;
     s
-}
-
-/// A scenario's text without its `[imu.vibration]` table (up to the next blank line).
-fn without_vibration(text: &str) -> String {
-    let mut skipping = false;
-    let mut out = String::new();
-    for line in text.lines() {
-        if line.starts_with("[imu.vibration]") {
-            skipping = true;
-        } else if skipping && line.trim().is_empty() {
-            skipping = false;
-        }
-        if !skipping {
-            out.push_str(line);
-            out.push('\n');
-        }
-    }
-    out
 }
 
 #[test]
@@ -288,9 +266,10 @@ fn every_built_in_flies_with_rotor_vibration() {
             Some(VibrationConfig::typical(0.3, 0.01)),
             "{name}"
         );
-        let plain =
-            Scenario::from_toml(&without_vibration(built_in_toml(name).unwrap()), name).unwrap();
-        assert!(plain.imu.vibration_model().is_none(), "{name}");
+        assert!(
+            s.without_vibration().imu.vibration_model().is_none(),
+            "{name}"
+        );
     }
 }
 
@@ -399,7 +378,7 @@ fn invalid_settings_name_their_key() {
     // Unknown keys are refused by name.
     let text = format!(
         "{}\n{}",
-        without_vibration(built_in_toml("hover").unwrap()),
+        scenario_with("hover", "", "").to_toml().unwrap(),
         t("accel_rms = 0.3")
     );
     let e = Scenario::from_toml(&text, "hover").unwrap_err().to_string();
