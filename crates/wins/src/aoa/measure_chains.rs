@@ -173,25 +173,39 @@ fn direct_response(
     .map_err(|e| e.to_string())?;
     let subspace = music.subspace(&csi).map_err(|e| e.to_string())?;
     let w_len = music.layout().subcarriers_per_window() as f64;
-    let top = |tof: f64| -> (f64, Vec<Complex64>) {
+    // The Gram matrix of the signal subspace against the ToF `tof`'s phasors.
+    let gram = |tof: f64| -> DMatrix<Complex64> {
         let mut g = vec![Complex64::new(0.0, 0.0); m * m];
         music.gram_from(&subspace.basis, &music.tof_phasors(tof), &mut g);
-        let eig = DMatrix::from_row_slice(m, m, &g).symmetric_eigen();
+        DMatrix::from_row_slice(m, m, &g)
+    };
+    // A unit-norm v: ‖v ⊗ b‖² = W; the residual of the best v is 1 − λ_max / W. The scan and
+    // the refinement need only λ_max (no eigenvectors), the direct path's vector is formed once.
+    let residual_of = |lambda: f64| (1.0 - lambda / w_len).clamp(1e-12, 1.0);
+    let residual_at = |tof: f64| -> f64 {
+        let lambda = gram(tof)
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .max_by(f64::total_cmp)
+            .unwrap_or(0.0);
+        residual_of(lambda)
+    };
+    let top = |tof: f64| -> (f64, Vec<Complex64>) {
+        let eig = gram(tof).symmetric_eigen();
         let (i, &lambda) = eig
             .eigenvalues
             .iter()
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(b.1))
             .unwrap_or((0, &0.0));
-        // A unit-norm v: ‖v ⊗ b‖² = W.
-        let residual = (1.0 - lambda / w_len).clamp(1e-12, 1.0);
         (
-            residual,
+            residual_of(lambda),
             eig.eigenvectors.column(i).iter().copied().collect(),
         )
     };
     let grid = music.tof_grid();
-    let residual: Vec<f64> = grid.iter().map(|&t| top(t).0).collect();
+    let residual: Vec<f64> = grid.iter().map(|&t| residual_at(t)).collect();
     let minima: Vec<usize> = (1..grid.len().saturating_sub(1))
         .filter(|&i| residual[i] < residual[i - 1] && residual[i] <= residual[i + 1])
         .collect();
@@ -212,7 +226,7 @@ fn direct_response(
     let phi = 0.5 * (5f64.sqrt() - 1.0);
     for _ in 0..30 {
         let (a, b) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
-        if top(a).0 < top(b).0 {
+        if residual_at(a) < residual_at(b) {
             hi = b;
         } else {
             lo = a;

@@ -55,7 +55,7 @@ impl Estimator {
                     body_from_array: linear.window.body_from_array,
                 };
                 // The paper's window proposes the start when no state is known (airborne).
-                let start_solver = linear_start_solver(linear);
+                let start_solver = linear_start_solver(linear, nonlinear.start_retry_share);
                 Self::Nonlinear(Box::new(NonlinearEstimator::new(
                     nonlinear,
                     sensors,

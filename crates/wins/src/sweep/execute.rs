@@ -1,15 +1,15 @@
 //! Running a plan: each run simulates its flight, writes it as a dataset, runs the pipeline on
 //! the files and scores it, exactly as `wins simulate` then `wins run` do; runs execute on a
-//! rayon pool and their rows come back in canonical order. A family's run first draws its
+//! rayon pool, the longest expected first (a flight's duration, doubled without a lab
+//! calibration), and their rows come back in canonical order. A family's run first draws its
 //! flight and keeps its scenario in `scenarios/`.
 
 use std::io::Write as _;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-
-use rayon::prelude::*;
 
 use super::plan::{Plan, RunId, Shard};
 use super::record::PlanRecord;
@@ -96,7 +96,7 @@ pub fn run_sweep(
 ) -> Result<SweepReport, SweepError> {
     let record = plan.record(options.shard)?;
     prepare_out_dir(out)?;
-    let runs: Vec<RunId> = plan.runs_of(options.shard);
+    let runs = start_order(plan, plan.runs_of(options.shard));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.jobs)
         .build()
@@ -105,23 +105,30 @@ pub fn run_sweep(
             reason: e.to_string(),
         })?;
     let done = AtomicUsize::new(0);
+    let next = AtomicUsize::new(0);
     let total = runs.len();
-    let mut rows: Vec<(RunRow, Option<String>)> = pool.install(|| {
-        runs.par_iter()
-            .with_max_len(1)
-            .map(|run| {
-                let (row, warning) = run_one(plan, *run, out, options.keep_datasets);
-                let done = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(Progress {
-                    done,
-                    total,
-                    row: &row,
-                });
-                (row, warning)
-            })
-            .collect()
+    let finished: Mutex<Vec<(RunRow, Option<String>)>> = Mutex::new(Vec::with_capacity(total));
+    // One queue, taken in order by every worker: a worker that finishes takes the next run.
+    pool.broadcast(|_| {
+        while let Some(run) = runs.get(next.fetch_add(1, Ordering::Relaxed)) {
+            let (row, warning) = run_one(plan, *run, out, options.keep_datasets);
+            let done = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(Progress {
+                done,
+                total,
+                row: &row,
+            });
+            // A poisoned lock only means another worker panicked while pushing: its rows stay.
+            finished
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .push((row, warning));
+        }
     });
-    // Canonical order whatever the completion order (par_iter keeps it; sorting states it).
+    let mut rows = finished
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    // Canonical order whatever the completion order.
     let order = |r: &RunRow| plan.scenarios.iter().position(|s| s.label == r.scenario);
     rows.sort_by_key(|(r, _)| (order(r), r.seed));
     let mut warnings: Vec<String> = rows.iter_mut().filter_map(|(_, w)| w.take()).collect();
@@ -189,6 +196,40 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SweepError> {
     f.write_all(bytes).map_err(err)?;
     f.sync_all().map_err(err)?;
     std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// `runs` in the order they are started: the longest expected first ([`expected_work`]), ties
+/// in their canonical order.
+fn start_order(plan: &Plan, runs: Vec<RunId>) -> Vec<RunId> {
+    let mut keyed: Vec<(f64, RunId)> = runs
+        .into_iter()
+        .map(|r| (expected_work(plan, r), r))
+        .collect();
+    // A stable sort: ties keep the canonical order.
+    keyed.sort_by(|a, b| b.0.total_cmp(&a.0));
+    keyed.into_iter().map(|(_, r)| r).collect()
+}
+
+/// A run's expected work, for the order the runs are started in (longest first, so that the
+/// last runs to finish are short and no core waits long at the end): the flight's duration,
+/// doubled without a lab calibration (the chain offsets are then resolved among twice as many
+/// hypotheses flown side by side). Only the order depends on it, never a result.
+fn expected_work(plan: &Plan, run: RunId) -> f64 {
+    let Some(s) = plan.scenarios.get(run.scenario) else {
+        return 0.0;
+    };
+    match s.flight(run.seed, plan.duration_s, plan.airborne) {
+        Ok(f) => {
+            let hypotheses = if f.scenario.radio.lab_calibration {
+                1.0
+            } else {
+                2.0
+            };
+            f.scenario.duration_s * hypotheses
+        }
+        // It fails again in its run, which reports why.
+        Err(_) => 0.0,
+    }
 }
 
 /// The dataset folder of a run: `<datasets>/<scenario>-<seed>`.

@@ -7,9 +7,10 @@
 //! cone residuals `r = ŷ_a · unit(R_waᵀ (c − p_a)) − sin θ` (the cone factor's model,
 //! [`crate::fusion::nonlinear::factors::cone`]) over `c`. That cost is not convex (the range along the bearings is
 //! weakly constrained, a linear array cannot tell the AP's mirror images apart), so it is searched
-//! on a grid of directions and log-spaced ranges around the trajectory and the best candidates are
-//! refined by Gauss–Newton with the Cauchy weights; the lowest cost wins. The joint window then
-//! refines the trajectory, biases and APs together.
+//! on a grid of directions and log-spaced ranges around the trajectory; the best candidates are
+//! refined by Gauss–Newton with the Cauchy weights over the grid's subsample of the sights (at
+//! most 120, evenly spaced), and the best of those over every sight; the lowest cost
+//! wins. The joint window then refines the trajectory, biases and APs together.
 
 use std::collections::VecDeque;
 
@@ -92,8 +93,10 @@ const RANGES_M: [f64; 10] = [0.7, 1.1, 1.6, 2.4, 3.5, 5.0, 7.5, 11.0, 17.0, 26.0
 const DIRECTIONS: usize = 160;
 /// At most this many sights score the grid (evenly spaced over the run).
 const GRID_SIGHTS: usize = 120;
-/// Grid candidates refined.
+/// Grid candidates refined over the subsample of the sights.
 const REFINED: usize = 6;
+/// Of those, the ones with the lowest subsampled cost refined over every sight.
+const REFINED_FULLY: usize = 2;
 /// Gauss–Newton iterations per refinement.
 const ITERATIONS: usize = 30;
 
@@ -109,16 +112,21 @@ fn cost(sights: &[Sight], stride: usize, c: &Vector3<f64>, cauchy_scale: f64) ->
         .sum()
 }
 
-/// Gauss–Newton with Cauchy weights (IRLS) and step halving from `c`: the solution, its
-/// information and cost.
-fn refine(sights: &[Sight], c: Vector3<f64>, cauchy_scale: f64) -> Option<Triangulated> {
+/// Gauss–Newton with Cauchy weights (IRLS) and step halving from `c` over every `stride`-th
+/// sight: the solution, its information and cost (over those sights).
+fn refine(
+    sights: &[Sight],
+    stride: usize,
+    c: Vector3<f64>,
+    cauchy_scale: f64,
+) -> Option<Triangulated> {
     let mut c = c;
-    let mut f = cost(sights, 1, &c, cauchy_scale);
+    let mut f = cost(sights, stride, &c, cauchy_scale);
     let mut info = Matrix3::zeros();
     for _ in 0..ITERATIONS {
         info = Matrix3::zeros();
         let mut g = Vector3::zeros();
-        for s in sights {
+        for s in sights.iter().step_by(stride.max(1)) {
             let (r, j) = s.residual(&c)?;
             let e2 = (r / s.sigma).powi(2);
             let w = cauchy(e2, cauchy_scale).1 / (s.sigma * s.sigma);
@@ -133,7 +141,7 @@ fn refine(sights: &[Sight], c: Vector3<f64>, cauchy_scale: f64) -> Option<Triang
         let mut scale = 1.0;
         for _ in 0..8 {
             let next = c + dc * scale;
-            let fn_ = cost(sights, 1, &next, cauchy_scale);
+            let fn_ = cost(sights, stride, &next, cauchy_scale);
             if fn_ < f {
                 c = next;
                 f = fn_;
@@ -187,10 +195,18 @@ pub fn triangulate(sights: &[Sight], cauchy_scale: f64) -> Option<Triangulated> 
             break;
         }
     }
-    starts
+    let finite = |t: &Triangulated| t.c_in_w.iter().all(|v| v.is_finite()) && t.cost.is_finite();
+    let mut coarse: Vec<Triangulated> = starts
         .into_iter()
-        .filter_map(|c| refine(sights, c, cauchy_scale))
-        .filter(|t| t.c_in_w.iter().all(|v| v.is_finite()) && t.cost.is_finite())
+        .filter_map(|c| refine(sights, stride, c, cauchy_scale))
+        .filter(finite)
+        .collect();
+    coarse.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    coarse
+        .into_iter()
+        .take(REFINED_FULLY)
+        .filter_map(|t| refine(sights, 1, t.c_in_w, cauchy_scale))
+        .filter(finite)
         .min_by(|a, b| a.cost.total_cmp(&b.cost))
 }
 

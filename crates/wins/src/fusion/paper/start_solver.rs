@@ -23,11 +23,13 @@ struct LinearStart {
 
 /// Start solvers of the paper's window with `config`: its convergence threshold
 /// (`converged_ap_sigma_m`) becomes the threshold of a proposal, and its own convergence test is
-/// off.
-pub fn linear_start_solver(config: LinearConfig) -> StartSolverFactory {
-    let mut config = config;
+/// off. Its solution is read only when a start is tried, at most once per `retry_share` of the
+/// start window's span ([`crate::fusion::nonlinear::NonlinearConfig::start_retry_share`]): its
+/// window is solved at that cadence too (`startup_solves_per_window = 1 / retry_share`; solving
+/// more often costs a fifth of a failing start's time and is never read).
+pub fn linear_start_solver(config: LinearConfig, retry_share: f64) -> StartSolverFactory {
     let candidate_ap_sigma_m = config.window.converged_ap_sigma_m;
-    config.window.converged_ap_sigma_m = 0.0;
+    let config = start_solver_config(config, retry_share);
     StartSolverFactory::new(move |prior| {
         let estimator = match prior {
             Some(p) => LinearEstimator::with_start(config.clone(), p),
@@ -38,6 +40,19 @@ pub fn linear_start_solver(config: LinearConfig) -> StartSolverFactory {
             candidate_ap_sigma_m,
         })
     })
+}
+
+/// The paper's window as a start solver: its own convergence test off, and at most
+/// `1 / retry_share` solves per window length (never more than `config` asks for).
+fn start_solver_config(config: LinearConfig, retry_share: f64) -> LinearConfig {
+    let mut config = config;
+    config.window.converged_ap_sigma_m = 0.0;
+    if retry_share > 0.0 {
+        let per_window = (1.0 / retry_share).round().clamp(1.0, 1e6) as usize;
+        config.window.startup_solves_per_window =
+            config.window.startup_solves_per_window.min(per_window);
+    }
+    config
 }
 
 impl StartSolver for LinearStart {
@@ -72,5 +87,36 @@ impl StartSolver for LinearStart {
 
     fn clone_box(&self) -> Box<dyn StartSolver> {
         Box::new(self.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rig::ImuNoise;
+
+    #[test]
+    fn the_start_solver_solves_at_the_tries_cadence() {
+        let config = LinearConfig::new(ImuNoise {
+            gyro_noise_density_rad_s_sqrt_hz: 1e-4,
+            gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
+            gyro_turn_on_bias_rad_s: 1e-3,
+            accel_noise_density_m_s2_sqrt_hz: 1e-3,
+            accel_bias_random_walk_m_s3_sqrt_hz: 1e-4,
+            accel_turn_on_bias_m_s2: 0.05,
+        });
+        assert_eq!(config.window.startup_solves_per_window, 50);
+        let at = |share: f64| {
+            start_solver_config(config.clone(), share)
+                .window
+                .startup_solves_per_window
+        };
+        assert_eq!(at(0.1), 10);
+        assert_eq!(at(0.25), 4);
+        // Never more often than the window's own setting, and a share of 0 keeps it.
+        assert_eq!(at(0.01), 50);
+        assert_eq!(at(0.0), 50);
+        let c = start_solver_config(config, 0.1);
+        assert_eq!(c.window.converged_ap_sigma_m, 0.0);
     }
 }

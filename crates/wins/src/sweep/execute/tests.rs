@@ -117,3 +117,47 @@ fn output_directories_must_be_new_or_empty() {
     assert!(err.to_string().contains("is not empty"), "{err}");
     std::fs::remove_dir_all(&root).unwrap();
 }
+
+#[test]
+fn runs_start_longest_first_and_rows_keep_the_canonical_order() {
+    // The uncalibrated circle resolves its chain offsets among twice as many hypotheses: its
+    // runs start first; the hover's shorter flight (30 s against 60 s) last.
+    let names = vec![
+        "hover".to_string(),
+        "paper-circle".to_string(),
+        "paper-circle-uncalibrated".to_string(),
+    ];
+    let plan = Plan::new(
+        &names,
+        &[],
+        Seeds::parse("1..2").unwrap(),
+        None,
+        None,
+        None,
+        false,
+    )
+    .unwrap();
+    let runs = plan.runs_of(None);
+    let label = |r: &RunId| plan.scenarios[r.scenario].label.clone();
+    let work: Vec<f64> = runs.iter().map(|r| expected_work(&plan, *r)).collect();
+    let circle = plan.scenarios[1].scenario.duration_s;
+    assert_eq!(work[2], circle, "{work:?}");
+    assert_eq!(work[4], 2.0 * circle, "{work:?}");
+    let order: Vec<(String, u64)> = start_order(&plan, runs)
+        .iter()
+        .map(|r| (label(r), r.seed))
+        .collect();
+    let expected: Vec<(String, u64)> = [
+        ("paper-circle-uncalibrated", 1),
+        ("paper-circle-uncalibrated", 2),
+        ("paper-circle", 1),
+        ("paper-circle", 2),
+        ("hover", 1),
+        ("hover", 2),
+    ]
+    .iter()
+    .map(|(l, s)| (l.to_string(), *s))
+    .collect();
+    assert!(plan.scenarios[0].scenario.duration_s < circle);
+    assert_eq!(order, expected);
+}

@@ -82,11 +82,17 @@ pub struct WindowConfig {
     pub iterations: usize,
     /// Gauss–Newton iterations over the whole startup window when it converges.
     pub iterations_at_convergence: usize,
-    /// Before convergence, solve only every this many frames (≥ 1), or every 2 % of the window's
-    /// length when that is more: the startup window grows without marginalization, so solving it
-    /// at every frame costs O(n²) over the startup, and its poses are not usable before
-    /// convergence anyway. Convergence is noticed up to that many frames late.
+    /// Before convergence, solve only every this many frames (≥ 1), or every
+    /// 1/[`Self::startup_solves_per_window`] of the window's length when that is more: the
+    /// startup window grows without marginalization, so solving it at every frame costs O(n²)
+    /// over the startup, and its poses are not usable before convergence anyway. Convergence is
+    /// noticed up to that many frames late.
     pub startup_solve_every: usize,
+    /// Before convergence, at most this many solves per window's length (≥ 1; 50: every 2 %).
+    /// As the default estimator's start solver, whose solution is read only when a start is
+    /// tried, it is set to the tries' own cadence
+    /// ([`crate::fusion::nonlinear::NonlinearConfig::start_retry_share`]).
+    pub startup_solves_per_window: usize,
     /// After convergence, solve only every this many frames (≥ 1); the frames between keep the
     /// IMU's prediction from the last solve, are still marginalized and checked by the lost test.
     /// 2 (a solve every 40 ms on the default 20 ms frame grid) keeps a three-AP replay above
@@ -126,6 +132,7 @@ impl Default for WindowConfig {
             iterations: 1,
             iterations_at_convergence: 10,
             startup_solve_every: 10,
+            startup_solves_per_window: 50,
             converged_solve_every: 2,
         }
     }
@@ -200,6 +207,12 @@ impl WindowConfig {
             1,
         );
         p.at_least(prefix, "startup_solve_every", self.startup_solve_every, 1);
+        p.at_least(
+            prefix,
+            "startup_solves_per_window",
+            self.startup_solves_per_window,
+            1,
+        );
         p.at_least(
             prefix,
             "converged_solve_every",

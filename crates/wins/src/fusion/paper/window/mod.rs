@@ -267,13 +267,11 @@ impl SlidingWindow {
     /// beyond [`WindowConfig::max_frames`].
     pub fn solve(&mut self) -> Result<(), FrameError> {
         let was_converged = self.health.converged_at.is_some();
-        // Every `startup_solve_every` frames, and at most once per 2 % of the window's length
-        // (a long startup would otherwise cost O(n²)).
-        let every = self
-            .config
-            .startup_solve_every
-            .max(self.frames.len() / 50)
-            .max(1);
+        let every = startup_solve_interval(
+            self.frames.len(),
+            self.config.startup_solve_every,
+            self.config.startup_solves_per_window,
+        );
         self.unsolved_frames += 1;
         if !was_converged && self.solved_once && self.unsolved_frames < every {
             return Ok(());
@@ -340,6 +338,13 @@ impl SlidingWindow {
     fn build(&self) -> ArrowSystem {
         self.assemble(self.frames.len(), false)
     }
+}
+
+/// Frames between solves before convergence, for a window of `frames` frames: every `every`
+/// frames, and at most `per_window` times per window's length (a long startup would otherwise
+/// cost O(n²)); at least 1.
+fn startup_solve_interval(frames: usize, every: usize, per_window: usize) -> usize {
+    every.max(frames / per_window.max(1)).max(1)
 }
 
 /// Upward gravity in `b_k+1` guessed from the interval's mean specific force (before any

@@ -236,3 +236,16 @@ fn bad_frame_sequences_are_refused() {
     w.solve().unwrap();
     assert_eq!(w.len(), 2);
 }
+
+#[test]
+fn the_startup_solves_at_most_per_window_times_per_window_length() {
+    // The paper's cadence: every 10 frames, at most 50 times per window.
+    assert_eq!(startup_solve_interval(100, 10, 50), 10);
+    assert_eq!(startup_solve_interval(1000, 10, 50), 20);
+    // As a start solver read once per tenth of the window.
+    assert_eq!(startup_solve_interval(1000, 10, 10), 100);
+    assert_eq!(startup_solve_interval(50, 10, 10), 10);
+    // Degenerate settings still solve.
+    assert_eq!(startup_solve_interval(1000, 0, 0), 1000);
+    assert_eq!(startup_solve_interval(0, 0, 50), 1);
+}
