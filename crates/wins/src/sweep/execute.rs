@@ -219,14 +219,9 @@ fn expected_work(plan: &Plan, run: RunId) -> f64 {
         return 0.0;
     };
     match s.flight(run.seed, plan.duration_s, plan.airborne) {
-        Ok(f) => {
-            let hypotheses = if f.scenario.radio.lab_calibration {
-                1.0
-            } else {
-                2.0
-            };
-            f.scenario.duration_s * hypotheses
-        }
+        // Relative to a calibrated flight's hypotheses, not their count.
+        Ok(f) if f.scenario.radio.lab_calibration => f.scenario.duration_s,
+        Ok(f) => 2.0 * f.scenario.duration_s,
         // It fails again in its run, which reports why.
         Err(_) => 0.0,
     }
