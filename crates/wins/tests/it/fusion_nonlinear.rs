@@ -357,3 +357,33 @@ fn the_bearings_offset_keeps_the_true_nullspace() {
     let leak = nullspace_leak(&b.window);
     assert!(leak < 1e-9, "{leak}");
 }
+
+/// Bearings whose errors persist (`[nonlinear] bearing_correlation_s`) count their share of an
+/// independent measurement: the window's degrees of freedom fall by the long-run variance
+/// ratio of the AP's rate, and its σ on the AP grows (the IMU holds part of it).
+#[test]
+fn persistent_bearing_errors_weigh_their_share() {
+    let b = build(&airborne("paper-circle"), 2.0, 12.0, 1, true);
+    let mut independent = b.window;
+    independent.optimize(10).unwrap();
+    let mut correlated = independent.clone();
+    correlated.set_bearing_correlation_s(0.3);
+    correlated.optimize(10).unwrap();
+    let (fi, fc) = (independent.fit(), correlated.fit());
+    assert_eq!(fi.bearings, fc.bearings);
+    assert!((fi.bearing_dof - fi.bearings as f64).abs() < 1e-9, "{fi:?}");
+    let span_s = 10.0;
+    let expected =
+        wins::fusion::nonlinear::solve::shares::variance_ratio(fi.bearings as f64 / span_s, 0.3);
+    let ratio = fi.bearing_dof / fc.bearing_dof;
+    assert!(
+        (ratio / expected - 1.0).abs() < 0.1,
+        "{ratio} vs {expected}"
+    );
+    let (si, sc) = (
+        independent.ap_sigma_m(0).unwrap(),
+        correlated.ap_sigma_m(0).unwrap(),
+    );
+    eprintln!("ratio {ratio:.1}, AP σ {si:.3} → {sc:.3} m");
+    assert!(sc > 1.5 * si, "{si} {sc}");
+}

@@ -29,6 +29,7 @@ impl NonlinearWindow {
         let mut cost = 0.0;
         let mut stats = FitStats::default();
         let g = self.model.gravity_m_s2;
+        let shares = self.bearing_shares();
         for (k, kf) in self.keyframes.iter().enumerate() {
             let lin_k = kf.lin_or_current(self.model.fej);
             if let (Some((pre, info)), Some(prev)) = (&kf.from_prev, k.checked_sub(1)) {
@@ -46,7 +47,7 @@ impl NonlinearWindow {
                 stats.imu_chi2 += c;
                 stats.imu_dof += STATE_DIM;
             }
-            self.add_measurements(k, kf, &lin_k, &mut sys, &mut cost, &mut stats);
+            self.add_measurements(k, kf, &lin_k, &shares, &mut sys, &mut cost, &mut stats);
             if k == 0 {
                 self.add_anchors(kf, &lin_k, &mut sys, &mut cost, &mut stats);
             }
@@ -60,12 +61,15 @@ impl NonlinearWindow {
         (sys, cost, stats)
     }
 
-    /// The AoA and barometer factors of keyframe `k`.
+    /// The AoA and barometer factors of keyframe `k`; each bearing of AP `l` with `shares[l]`
+    /// of an independent one's information and degrees of freedom ([`super::shares`]).
+    #[allow(clippy::too_many_arguments)]
     fn add_measurements(
         &self,
         k: usize,
         kf: &Keyframe,
         lin_k: &NavState,
+        shares: &[f64],
         sys: &mut ArrowSystem<STATE_DIM>,
         cost: &mut f64,
         stats: &mut FitStats,
@@ -111,12 +115,14 @@ impl NonlinearWindow {
                 let sigma = sin_sigma(b.aoa_rad, b.sigma_rad);
                 let e2 = (r / sigma).powi(2);
                 let (rho, w) = cauchy(e2, self.model.config.cauchy_scale);
-                *cost += rho;
+                let share = shares.get(b.ap).copied().unwrap_or(1.0);
+                *cost += share * rho;
                 stats.bearings += 1;
-                stats.bearing_chi2 += e2;
-                stats.bearing_robust += rho;
+                stats.bearing_dof += share;
+                stats.bearing_chi2 += share * e2;
+                stats.bearing_robust += share * rho;
                 stats.bearing_outliers += usize::from(e2 > 9.0);
-                let info = w / (sigma * sigma);
+                let info = share * w / (sigma * sigma);
                 let mut factor =
                     Linearized::on_frame(k, j.d_state, Vector1::new(r), Weight::Scalar(info))
                         .with_border(BorderBlock::three(self.ap_offset(b.ap), j.d_ap));

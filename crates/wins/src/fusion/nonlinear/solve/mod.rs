@@ -23,6 +23,7 @@ mod build;
 pub mod fit;
 pub(in crate::fusion::nonlinear) mod nullspace;
 pub mod optimize;
+pub mod shares;
 
 use std::collections::VecDeque;
 

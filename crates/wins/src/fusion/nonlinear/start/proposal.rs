@@ -6,6 +6,7 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
+use crate::fusion::nonlinear::config::NonlinearConfig;
 use crate::fusion::nonlinear::recovery::relocate::{ApFromDrone, Relocated, TimedSight, relocate};
 use crate::fusion::nonlinear::solve::NonlinearWindow;
 use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
@@ -279,7 +280,10 @@ impl StartContext<'_> {
             }
         });
         let mut w = NonlinearWindow::new(
-            self.config.clone(),
+            NonlinearConfig {
+                bearing_correlation_s: 0.0,
+                ..self.config.clone()
+            },
             g,
             self.sensors.imu_noise.clone(),
             self.sensors.body_from_array,
@@ -311,7 +315,11 @@ impl StartContext<'_> {
                 .is_some_and(|s| self.config.ap_sigma_ok(s, range))
                 && range > MIN_AP_RANGE_M
         });
-        (ap_ok && passes_chi2(&fit, w.border_dim(), self.config.chi2_significance)).then_some(w)
+        if !(ap_ok && passes_chi2(&fit, w.border_dim(), self.config.chi2_significance)) {
+            return None;
+        }
+        w.set_bearing_correlation_s(self.config.bearing_correlation_s);
+        Some(w)
     }
 
     /// The prior on the start's first keyframe: the gauge (position, yaw), the roll and pitch
