@@ -39,8 +39,9 @@ pub struct FitStats {
 /// the AoA factors' robust cost, barometer, range anchors, zero-velocity holds) against χ² with
 /// as many degrees of freedom as measurements beyond the IMU chain's own (the IMU factors alone
 /// are met exactly by any trajectory: each adds as many residuals as states; a bearing counts
-/// its share, `bearing_dof`), less the border's `border_dim` unknowns. The zero-velocity holds add no degrees of freedom either: their σ is a
-/// tolerance, not a noise, and their near-zero residuals would let a wrong window pass.
+/// its share, `bearing_dof`), less the border's `border_dim` unknowns. The zero-velocity holds
+/// add no degrees of freedom either: their σ is a tolerance, not a noise, and their near-zero
+/// residuals would let a wrong window pass.
 pub fn passes_chi2(fit: &FitStats, border_dim: usize, alpha: f64) -> bool {
     let dof = (fit.bearing_dof + (fit.baro + fit.anchors) as f64 - border_dim as f64).max(0.0);
     let cost = fit.imu_chi2

@@ -54,24 +54,26 @@ impl super::NonlinearWindow {
     /// Each AP's share per bearing (module doc) over the bearings the window holds now: their
     /// rate is their count over the window's span (at least one keyframe period).
     pub(super) fn bearing_shares(&self) -> Vec<f64> {
-        let mut counts = vec![0usize; self.aps.len()];
-        let mut last = None;
-        for f in self.keyframes.iter().flat_map(|k| &k.frames) {
-            for b in &f.bearings {
-                if let Some(c) = counts.get_mut(b.ap) {
-                    *c += 1;
-                }
-            }
-            last = Some(last.map_or(f.partial.end, |l: crate::time::Timestamp| {
-                l.max(f.partial.end)
-            }));
+        let correlation_s = self.model.config.bearing_correlation_s;
+        if correlation_s <= 0.0 {
+            return vec![1.0; self.aps.len()];
         }
-        let span_s = match (self.keyframes.front(), last) {
+        let frames = || self.keyframes.iter().flat_map(|k| &k.frames);
+        let mut counts = vec![0usize; self.aps.len()];
+        for b in frames().flat_map(|f| &f.bearings) {
+            if let Some(c) = counts.get_mut(b.ap) {
+                *c += 1;
+            }
+        }
+        let span_s = match (
+            self.keyframes.front(),
+            frames().map(|f| f.partial.end).max(),
+        ) {
             (Some(first), Some(last)) => last.secs_since(first.x.t),
             _ => 0.0,
         }
         .max(self.model.config.keyframe_period_s);
-        shares(&counts, span_s, self.model.config.bearing_correlation_s)
+        shares(&counts, span_s, correlation_s)
     }
 }
 
