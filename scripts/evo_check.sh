@@ -11,7 +11,7 @@
 #         evo_ape tum TRUTH EST -a -r angle_deg                    vs  attitude_error_rmse_deg
 #         evo_rpe tum TRUTH EST --delta N --delta_unit f           vs  rpe_trans_rmse_m
 #         evo_rpe tum TRUTH EST --delta N --delta_unit f -r angle_deg  vs  rpe_rot_rmse_deg
-#       and `wins eval EST TRUTH --rpe-delta N --json` (N = RPE_DELTA, default 1; both with the
+#       and `wins eval EST TRUTH --rpe-delta N --align se3 --json` (N = RPE_DELTA, default 1; both with the
 #       default 10 ms association tolerance), prints the pairs side by side, and exits 1 if any
 #       pair differs by more than 1e-6 relative (plus 1e-12 absolute, for errors that are ~0).
 #   scripts/evo_check.sh --perturb TRUTH.tum EST.tum [SEED]
@@ -79,7 +79,7 @@ evo_ate=$(evo_rmse evo_ape -a)
 evo_att=$(evo_rmse evo_ape -a -r angle_deg)
 evo_rpe_t=$(evo_rmse evo_rpe --delta "$DELTA" --delta_unit f)
 evo_rpe_r=$(evo_rmse evo_rpe --delta "$DELTA" --delta_unit f -r angle_deg)
-"${WINS_CMD[@]}" eval "$EST" "$TRUTH" --rpe-delta "$DELTA" --json >"$WORK/wins.json"
+"${WINS_CMD[@]}" eval "$EST" "$TRUTH" --rpe-delta "$DELTA" --align se3 --json >"$WORK/wins.json"
 
 "$PY" - "$WORK/wins.json" "$evo_ate" "$evo_att" "$evo_rpe_t" "$evo_rpe_r" "$DELTA" <<'EOF'
 import json, sys

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Every flight of one or more sweeps counted, the failed ones included: how many converged, how
 many sent a flight controller any pose, how many the poses sent were within 0.5, 1 and 2 m of
-the truth (ATE RMSE after alignment, as `wins eval`), and the medians. `wins sweep`'s own table
+the truth (ATE RMSE after alignment, as `wins eval`), and the medians (of the sent ATE, the sent
+attitude RMSE, the first pose's time and each run's mean NEES) over the runs that sent any. `wins sweep`'s own table
 gives its statistics over the converged runs; this one divides by every flight.
 
     python3 scripts/sweep_outcomes.py "room, default=room/runs.csv" "room, paper=room-paper/runs.csv"
@@ -37,6 +38,7 @@ def row(label, path):
     sent = values("sent.ate_rmse_m")
     first = values("sent.time_to_first_s")
     nees = values("sent.position_nees_mean")
+    attitude = values("sent.attitude_error_rmse_deg")
     converged = sum(r["converged"] == "true" for r in runs)
 
     def share(k):
@@ -47,6 +49,7 @@ def row(label, path):
         f"| {label} | {n} | {share(converged)} | {share(len(sent))} | "
         + " | ".join(within)
         + f" | {fmt(quantile(sent, 0.5), 2)} / {fmt(quantile(sent, 0.9), 1)}"
+        + f" | {fmt(quantile(attitude, 0.5), 1)}"
         + f" | {fmt(quantile(first, 0.5), 1)} | {fmt(quantile(nees, 0.5), 1)} |"
     )
 
@@ -57,9 +60,10 @@ def main():
     rows = [row(*arg.split("=", 1)) for arg in sys.argv[1:]]
     print(
         "| | flights | converged | a pose sent | sent ATE < 0.5 m | < 1 m | < 2 m "
-        "| sent ATE median / p90 (m) | first sent, median (s) | NEES, median run |"
+        "| sent ATE median / p90 (m) | sent attitude, median (°) | first sent, median (s) "
+        "| NEES, median run |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(r)
 

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use wins::dataset::truth::{ApRow, Pose, Truth, read_tum};
 use wins::eval::{
-    DEFAULT_MAX_TIME_DIFF_S, DEFAULT_RPE_DELTA_FRAMES, EstimatedAp, EvalOptions, evaluate,
-    position_error_rms_from, read_estimated_aps,
+    AlignMode, DEFAULT_MAX_TIME_DIFF_S, DEFAULT_RPE_DELTA_FRAMES, EstimatedAp, EvalOptions,
+    evaluate, position_error_rms_from, read_estimated_aps,
 };
 use wins::time::Timestamp;
 
@@ -29,6 +29,11 @@ pub struct EvalArgs {
     /// Relative pose error delta, in associated poses (evo_rpe --delta N --delta_unit f).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_RPE_DELTA_FRAMES)]
     rpe_delta: usize,
+    /// What the alignment before the ATE may apply: `posyaw` (a heading and a translation, the
+    /// default: gravity is observed, so a tilted or mirrored estimate is an error) or `se3` (any
+    /// rotation, as `evo_ape -a`).
+    #[arg(long, value_name = "MODE", default_value = "posyaw", value_parser = parse_align)]
+    align: AlignMode,
     /// Print the metrics as JSON instead of the text report.
     #[arg(long)]
     json: bool,
@@ -40,6 +45,13 @@ pub struct EvalArgs {
     /// placement scored and not only its shape.
     #[arg(long, value_name = "S")]
     from: Option<f64>,
+}
+
+fn parse_align(s: &str) -> Result<AlignMode, String> {
+    [AlignMode::PosYaw, AlignMode::Se3]
+        .into_iter()
+        .find(|m| m.name() == s)
+        .ok_or_else(|| format!("`{s}` is not an alignment: `posyaw` or `se3`"))
 }
 
 /// Runs `wins eval`.
@@ -64,6 +76,7 @@ pub fn eval(args: EvalArgs) -> Result<()> {
     let options = EvalOptions {
         max_time_diff_s: args.max_time_diff,
         rpe_delta_frames: args.rpe_delta,
+        align: args.align,
     };
     let metrics = evaluate(&est, &truth, &aps, &truth_aps, &options).with_context(|| {
         format!(

@@ -28,6 +28,12 @@ pub struct PipelineConfig {
     /// After convergence, bearings further than this from the state's prediction are dropped,
     /// degrees.
     pub gate_deg: f64,
+    /// The state gate in σ instead of degrees (0: off, `gate_deg` applies): a bearing is dropped
+    /// when `|sin θ − s_pred|` exceeds this many σ of the bearing (`bearing_sigma_deg` through
+    /// the cone model) and of the state's prediction combined, `σ_pred` from the window's joint
+    /// covariance of the newest pose, the AP and the bearings' common offset
+    /// ([`crate::fusion::nonlinear::NonlinearWindow::predicted_sin`]; 0 for the paper's window).
+    pub gate_sigmas: f64,
     /// After this many gated packets in a row of one AP the next is fed anyway (the state, not
     /// the AoA, is then the suspect).
     pub max_gated_in_row: usize,
@@ -66,6 +72,7 @@ impl Default for PipelineConfig {
             frame_period_ms: 20.0,
             max_misses: 25,
             gate_deg: 5.0,
+            gate_sigmas: 0.0,
             max_gated_in_row: 10,
             track_gate_deg: 10.0,
             max_off_track_in_row: 10,
@@ -102,6 +109,7 @@ impl PipelineConfig {
         p.in_range(prefix, "frame_period_ms", self.frame_period_ms, 0.0, 1000.0);
         p.at_least(prefix, "max_misses", self.max_misses, 1);
         p.in_range(prefix, "gate_deg", self.gate_deg, 0.01, 180.0);
+        p.in_range(prefix, "gate_sigmas", self.gate_sigmas, 0.0, 100.0);
         p.in_range(prefix, "track_gate_deg", self.track_gate_deg, 0.01, 180.0);
         p.at_least(prefix, "max_off_track_in_row", self.max_off_track_in_row, 1);
         p.in_range(prefix, "max_silence_s", self.max_silence_s, 0.001, 1e9);

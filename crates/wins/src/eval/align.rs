@@ -1,11 +1,41 @@
-//! SE(3) Umeyama alignment of estimated positions onto truth positions (rotation and translation,
-//! no scale), exactly what `evo_ape … -a` applies before computing the ATE.
+//! Alignment of estimated positions onto truth positions before the ATE, two ways
+//! ([`AlignMode`]):
+//!
+//! - **yaw and translation** (the default, 4 degrees of freedom): what an inertial estimator
+//!   leaves free. Gravity fixes roll and pitch, so a trajectory that comes out tilted, upside
+//!   down or mirrored is an error, not a frame to rotate away; only the heading and the origin of
+//!   the estimate's world are arbitrary (the tutorial of Zhang and Scaramuzza, IROS 2018, §III-A:
+//!   "position and yaw" for visual-inertial odometry). The yaw maximizes `Σ tᵢ · R_z(ψ) eᵢ` over
+//!   the centred pairs: `ψ = atan2(C_yx − C_xy, C_xx + C_yy)` with `C = Σ (tᵢ − t̄)(eᵢ − ē)ᵀ`.
+//! - **SE(3)** (rotation and translation, no scale: Umeyama 1991), exactly what `evo_ape … -a`
+//!   applies, for comparison with evo.
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::EvalError;
 use crate::dataset::truth::Pose;
+
+/// Which rigid motions the alignment may apply to the estimate (module doc).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AlignMode {
+    /// A rotation about the vertical and a translation (gravity is observed).
+    #[default]
+    PosYaw,
+    /// Any rotation and a translation (evo's `-a`).
+    Se3,
+}
+
+impl AlignMode {
+    /// The name written in configs and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::PosYaw => "posyaw",
+            Self::Se3 => "se3",
+        }
+    }
+}
 
 /// Fewest point pairs that can fix a rotation.
 pub const MIN_ALIGNMENT_PAIRS: usize = 3;
@@ -77,6 +107,19 @@ impl Alignment {
 /// cross-covariance (all points on one line, or all equal: see `MIN_RELATIVE_SINGULAR_VALUE`).
 /// Planar point sets are fine: the reflection guard fixes the third axis.
 pub fn umeyama(est: &[Vector3<f64>], truth: &[Vector3<f64>]) -> Result<Alignment, EvalError> {
+    align(est, truth, AlignMode::Se3)
+}
+
+/// Least-squares rigid transform of `mode` taking `est[i]` onto `truth[i]` (module doc; SE(3)
+/// is [`umeyama`]).
+///
+/// Errors: different lengths, fewer than `MIN_ALIGNMENT_PAIRS` pairs, or points that cannot fix
+/// the rotation (SE(3): all on one line or all equal; yaw: no horizontal spread).
+pub fn align(
+    est: &[Vector3<f64>],
+    truth: &[Vector3<f64>],
+    mode: AlignMode,
+) -> Result<Alignment, EvalError> {
     if est.len() != truth.len() {
         return Err(EvalError::LengthMismatch {
             est: est.len(),
@@ -87,7 +130,7 @@ pub fn umeyama(est: &[Vector3<f64>], truth: &[Vector3<f64>]) -> Result<Alignment
     est.iter().zip(truth).for_each(|(x, y)| means.push(x, y));
     let mut cross = means.cross()?;
     est.iter().zip(truth).for_each(|(x, y)| cross.push(x, y));
-    cross.alignment()
+    cross.alignment(mode)
 }
 
 /// The first pass of [`umeyama`] over point pairs given one at a time: their sums.
@@ -140,8 +183,38 @@ impl UmeyamaCross {
         self.sum += (truth - self.mean_truth) * (est - self.mean_est).transpose();
     }
 
-    /// The alignment of the pairs.
-    pub(crate) fn alignment(&self) -> Result<Alignment, EvalError> {
+    /// The alignment of the pairs allowed by `mode`.
+    pub(crate) fn alignment(&self, mode: AlignMode) -> Result<Alignment, EvalError> {
+        match mode {
+            AlignMode::PosYaw => self.yaw_alignment(),
+            AlignMode::Se3 => self.se3_alignment(),
+        }
+    }
+
+    /// The yaw and translation (module doc).
+    fn yaw_alignment(&self) -> Result<Alignment, EvalError> {
+        let c = self.sum * self.inv_n;
+        let (sin, cos) = (c[(1, 0)] - c[(0, 1)], c[(0, 0)] + c[(1, 1)]);
+        let horizontal = c.fixed_view::<2, 2>(0, 0).norm();
+        if !c.iter().all(|x| x.is_finite())
+            || horizontal <= 0.0
+            || sin.hypot(cos) <= MIN_RELATIVE_SINGULAR_VALUE * horizontal
+        {
+            let d = c.svd(false, false).singular_values;
+            return Err(EvalError::Degenerate {
+                singular_values: [d[0], d[1], d[2]],
+            });
+        }
+        let r = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), sin.atan2(cos));
+        let t = self.mean_truth - r * self.mean_est;
+        Ok(Alignment::from_isometry(&Isometry3::from_parts(
+            t.into(),
+            r,
+        )))
+    }
+
+    /// Umeyama's rotation and translation.
+    fn se3_alignment(&self) -> Result<Alignment, EvalError> {
         let (mean_x, mean_y) = (self.mean_est, self.mean_truth);
         let cov = self.sum * self.inv_n;
         let svd = cov.svd(true, true);
@@ -268,5 +341,92 @@ mod tests {
         let p = Vector3::new(1.0, -2.0, 0.5);
         assert!((back.apply_point(&p) - a.apply_point(&p)).norm() < 1e-12);
         assert_eq!(Alignment::identity().apply_point(&p), p);
+    }
+
+    /// The ATE of `est` against `truth` under `mode`'s alignment.
+    fn ate(est: &[Vector3<f64>], truth: &[Vector3<f64>], mode: AlignMode) -> f64 {
+        let a = align(est, truth, mode).expect("aligned");
+        let sq: f64 = est
+            .iter()
+            .zip(truth)
+            .map(|(e, t)| (a.apply_point(e) - t).norm_squared())
+            .sum();
+        (sq / est.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn the_yaw_alignment_recovers_a_heading_and_a_translation_exactly() {
+        for seed in 0..20 {
+            let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
+            let est = random_points(&mut rng, 3 + seed as usize);
+            let yaw = (rng.random::<f64>() - 0.5) * 6.0;
+            let t = Vector3::new(rng.random(), rng.random(), rng.random()) * 20.0;
+            let truth_from_est = Isometry3::from_parts(
+                t.into(),
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
+            );
+            let truth = moved(&truth_from_est, &est);
+            let found = align(&est, &truth, AlignMode::PosYaw)
+                .expect("aligned")
+                .isometry();
+            let dr = found.rotation.angle_to(&truth_from_est.rotation);
+            let dt = (found.translation.vector - t).norm();
+            assert!(dr < 1e-12 && dt < 1e-11, "seed {seed}: {dr} rad, {dt} m");
+        }
+    }
+
+    /// A flight on a circle with some climb, estimated upside down (turned 180° about a
+    /// horizontal axis, which mirrors its horizontal track): any rotation aligns it onto the
+    /// truth, the heading alone cannot. With noise, the yaw found is the least-squares one: no
+    /// nearby heading does better.
+    #[test]
+    fn an_upside_down_estimate_is_not_aligned_away() {
+        let truth: Vec<Vector3<f64>> = (0..200)
+            .map(|k| {
+                let a = k as f64 * 0.05;
+                Vector3::new(2.5 * a.cos(), 2.5 * a.sin(), 1.5 + 0.3 * (0.5 * a).sin())
+            })
+            .collect();
+        let flip = Isometry3::from_parts(
+            Vector3::new(3.0, -1.0, 2.0).into(),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+        );
+        let est = moved(&flip, &truth);
+        assert!(ate(&est, &truth, AlignMode::Se3) < 1e-9);
+        assert!(ate(&est, &truth, AlignMode::PosYaw) > 1.5);
+
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let noisy: Vec<Vector3<f64>> = truth
+            .iter()
+            .map(|p| {
+                let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.1);
+                tilt * p + Vector3::new(rng.random(), rng.random(), rng.random()) * 0.2
+            })
+            .collect();
+        let best = align(&noisy, &truth, AlignMode::PosYaw).expect("aligned");
+        let cost = |a: &Alignment| -> f64 {
+            noisy
+                .iter()
+                .zip(&truth)
+                .map(|(e, t)| (a.apply_point(e) - t).norm_squared())
+                .sum()
+        };
+        for dyaw in [-0.01, 0.01] {
+            let turned = best.isometry().rotation
+                * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), dyaw);
+            let mean_est = noisy.iter().sum::<Vector3<f64>>() / noisy.len() as f64;
+            let mean_truth = truth.iter().sum::<Vector3<f64>>() / truth.len() as f64;
+            let other = Alignment::from_isometry(&Isometry3::from_parts(
+                (mean_truth - turned * mean_est).into(),
+                turned,
+            ));
+            assert!(cost(&other) > cost(&best), "{dyaw}");
+        }
+        // A vertical line has no heading to find.
+        let column: Vec<Vector3<f64>> = (0..10).map(|k| Vector3::new(1.0, 2.0, k as f64)).collect();
+        assert!(matches!(
+            align(&column, &column, AlignMode::PosYaw),
+            Err(EvalError::Degenerate { .. })
+        ));
     }
 }

@@ -3,7 +3,7 @@
 
 use std::io;
 
-use super::{Alignment, EvalError, EvalOptions, umeyama};
+use super::{Alignment, EvalError, EvalOptions, align};
 use crate::dataset::truth::Pose;
 use crate::time::Timestamp;
 
@@ -111,7 +111,7 @@ pub(super) fn associate_and_align(
         .iter()
         .map(|&(i, j)| (est[i].p_b_in_w, truth[j].p_b_in_w))
         .unzip();
-    let alignment = umeyama(&est_p, &truth_p)?;
+    let alignment = align(&est_p, &truth_p, options.align)?;
     Ok((association, alignment))
 }
 

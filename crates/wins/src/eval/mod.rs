@@ -28,7 +28,7 @@ pub(crate) mod stream;
 
 use serde::{Deserialize, Serialize};
 
-pub use align::{Alignment, umeyama};
+pub use align::{AlignMode, Alignment, align, umeyama};
 pub use aps::{EstimatedAp, read_estimated_aps, write_estimated_aps};
 pub use associate::{Association, associate};
 pub use drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
@@ -54,6 +54,9 @@ pub struct EvalOptions {
     pub max_time_diff_s: f64,
     /// RPE delta Δ in associated poses (≥ 1); 1 compares consecutive estimated poses.
     pub rpe_delta_frames: usize,
+    /// What the alignment before the ATE may apply: `"posyaw"` (a heading and a translation:
+    /// gravity is observed) or `"se3"` (any rotation, as `evo_ape -a`).
+    pub align: AlignMode,
 }
 
 impl Default for EvalOptions {
@@ -61,6 +64,7 @@ impl Default for EvalOptions {
         Self {
             max_time_diff_s: DEFAULT_MAX_TIME_DIFF_S,
             rpe_delta_frames: DEFAULT_RPE_DELTA_FRAMES,
+            align: AlignMode::default(),
         }
     }
 }
@@ -233,8 +237,25 @@ mod tests {
     fn degenerate_inputs_are_errors() {
         let (line, helix) = (flight(false), flight(true));
         assert!(eval(&helix, &helix).is_ok());
+        // A level line fixes a heading, not a rotation about itself.
+        assert!(eval(&line, &line).is_ok());
+        let se3 = EvalOptions {
+            align: AlignMode::Se3,
+            ..EvalOptions::default()
+        };
         assert!(matches!(
-            eval(&line, &line),
+            evaluate(&line, &line, &[], &[], &se3),
+            Err(EvalError::Degenerate { .. })
+        ));
+        let column: Vec<Pose> = line
+            .iter()
+            .map(|p| Pose {
+                p_b_in_w: Vector3::new(0.0, 0.0, p.p_b_in_w.x),
+                ..*p
+            })
+            .collect();
+        assert!(matches!(
+            eval(&column, &column),
             Err(EvalError::Degenerate { .. })
         ));
         let too_few = eval(&helix[..2], &helix);

@@ -184,11 +184,11 @@ impl<'a> StreamedEval<'a> {
                 c.push(&p.est.pose.p_b_in_w, &p.truth.p_b_in_w);
             }
         })?;
-        let alignment = global.alignment()?;
+        let alignment = global.alignment(self.options.align)?;
         let first_minute = if last.0 - first.0 < 2 * window_ns {
             None
         } else {
-            first_minute.and_then(|c| c.alignment().ok())
+            first_minute.and_then(|c| c.alignment(self.options.align).ok())
         };
         let delta = self.options.rpe_delta_frames;
         if delta == 0 || n <= delta {

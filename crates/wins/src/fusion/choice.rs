@@ -163,6 +163,17 @@ impl Estimator {
         }
     }
 
+    /// The σ of the sine of the cone angle toward AP `l` that the state predicts, from the
+    /// window's joint covariance of the newest pose, the AP and the bearings' common offset
+    /// ([`crate::fusion::nonlinear::NonlinearWindow::predicted_sin`]); `None` for the paper's
+    /// window (which keeps no such covariance) or when the AP is not placed.
+    pub fn predicted_sin_sigma(&self, l: usize) -> Option<f64> {
+        match self {
+            Self::Paper(_) => None,
+            Self::Nonlinear(n) => n.window()?.predicted_sin(l).map(|(_, sigma)| sigma),
+        }
+    }
+
     /// The gyro bias now, rad/s.
     pub fn gyro_bias_rad_s(&self) -> Vector3<f64> {
         match self {

@@ -12,7 +12,8 @@
 //! converged, by the state near the array's axis; until the turns tell, a track is assumed in
 //! front ([`PipelineConfig::assume_front_until_converged`], the paper's ±90° set-up) and the packet
 //! log says so. A packet whose window holds no credible peak, or (after convergence) whose angle is
-//! further than [`PipelineConfig::gate_deg`] from the state's prediction, is dropped and counted.
+//! further than [`PipelineConfig::gate_deg`] (or [`PipelineConfig::gate_sigmas`] σ) from the
+//! state's prediction, is dropped and counted.
 //! Accepted bearings join the frame at the next grid time (`slot`), moved to that instant by
 //! the gyro (and the velocity once known); the frame is solved by the estimator ([`Estimator`]) when the IMU stream
 //! passes it. Gyro drift is removed by the window's joint gyro-bias estimate (the paper's relaxed

@@ -6,6 +6,7 @@ use super::slot::{PendingBearing, grid_time};
 use super::track::{ArrayPose, TrackGains, TrackState};
 use crate::csi::intel5300::CsiRecord;
 use crate::fusion::bearing::Bearing;
+use crate::fusion::nonlinear::factors::cone::sin_sigma;
 use crate::time::Timestamp;
 use nalgebra::UnitQuaternion;
 
@@ -144,7 +145,15 @@ impl super::Pipeline {
         let track = &mut self.tracks[ap];
         let side = match from_state {
             Some(((state_aoa, state_side), _)) => {
-                let off = (peak.aoa_rad - state_aoa).abs() > self.config.gate_deg.to_radians();
+                let off = if self.config.gate_sigmas > 0.0 {
+                    let sigma_pred = self.wins.predicted_sin_sigma(ap).unwrap_or(0.0);
+                    let sigma_meas =
+                        sin_sigma(peak.aoa_rad, self.config.bearing_sigma_deg.to_radians());
+                    (peak.aoa_rad.sin() - state_aoa.sin()).abs()
+                        > self.config.gate_sigmas * sigma_meas.hypot(sigma_pred)
+                } else {
+                    (peak.aoa_rad - state_aoa).abs() > self.config.gate_deg.to_radians()
+                };
                 // A run of gated packets means the state, not the AoA, is off: feed again.
                 // After a silence the state is doubted until a bearing agrees with it.
                 track.state_doubted &= off;

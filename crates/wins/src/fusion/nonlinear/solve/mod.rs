@@ -23,6 +23,7 @@ mod build;
 pub mod fit;
 pub(in crate::fusion::nonlinear) mod nullspace;
 pub mod optimize;
+mod predict;
 pub mod shares;
 
 use std::collections::VecDeque;
@@ -107,6 +108,8 @@ pub(in crate::fusion::nonlinear) struct Covariances {
     pub(in crate::fusion::nonlinear) newest: Mat15,
     /// Of the border.
     pub(in crate::fusion::nonlinear) border: DMatrix<f64>,
+    /// Between the newest keyframe (rows) and the border (columns).
+    pub(in crate::fusion::nonlinear) newest_border: DMatrix<f64>,
 }
 
 /// What the window has done with its inputs.
@@ -205,6 +208,7 @@ impl NonlinearWindow {
             covariance: Covariances {
                 newest: Mat15::identity(),
                 border: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
+                newest_border: DMatrix::zeros(STATE_DIM, dim - STATE_DIM),
             },
             counts: Counts::default(),
             lambda: LAMBDA_FIRST,
