@@ -46,11 +46,18 @@ fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
     [r[0], r[1], r[2]]
 }
 
-/// The rigid transform `est_world_from_truth_world` of the tests: 0.8 rad about (1, 2, 3)/√14.
+/// The rigid transform `est_world_from_truth_world` of the tests: 0.8 rad about the vertical
+/// (what an inertial estimate's world may differ by: its heading and origin).
 fn est_from_truth() -> ([f64; 4], [f64; 3]) {
+    let (s, c) = 0.4f64.sin_cos();
+    ([0.0, 0.0, s, c], [3.0, -2.0, 0.7])
+}
+
+/// A tilted world: 0.8 rad about (1, 2, 3)/√14.
+fn tilted() -> [f64; 4] {
     let (half, n) = (0.4f64, 14f64.sqrt());
     let (s, c) = half.sin_cos();
-    ([s / n, 2.0 * s / n, 3.0 * s / n, c], [3.0, -2.0, 0.7])
+    [s / n, 2.0 * s / n, 3.0 * s / n, c]
 }
 
 /// Moves a truth pose into the estimate's world and adds a position offset there.
@@ -206,19 +213,28 @@ fn eval_of_a_moved_noisy_estimate() {
 #[test]
 fn eval_errors_are_reported() {
     let dir = temp_dir("bad");
-    // A straight line: the rotation about it is undefined.
-    let line: Vec<Row> = (0..100)
-        .map(|k| Row {
-            t: k as f64 * 0.01,
-            p: [k as f64 * 0.1, 0.0, 1.0],
-            q: [0.0, 0.0, 0.0, 1.0],
-        })
-        .collect();
+    // A straight level line: the rotation about it is undefined (any rotation allowed), its
+    // heading is not; a climb straight up fixes no heading.
+    let line = |p: fn(f64) -> [f64; 3]| -> Vec<Row> {
+        (0..100)
+            .map(|k| Row {
+                t: k as f64 * 0.01,
+                p: p(k as f64 * 0.1),
+                q: [0.0, 0.0, 0.0, 1.0],
+            })
+            .collect()
+    };
     let path = dir.join("line.tum");
-    std::fs::write(&path, tum(&line)).expect("write");
-    let out = wins(&["eval", s(&path), s(&path)]);
+    std::fs::write(&path, tum(&line(|x| [x, 0.0, 1.0]))).expect("write");
+    let out = wins(&["eval", s(&path), s(&path), "--align", "se3"]);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("collinear"), "{}", stderr(&out));
+    assert!(wins(&["eval", s(&path), s(&path)]).status.success());
+    let climb = dir.join("climb.tum");
+    std::fs::write(&climb, tum(&line(|z| [1.0, 2.0, z]))).expect("write");
+    let out = wins(&["eval", s(&climb), s(&climb)]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("horizontally"), "{}", stderr(&out));
 
     let out = wins(&["eval", s(&path), s(&path), "--aps", s(&path)]);
     assert!(!out.status.success());
@@ -296,4 +312,46 @@ fn eval_against_a_dataset_with_ap_estimates() {
     // paper-circle flies at 1.27 m/s.
     let v = m["max_speed_m_s"].as_f64().expect("speed");
     assert!((v - 1.27).abs() < 0.05, "{v}");
+}
+
+/// The default alignment turns the estimate about the vertical only: an estimate in a tilted
+/// world (gravity misplaced) keeps its error, which `--align se3` (evo's `-a`) rotates away.
+#[test]
+fn the_default_alignment_turns_only_the_heading() {
+    let dir = temp_dir("tilted");
+    let truth = truth_rows(20);
+    let est: Vec<Row> = truth
+        .iter()
+        .step_by(4)
+        .map(|r| Row {
+            t: r.t,
+            p: rotate(tilted(), r.p),
+            q: quat_mul(tilted(), r.q),
+        })
+        .collect();
+    let (truth_path, est_path) = (dir.join("truth.tum"), dir.join("est.tum"));
+    std::fs::write(&truth_path, tum(&truth)).expect("write truth");
+    std::fs::write(&est_path, tum(&est)).expect("write est");
+    let ate = |extra: &[&str]| {
+        let mut args = vec!["eval", s(&est_path), s(&truth_path), "--json"];
+        args.extend_from_slice(extra);
+        let out = wins(&args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let m: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        (
+            m["ate_rmse_m"].as_f64().expect("ate"),
+            m["attitude_error_rmse_deg"].as_f64().expect("attitude"),
+        )
+    };
+    let (posyaw, posyaw_deg) = ate(&[]);
+    assert_eq!((posyaw, posyaw_deg), ate(&["--align", "posyaw"]));
+    assert!(
+        posyaw > 0.5 && posyaw_deg > 20.0,
+        "{posyaw} m, {posyaw_deg}°"
+    );
+    let (se3, se3_deg) = ate(&["--align", "se3"]);
+    assert!(se3 < 1e-9 && se3_deg < 1e-6, "{se3} m, {se3_deg}°");
+    let out = wins(&["eval", s(&est_path), s(&truth_path), "--align", "sim3"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("posyaw"), "{}", stderr(&out));
 }

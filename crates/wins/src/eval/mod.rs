@@ -144,10 +144,11 @@ pub enum EvalError {
         /// Pairs needed.
         needed: usize,
     },
-    /// The estimated positions are collinear or constant: the alignment's rotation is undefined.
+    /// The estimated positions cannot fix the alignment's rotation: constant, collinear (SE(3)),
+    /// or without horizontal motion (a heading).
     #[error(
-        "cannot align: the estimated positions are collinear or do not move (cross-covariance \
-         singular values {singular_values:?})"
+        "cannot align: the estimated positions are collinear, do not move, or (for a heading) do \
+         not move horizontally (cross-covariance singular values {singular_values:?})"
     )]
     Degenerate {
         /// Singular values of the cross-covariance, decreasing, m².
