@@ -21,8 +21,9 @@ pub const SPEED_MIN_INTERVAL_S: f64 = 0.02;
 /// of an even count is the mean of the two middle values, standard deviations divide by `n`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
-    /// Absolute trajectory error: RMSE of `‖e_i‖` over the associated poses after SE(3) Umeyama
-    /// alignment, m. Equal to `evo_ape tum TRUTH EST -a`'s RMSE.
+    /// Absolute trajectory error: RMSE of `‖e_i‖` over the associated poses after the alignment
+    /// (`EvalOptions::align`: a heading and a translation, or SE(3) Umeyama), m. With SE(3),
+    /// equal to `evo_ape tum TRUTH EST -a`'s RMSE.
     pub ate_rmse_m: f64,
     /// Mean of `‖e_i‖`, m.
     pub position_error_mean_m: f64,
@@ -37,7 +38,7 @@ pub struct Metrics {
     /// m: the per-axis spread the paper reports.
     pub position_error_std_xyz_m: [f64; 3],
     /// Mean attitude error, deg: the angle of `R_truthᵀ · R · R_est` (`world_from_body`
-    /// rotations; evo_ape `-r angle_deg -a`).
+    /// rotations; with SE(3), evo_ape `-r angle_deg -a`).
     pub attitude_error_mean_deg: f64,
     /// RMSE of the same attitude error angle, deg.
     pub attitude_error_rmse_deg: f64,

@@ -1,14 +1,15 @@
 //! Trajectory evaluation: an estimated trajectory (and AP positions) against the truth.
 //!
 //! ```text
-//! estimate, truth ─► associate (nearest time ≤ 10 ms) ─► SE(3) Umeyama on positions ─► Metrics
+//! estimate, truth ─► associate (nearest time ≤ 10 ms) ─► align positions ─► Metrics
 //!                                                         └─► same transform on estimated APs
 //! ```
 //!
 //! The numbers are the paper's (ATE, per-axis error spread, AP error) and the usual VIO ones of
-//! Zhang & Scaramuzza (IROS 2018), computed as evo 1.38 computes them, so that `ate_rmse_m` equals
-//! `evo_ape tum TRUTH EST -a` and `rpe_*` equal `evo_rpe tum TRUTH EST --delta Δ --delta_unit f`
-//! (`scripts/evo_check.sh` checks both). Beside them, what a flight controller's user watches on a
+//! Zhang & Scaramuzza (IROS 2018). The alignment is a heading and a translation by default
+//! ([`AlignMode::PosYaw`]: gravity is observed); with [`AlignMode::Se3`] they are computed as evo
+//! 1.38 computes them, so that `ate_rmse_m` equals `evo_ape tum TRUTH EST -a`, and `rpe_*` equal
+//! `evo_rpe tum TRUTH EST --delta Δ --delta_unit f` either way (`scripts/evo_check.sh` checks both). Beside them, what a flight controller's user watches on a
 //! long flight (`drift`): the error in the last minute, the drift from an alignment fixed on the
 //! first minute, the heading drift rate and the position jumps; and whether the covariance
 //! reported with the poses is honest (`nees`). The definitions are on the fields
