@@ -30,6 +30,7 @@ use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
+use crate::fusion::arrow::BorderTOf;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::nonlinear::config::NonlinearConfig;
 use crate::fusion::nonlinear::factors::imu::imu_information;
@@ -109,7 +110,7 @@ pub(in crate::fusion::nonlinear) struct Covariances {
     /// Of the border.
     pub(in crate::fusion::nonlinear) border: DMatrix<f64>,
     /// Between the newest keyframe (rows) and the border (columns).
-    pub(in crate::fusion::nonlinear) newest_border: DMatrix<f64>,
+    pub(in crate::fusion::nonlinear) newest_border: BorderTOf<STATE_DIM>,
 }
 
 /// What the window has done with its inputs.
@@ -208,7 +209,7 @@ impl NonlinearWindow {
             covariance: Covariances {
                 newest: Mat15::identity(),
                 border: DMatrix::zeros(dim - STATE_DIM, dim - STATE_DIM),
-                newest_border: DMatrix::zeros(STATE_DIM, dim - STATE_DIM),
+                newest_border: BorderTOf::<STATE_DIM>::zeros(dim - STATE_DIM),
             },
             counts: Counts::default(),
             lambda: LAMBDA_FIRST,

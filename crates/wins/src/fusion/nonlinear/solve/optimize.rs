@@ -154,11 +154,7 @@ impl NonlinearWindow {
         if let Some(sol) = damped(&sys, 0.0).into_solution() {
             self.covariance.newest = sol.last_frame_covariance;
             self.covariance.border = sol.border_covariance;
-            self.covariance.newest_border = DMatrix::from_iterator(
-                STATE_DIM,
-                sol.last_frame_border_covariance.ncols(),
-                sol.last_frame_border_covariance.iter().copied(),
-            );
+            self.covariance.newest_border = sol.last_frame_border_covariance;
         }
         // The next solve starts where this one ended, but never more damped than a new window: a
         // solve that found no lower cost (at its minimum) leaves the damping past 1e6, which

@@ -17,7 +17,6 @@ use nalgebra::DVector;
 
 use super::NonlinearWindow;
 use crate::fusion::nonlinear::factors::cone::cone_jacobian;
-use crate::fusion::nonlinear::state::STATE_DIM;
 use crate::imu::Preintegrated;
 
 impl NonlinearWindow {
@@ -52,11 +51,9 @@ impl NonlinearWindow {
             j_border[self.scalars() - 1] = 1.0;
             b
         });
-        let j_state = j.d_state.transpose();
-        let variance = (j.d_state * cov.newest * j_state)[0]
+        let variance = (j.d_state * cov.newest * j.d_state.transpose())[0]
             + 2.0 * (j.d_state * &cov.newest_border * &j_border)[0]
             + (j_border.transpose() * &cov.border * &j_border)[0];
-        debug_assert_eq!(j_state.nrows(), STATE_DIM);
         Some((j.residual + beta.unwrap_or(0.0), variance.max(0.0).sqrt()))
     }
 }
@@ -65,6 +62,7 @@ impl NonlinearWindow {
 mod tests {
     use nalgebra::{DMatrix, Matrix3, Vector3};
 
+    use crate::fusion::arrow::BorderTOf;
     use crate::fusion::nonlinear::factors::cone::cone_residual;
     use crate::fusion::nonlinear::solve::aps::tests::window;
     use crate::fusion::nonlinear::state::{POS, STATE_DIM, Vec15};
@@ -132,7 +130,6 @@ mod tests {
 
         // The AP moving with the body's position (a prior tying the two): their relative
         // position, hence the angle, is far better known than either.
-        let pos = POS;
         w.covariance.newest = nalgebra::SMatrix::<f64, 15, 15>::identity() * 1e-8;
         let mut tied = DMatrix::zeros(m, m);
         tied.view_mut((o, o), (3, 3))
@@ -140,10 +137,10 @@ mod tests {
         w.covariance.border = tied;
         w.covariance
             .newest
-            .view_mut((pos, pos), (3, 3))
+            .view_mut((POS, POS), (3, 3))
             .fill_with_identity();
-        let mut cross = DMatrix::zeros(STATE_DIM, m);
-        cross.view_mut((pos, o), (3, 3)).fill_with_identity();
+        let mut cross = BorderTOf::<STATE_DIM>::zeros(m);
+        cross.view_mut((POS, o), (3, 3)).fill_with_identity();
         w.covariance.newest_border = cross;
         let (_, tied_sigma) = w.predicted_sin(0).expect("predicted");
         let expected = (&jac * joint(&w) * jac.transpose())[0].max(0.0).sqrt();
