@@ -15,6 +15,7 @@ use wins::sim::family::{FAMILIES, Family};
 use wins::sim::{self, Scenario};
 
 mod aoa_cmd;
+mod bound_cmd;
 mod eval_cmd;
 mod live_cmd;
 mod run_cmd;
@@ -43,6 +44,9 @@ enum Command {
     Calibrate(aoa_cmd::CalibrateArgs),
     /// Score an estimated trajectory (TUM) against the truth: ATE, RPE, attitude and AP errors.
     Eval(eval_cmd::EvalArgs),
+    /// The lowest ATE any estimator could reach on simulated flights (a Cramér–Rao bound from
+    /// each flight's geometry, IMU and bearings).
+    Bound(bound_cmd::BoundArgs),
     /// Run WINS on a dataset directory: trajectory, AP positions, AoA log, statistics, and with
     /// a `truth/` folder metrics, a report and figures.
     Run(run_cmd::RunArgs),
@@ -183,6 +187,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Aoa(args) => aoa_cmd::aoa(args),
         Command::Calibrate(args) => aoa_cmd::calibrate_cmd(args),
         Command::Eval(args) => eval_cmd::eval(args),
+        Command::Bound(args) => bound_cmd::bound(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Demo(args) => run_cmd::demo(args),
         Command::Live(args) => live_cmd::live(args),

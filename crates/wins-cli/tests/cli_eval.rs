@@ -355,3 +355,67 @@ fn the_default_alignment_turns_only_the_heading() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("posyaw"), "{}", stderr(&out));
 }
+
+/// The bound in the CSV `wins bound --csv` wrote: its one row's `ate_bound_m`.
+fn bound_of(path: &std::path::Path) -> f64 {
+    let text = std::fs::read_to_string(path).expect("bound CSV");
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("dataset,ate_bound_m,last_sigma_m,worst_ap_sigma_m,bearings")
+    );
+    let row: Vec<&str> = lines.next().expect("a row").split(',').collect();
+    assert_eq!(lines.next(), None);
+    row[1].parse().expect("a number")
+}
+
+#[test]
+fn bound_gives_each_flight_its_lowest_reachable_error() {
+    let dir = temp_dir("bound");
+    let ds = dir.join("ds");
+    let out = wins(&[
+        "simulate",
+        "--scenario",
+        "paper-circle",
+        "--duration",
+        "25",
+        "--out",
+        s(&ds),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let csv = dir.join("bound.csv");
+    let out = wins(&["bound", s(&ds), "--csv", s(&csv)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("ATE bound (m)"));
+    let sharp = bound_of(&csv);
+    assert!(sharp > 0.0 && sharp < 0.5, "{sharp}");
+    let out = wins(&[
+        "bound",
+        s(&ds),
+        "--csv",
+        s(&csv),
+        "--bearing-sigma-deg",
+        "3",
+        "--bearing-correlation-s",
+        "0.5",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        bound_of(&csv) > 1.3 * sharp,
+        "{} vs {sharp}",
+        bound_of(&csv)
+    );
+
+    // No truth: refused by name, and the other dataset still bounded.
+    std::fs::remove_dir_all(ds.join("truth")).expect("remove truth");
+    let out = wins(&["bound", s(&ds)]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("truth"), "{}", stderr(&out));
+    let out = wins(&["bound", s(&ds), "--bearing-sigma-deg", "0"]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("--bearing-sigma-deg"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -18,6 +18,7 @@
 pub(crate) mod align;
 pub(crate) mod aps;
 pub(crate) mod associate;
+pub mod bound;
 pub(crate) mod drift;
 mod evaluate;
 pub(crate) mod metrics;
