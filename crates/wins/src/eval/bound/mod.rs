@@ -4,11 +4,11 @@
 //!
 //! The unknowns are the body's attitude, velocity and position at keyframes every
 //! [`BoundConfig::keyframe_s`], the IMU's biases, every AP's position and the barometer's offset.
-//! The measurements are the IMU between keyframes ([`model`]), every received packet's bearing
+//! The measurements are the IMU between keyframes (`model.rs`), every received packet's bearing
 //! `sin θ` with white errors of [`BoundConfig::bearing_sigma_rad`] at broadside (an array
 //! measures `sin θ`: the angle's error grows as `1/cos θ` towards the array's axis), the
 //! barometer's samples, and, while the truth is at rest, the velocity. The information matrix
-//! `J` is summed at the truth and inverted ([`normal`]); `J⁻¹` bounds the covariance of any
+//! `J` is summed at the truth and inverted (`normal.rs`); `J⁻¹` bounds the covariance of any
 //! unbiased estimate from below. The expected error the scoring's alignment (a heading and a
 //! translation) leaves is then `tr((I − P) J⁻¹ (I − P))` over the keyframes' positions, `P` the
 //! projection onto what the alignment absorbs.
