@@ -49,6 +49,9 @@ impl LiveSession {
                 arrival_ns: _,
             } => {
                 self.stats.baro_received += 1;
+                // On the timeline of the flight controller's clock as its IMU last placed it
+                // (the barometer does not move the clock's line).
+                let t = Timestamp(t.as_nanos().saturating_add(self.fc.epoch_offset_ns()));
                 if self.use_baro {
                     self.push_merged(Merged::Baro { t, altitude_m });
                 }
