@@ -318,6 +318,19 @@ fn the_imu_stopping_5_s_is_a_gap_bridged_as_wins_run_bridges_it() {
     assert_eq!(count(&stats, "fc_clock_relocks"), 0, "{}", stats["live"]);
 }
 
+/// After 12 s the estimate does not come back, in `wins run` either (the hole recovery's
+/// limit); the IMU is taken again at once, never locked out.
+#[test]
+fn the_imu_stopping_12_s_is_taken_back_at_once_as_wins_run_takes_the_gap() {
+    let (stats, _) = imu_gap("imu-silence-12", "imu-silence@22:12", 12.0);
+    assert_eq!(count(&stats, "fc_clock_relocks"), 0, "{}", stats["live"]);
+    assert!(
+        count(&stats, "imu_clock_locking") <= 20,
+        "{}",
+        stats["live"]
+    );
+}
+
 #[test]
 fn the_flight_controller_rebooting_relocks_its_clock_and_the_poses_resume() {
     let (stats, resumed) = imu_gap("fc-reboot", "fc-reboot@22:2", 2.0);

@@ -186,8 +186,8 @@ impl LiveSession {
             "the IMU came back"
         };
         let notice = format!(
-            "t {:.1} s: {what} after {:.1} s without IMU: no pose across the gap; the estimate \
-             restarts after it",
+            "t {:.1} s: {what} after {:.1} s without IMU: no pose across the gap; the \
+             estimator's hole recovery takes over",
             t.as_secs_f64(),
             gap_ns as f64 * 1e-9
         );
