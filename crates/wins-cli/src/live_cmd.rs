@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
 use wins::Config;
-use wins::live::player::{PlayOptions, Streams, play};
+use wins::live::player::{PlayFault, PlayOptions, Streams, play};
 use wins::live::run::{LiveOptions, run_live};
 use wins::live::{ApBy, PoseMessage};
 
@@ -138,6 +138,12 @@ pub struct ReplayArgs {
     /// Write the MAVLink datagrams that come back (the poses) to this file, raw.
     #[arg(long, value_name = "FILE")]
     capture: Option<PathBuf>,
+    /// Put a fault into the streams, KIND@AT:VALUE with AT in s of the dataset (repeatable):
+    /// imu-shift@AT:S (one IMU sample S s off), imu-silence@AT:S (no IMU for S s),
+    /// fc-reboot@AT:S (silent S s, then the clock reads from 0 at AT), csi-shift@AT:S (one
+    /// record's NIC time S s off), csi-garbage@AT:BYTES (random bytes in the CSI stream).
+    #[arg(long, value_name = "KIND@AT:VALUE")]
+    fault: Vec<String>,
 }
 
 /// `wins replay`.
@@ -172,6 +178,11 @@ pub fn replay(args: ReplayArgs) -> Result<()> {
             imu: args.only.as_deref() != Some("csi"),
         },
         capture: args.capture,
+        faults: args
+            .fault
+            .iter()
+            .map(|f| f.parse::<PlayFault>().map_err(anyhow::Error::msg))
+            .collect::<Result<_>>()?,
     };
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {

@@ -25,15 +25,14 @@
 
 use std::fmt::Write as _;
 use std::fs;
-use std::net::{TcpListener, UdpSocket};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::thread;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::process::Command;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use serde_json::Value;
 
 mod common;
+use common::live::{Running, Trajectory, read_tum, start_live};
 use common::s;
 
 /// The flight: long enough for the estimator to converge (the chain-offset resolution decides
@@ -112,88 +111,6 @@ fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/fc_pymavlink.py")
 }
 
-/// A free local TCP port and a free local UDP port (bound, then released).
-fn free_ports() -> (u16, u16) {
-    let tcp = TcpListener::bind("127.0.0.1:0").unwrap();
-    let udp = UdpSocket::bind("127.0.0.1:0").unwrap();
-    (
-        tcp.local_addr().unwrap().port(),
-        udp.local_addr().unwrap().port(),
-    )
-}
-
-/// A child process killed when the guard goes (a test that fails leaves nothing running).
-struct Running {
-    name: String,
-    child: Option<Child>,
-    log: PathBuf,
-}
-
-impl Running {
-    /// Starts `program args`, its stdout and stderr in `log`.
-    fn spawn(name: &str, program: &str, args: &[&str], log: PathBuf) -> Self {
-        let file = fs::File::create(&log).unwrap();
-        let child = Command::new(program)
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(file.try_clone().unwrap())
-            .stderr(file)
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot start {name} ({program}): {e}"));
-        Self {
-            name: name.to_string(),
-            child: Some(child),
-            log,
-        }
-    }
-
-    fn wins(name: &str, args: &[&str], dir: &Path) -> Self {
-        let log = dir.join(format!("{name}.log"));
-        Self::spawn(name, env!("CARGO_BIN_EXE_wins"), args, log)
-    }
-
-    /// Its output so far.
-    fn output(&self) -> String {
-        fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    /// Waits for the end, at most `timeout`; panics (the guard then kills it) when it does not
-    /// end in time or fails.
-    fn finish(&mut self, timeout: Duration) -> String {
-        let until = Instant::now() + timeout;
-        let child = self.child.as_mut().unwrap();
-        let status: ExitStatus = loop {
-            if let Some(status) = child.try_wait().unwrap() {
-                break status;
-            }
-            assert!(
-                Instant::now() < until,
-                "{} did not end within {timeout:?}:\n{}",
-                self.name,
-                self.output()
-            );
-            thread::sleep(Duration::from_millis(50));
-        };
-        self.child = None;
-        assert!(
-            status.success(),
-            "{} failed ({status}):\n{}",
-            self.name,
-            self.output()
-        );
-        self.output()
-    }
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        if let Some(mut child) = self.child.take() {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
-
 /// A simulated flight, and `wins run` on it started beside (it ends long before the live
 /// session): (dataset, run output, the run).
 fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
@@ -218,41 +135,6 @@ fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
     (ds, run, running)
 }
 
-/// `wins live` on the rig `ds`, listening on free ports, writing `dir/live`; returns once its
-/// MAVLink port is bound (the CSI server is up before it), with (CSI port, MAVLink port).
-fn start_live(dir: &Path, ds: &Path) -> (Running, u16, u16) {
-    let (csi_port, mav_port) = free_ports();
-    let out = dir.join("live");
-    let live = Running::wins(
-        "wins live",
-        &[
-            "live",
-            "--rig",
-            s(ds),
-            "--csi-listen",
-            &format!("127.0.0.1:{csi_port}"),
-            "--mavlink",
-            &format!("udpin:127.0.0.1:{mav_port}"),
-            "--out",
-            s(&out),
-            "--idle-exit",
-            IDLE_EXIT_S,
-        ],
-        dir,
-    );
-    let until = Instant::now() + Duration::from_secs(20);
-    // The port is taken once `wins live` has bound it: no packet is sent to find out.
-    while UdpSocket::bind(("127.0.0.1", mav_port)).is_ok() {
-        assert!(
-            Instant::now() < until,
-            "wins live did not open its ports:\n{}",
-            live.output()
-        );
-        thread::sleep(Duration::from_millis(20));
-    }
-    (live, csi_port, mav_port)
-}
-
 /// How long a 30 s flight may take from its start to `wins live`'s end.
 fn play_timeout() -> Duration {
     Duration::from_secs(90)
@@ -272,28 +154,6 @@ fn run_script(python: &str, args: &[&str]) -> Value {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).unwrap()
-}
-
-/// A TUM trajectory in time order: (time in µs, position, [w, x, y, z]).
-type Trajectory = Vec<(i64, [f64; 3], [f64; 4])>;
-
-fn read_tum(path: &Path) -> Trajectory {
-    let text = fs::read_to_string(path).unwrap();
-    let mut poses = Vec::new();
-    for line in text
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.is_empty())
-    {
-        let v: Vec<f64> = line
-            .split_whitespace()
-            .map(|x| x.parse().unwrap())
-            .collect();
-        assert_eq!(v.len(), 8, "{}: {line}", path.display());
-        let t_us = (v[0] * 1e6).round() as i64;
-        poses.push((t_us, [v[1], v[2], v[3]], [v[7], v[4], v[5], v[6]]));
-    }
-    poses.sort_by_key(|p| p.0);
-    poses
 }
 
 /// The pose at `t_us`, linear between the two around it (normalized for the attitude), when
@@ -600,7 +460,7 @@ fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() 
     let python = python("the ODOMETRY checks");
     let dir = scratch("replay");
     let (ds, run, mut offline) = flight(&dir);
-    let (mut live, csi_port, mav_port) = start_live(&dir, &ds);
+    let (mut live, csi_port, mav_port) = start_live(&dir, &ds, IDLE_EXIT_S);
     let capture = dir.join("odometry.bin");
     let mut replay = Running::wins(
         "wins replay",
@@ -657,7 +517,7 @@ fn pymavlink_plays_the_flight_controller() {
     };
     let dir = scratch("fc");
     let (ds, run, mut offline) = flight(&dir);
-    let (mut live, csi_port, mav_port) = start_live(&dir, &ds);
+    let (mut live, csi_port, mav_port) = start_live(&dir, &ds, IDLE_EXIT_S);
     // Both players start the dataset at the same instant, a moment from now.
     let start_at = SystemTime::now()
         .duration_since(UNIX_EPOCH)

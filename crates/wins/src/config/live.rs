@@ -62,8 +62,10 @@ pub struct LiveConfig {
     /// no arrival can show it (measure it once for a set-up, or leave 0 when both links are
     /// local and fast: their least delays are then within a fraction of a millisecond).
     pub csi_extra_latency_ms: f64,
-    /// A CSI record whose time lies further than this from the IMU's is dropped and counted (a
-    /// NIC clock jump, or a stream from another flight), s.
+    /// How far behind its clock's line a sample's time may lie and still be a late arrival
+    /// (which the merger places or counts late) rather than a jump of that clock (an outlier
+    /// or the start of a re-lock, `crate::live::clock::ClockTrack`); and a CSI record whose time
+    /// lands further than this from the flight controller's present is dropped and counted, s.
     pub max_clock_jump_s: f64,
     /// Seconds between status lines on stderr (0: none).
     pub status_interval_s: f64,

@@ -35,10 +35,17 @@
 //!    while the window is still short.
 //!
 //! The residual bias is the mean block-minimum delay (tens of µs at 100 Hz with ms-scale jitter).
+//!
+//! A line alone believes every sample; [`ClockTrack`] (in [`track`]) guards it: a lone sample
+//! far from the line is refused, a clock that restarts is re-locked ([`track`]'s module doc).
+
+pub mod track;
 
 use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
+
+pub use self::track::{ClockTrack, Pushed, TrackConfig};
 
 /// Parts per million.
 const PPM: f64 = 1e6;

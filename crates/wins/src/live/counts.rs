@@ -7,9 +7,14 @@ use serde::Serialize;
 pub struct LiveStats {
     /// IMU samples received.
     pub imu_received: u64,
-    /// IMU samples whose time jumped further than `max_clock_jump_s` from the newest (the
-    /// flight controller's clock restarting): dropped.
-    pub imu_time_jumps: u64,
+    /// IMU samples refused as outliers: a lone time far from the flight controller's clock
+    /// line ([`crate::live::clock::ClockTrack`]).
+    pub fc_clock_outliers: u64,
+    /// Re-locks of the flight controller's clock (it restarted, or its line went stale over a
+    /// silence).
+    pub fc_clock_relocks: u64,
+    /// IMU samples left out while the flight controller's clock locked or re-locked.
+    pub imu_clock_locking: u64,
     /// Barometer readings received (used only with `live.barometer` and
     /// `pipeline.use_barometer`).
     pub baro_received: u64,
@@ -36,11 +41,16 @@ pub struct LiveStats {
     pub csi_unknown_transmitter: u64,
     /// Records that came before the flight controller's clock was known.
     pub csi_before_fc_clock: u64,
-    /// A connection's first [`super::session::CLOCK_WARMUP_RECORDS`] records, left out while its clock
-    /// relation settles.
+    /// Records left out while their connection's clock locked (its first records) or
+    /// re-locked.
     pub csi_clock_warmup: u64,
-    /// NIC clock jumps (the relation started over).
-    pub nic_clock_jumps: u64,
+    /// CSI records refused as outliers: a lone NIC time far from its connection's clock line.
+    pub nic_clock_outliers: u64,
+    /// Re-locks of a NIC's clock (it jumped: a driver reload, a counter reset).
+    pub nic_clock_relocks: u64,
+    /// CSI records whose time, through the clocks, lay further than `max_clock_jump_s` from the
+    /// flight controller's present: dropped.
+    pub csi_far_from_present: u64,
     /// Inputs that came later than `max_latency_ms` after their time: dropped.
     pub late: u64,
     /// CSI records handed to the pipeline, per AP.
@@ -51,6 +61,8 @@ pub struct LiveStats {
     pub frames_converged: u64,
     /// Times the estimate restarted (each bumps the `reset_counter` sent).
     pub restarts: u64,
+    /// The faults that stopped the poses, each said once in words with its time.
+    pub notices: Vec<String>,
 }
 
 /// The clocks as the session sees them (for the status line and `stats.json`).

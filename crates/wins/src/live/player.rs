@@ -12,8 +12,13 @@
 //! that time are counted as not sent. What comes back on the MAVLink socket (the poses) is
 //! counted and, when asked, written raw to a capture file that pymavlink reads.
 //!
+//! Faults can be put into the streams ([`faults`]: a misdated message, a silent or rebooting
+//! flight controller, garbage in a CSI stream).
+//!
 //! `start_at` (a Unix time) makes several players (this one and a pymavlink script playing the
 //! flight controller, say) start the same dataset time at the same instant.
+
+pub mod faults;
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -32,6 +37,8 @@ use crate::csi::intel5300::{MacAddress, encode_frame_record, encode_record};
 use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::dataset::{DatasetError, parse_mac};
 use crate::imu::ImuSample;
+use faults::Faults;
+pub use faults::PlayFault;
 
 /// Which inputs a player sends.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,6 +66,8 @@ pub struct PlayOptions {
     pub streams: Streams,
     /// Write every MAVLink datagram received back to this file, raw.
     pub capture: Option<PathBuf>,
+    /// Faults put into the streams ([`faults`]).
+    pub faults: Vec<PlayFault>,
 }
 
 /// Why a play failed.
@@ -188,6 +197,7 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
     };
     let mut buf = Vec::with_capacity(512);
     let mut last_t = t0;
+    let mut faults = Faults::new(&options.faults);
     while let Some(event) = events.next_event().map_err(Box::new)? {
         if stop.load(Ordering::Relaxed) {
             break;
@@ -206,8 +216,11 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
             summary.max_lag_s = summary.max_lag_s.max((now - due).as_secs_f64());
         }
         buf.clear();
+        let rel_s = t.secs_since(t0);
         match event {
-            DatasetEvent::Csi { ap, packet } if options.streams.csi => {
+            DatasetEvent::Csi { ap, mut packet } if options.streams.csi => {
+                let low = packet.record.header.timestamp_low;
+                packet.record.header.timestamp_low = faults.csi(low, rel_s, &mut buf);
                 if let Some(Some(mac)) = macs.get(ap) {
                     encode_frame_record(mac, &mut buf);
                 }
@@ -218,13 +231,20 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
                     summary.csi_not_sent += 1;
                 }
             }
-            DatasetEvent::Imu(s) if options.streams.imu => {
+            DatasetEvent::Imu(mut s) if options.streams.imu => {
+                let Some(t_ns) = faults.fc_time(s.t.as_nanos(), rel_s, true) else {
+                    continue;
+                };
+                s.t = crate::time::Timestamp(t_ns);
                 let message = highres_imu(&s);
                 send_mavlink(&socket, options.mavlink_to, &mut header, &message, &mut buf)?;
                 summary.imu_sent += 1;
             }
             DatasetEvent::Baro(b) if options.streams.imu => {
-                let message = highres_pressure(b.t.as_nanos(), b.altitude_m);
+                let Some(t_ns) = faults.fc_time(b.t.as_nanos(), rel_s, false) else {
+                    continue;
+                };
+                let message = highres_pressure(t_ns, b.altitude_m);
                 send_mavlink(&socket, options.mavlink_to, &mut header, &message, &mut buf)?;
                 summary.baro_sent += 1;
             }

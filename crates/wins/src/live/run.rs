@@ -181,9 +181,10 @@ pub fn run_live(
     stop.store(true, Ordering::Relaxed);
     let clocks = session.clocks();
     let recording = session.recording().map(Path::to_path_buf);
+    let fc_epoch_offset_ns = session.fc_epoch_offset_ns();
     let (frames, stats) = session.finish()?;
     for f in frames {
-        out.frame(&f, None)?;
+        out.frame(&f, None, fc_epoch_offset_ns)?;
     }
     out.tum.flush().map_err(io_err("writing trajectory.tum"))?;
     let _ = server.thread.join();
@@ -349,7 +350,7 @@ impl Loop<'_> {
                     let age = session
                         .host_time(f.pose.t)
                         .map(|h| (self.clock.now_ns() - h) as f64 * 1e-6);
-                    out.frame(&f, age)?;
+                    out.frame(&f, age, session.fc_epoch_offset_ns())?;
                 }
                 session.solve_pending();
                 if !session.has_backlog() {
@@ -396,6 +397,11 @@ impl Loop<'_> {
             converged: out.converged,
             clocks: session.clocks(),
             latency_ms: percentiles(&mut out.window_ages_ms),
+            new_notices: stats
+                .notices
+                .get(last.1.notices.len()..)
+                .unwrap_or_default()
+                .to_vec(),
             stats,
         }
     }

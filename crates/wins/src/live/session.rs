@@ -2,14 +2,16 @@
 //!
 //! Clocks. Every input carries the host time it arrived. The flight controller's IMU samples
 //! relate its clock to the host's, each NIC connection's records relate the NIC's
-//! ([`ClockSync`]: offset and drift through the lower envelope of the arrival delays), so a CSI
-//! record's time on the flight controller's clock is `fc(host(nic time))`, in whole
-//! microseconds (less `live.csi_extra_latency_ms`: each relation places its clock late by its
-//! link's least delay, and only the difference of the two, which no arrival shows, is left).
-//! The pipeline, the trajectory and the messages sent all run on the flight
-//! controller's clock. A record that maps further than `max_clock_jump_s` from the flight
-//! controller's present means the NIC's clock jumped (a driver reload): its relation starts over
-//! and the event is counted.
+//! ([`ClockTrack`]: offset and drift through the lower envelope of the arrival delays, a lone
+//! time far from the line refused as an outlier, a clock that restarts re-locked after a few
+//! samples that agree), so a CSI record's time on the flight controller's clock is
+//! `fc(host(nic time))`, in whole microseconds (less `live.csi_extra_latency_ms`: each relation
+//! places its clock late by its link's least delay, and only the difference of the two, which
+//! no arrival shows, is left). The pipeline, the trajectory and the messages sent all run on the
+//! flight controller's clock; after it restarts, on its timeline ([`ClockTrack`]: the first
+//! epoch's clock carried on through the host's), and the messages sent are put back on its
+//! current clock ([`LiveSession::fc_epoch_offset_ns`]). A restart or a silence of the IMU is a
+//! gap in the IMU, which the estimator bridges as `wins run` bridges any (`[imu_gap]`).
 //!
 //! Order. An input is released to the pipeline once every stream has passed its time (the IMU
 //! and every connected NIC), or `max_latency_ms` after its time, whichever comes first
@@ -24,7 +26,7 @@ mod inputs;
 use std::collections::{HashMap, VecDeque};
 
 use super::ApBy;
-use super::clock::ClockSync;
+use super::clock::{ClockTrack, TrackConfig};
 pub use super::counts::{ClockReport, LiveStats};
 use super::merge::{Merged, Merger};
 use super::recorder::Recorder;
@@ -49,10 +51,9 @@ pub enum SessionError {
     Record(#[from] std::io::Error),
 }
 
-/// A NIC connection's first records are left out, counted, while the relation of its clock to
-/// the host's rests on their few arrivals (the first ones on the simulated link arrived 24 and
-/// 41 ms late: the connection's set-up; from the third on, within 0.2 ms).
-pub const CLOCK_WARMUP_RECORDS: u64 = 5;
+/// An IMU silence at least this long is said in words (a notice), ns: the estimate restarts
+/// after it.
+const SILENCE_NOTICE_NS: i64 = 1_000_000_000;
 
 pub use crate::pipeline::FRESH_NS;
 
@@ -88,7 +89,7 @@ enum Stage {
 /// One NIC connection's state.
 #[derive(Debug, Default)]
 struct Nic {
-    clock: ClockSync,
+    clock: ClockTrack,
     /// The last record's time on the flight controller's clock.
     last_t: Option<Timestamp>,
     connected: bool,
@@ -98,6 +99,8 @@ struct Nic {
 pub struct LiveSession {
     max_latency_ns: i64,
     max_jump_ns: i64,
+    /// The clocks' settings.
+    track: TrackConfig,
     csi_extra_ns: i64,
     ap_by: ApBy,
     /// Whether a barometer the flight controller sends is used.
@@ -106,7 +109,7 @@ pub struct LiveSession {
     has_baro: bool,
     macs: Vec<Option<MacAddress>>,
     stage: Stage,
-    fc: ClockSync,
+    fc: ClockTrack,
     nics: HashMap<u64, Nic>,
     merger: Merger,
     /// Released inputs not fed yet: feeding stops at the first input that gives frames, so
@@ -171,9 +174,15 @@ impl LiveSession {
         config
             .validate()
             .map_err(|e| SessionError::Setup(e.to_string()))?;
+        let max_jump_ns = (live.max_clock_jump_s * 1e9).round() as i64;
+        let track = TrackConfig {
+            max_late_ns: max_jump_ns,
+            ..TrackConfig::default()
+        };
         Ok(Self {
             max_latency_ns: (live.max_latency_ms * 1e6).round() as i64,
-            max_jump_ns: (live.max_clock_jump_s * 1e9).round() as i64,
+            max_jump_ns,
+            track,
             csi_extra_ns: (live.csi_extra_latency_ms * 1e6).round() as i64,
             ap_by: live.ap_by,
             use_baro,
@@ -184,7 +193,7 @@ impl LiveSession {
                 rig: Box::new(rig),
                 held: Vec::new(),
             },
-            fc: ClockSync::default(),
+            fc: ClockTrack::new(track),
             nics: HashMap::new(),
             merger: Merger::new(),
             backlog: VecDeque::new(),
@@ -201,7 +210,7 @@ impl LiveSession {
     /// Releases what every stream has passed, or what is `max_latency_ms` old at host time
     /// `host_now_ns`, to the pipeline; returns the frames it solved.
     pub fn advance(&mut self, host_now_ns: i64) -> Result<Vec<LiveFrame>, SessionError> {
-        let Some(fc_now) = self.fc.to_remote(host_now_ns) else {
+        let Some(fc_now) = self.fc.to_timeline(host_now_ns) else {
             return Ok(Vec::new());
         };
         let mut watermark = Timestamp(fc_now.saturating_sub(self.max_latency_ns));
@@ -372,14 +381,20 @@ impl LiveSession {
         self.imu_last
     }
 
-    /// The flight controller's clock at host time `host_ns`, once known.
+    /// The flight controller's clock (its timeline) at host time `host_ns`, once known.
     pub fn fc_time(&self, host_ns: i64) -> Option<Timestamp> {
-        self.fc.to_remote(host_ns).map(Timestamp)
+        self.fc.to_timeline(host_ns).map(Timestamp)
     }
 
-    /// Host time of flight controller time `t`, once known.
+    /// Host time of flight controller time `t` (on its timeline), once known.
     pub fn host_time(&self, t: Timestamp) -> Option<i64> {
         self.fc.to_host(t.as_nanos())
+    }
+
+    /// The session's times (the flight controller's timeline) minus its clock's reading now,
+    /// ns: 0 until it restarts; subtracted from a pose's time in the messages sent.
+    pub fn fc_epoch_offset_ns(&self) -> i64 {
+        self.fc.epoch_offset_ns()
     }
 
     /// Inputs waiting in the merger.

@@ -24,10 +24,16 @@ pub struct LiveStatus {
     pub latency_ms: Option<(f64, f64)>,
     /// Every count so far.
     pub stats: LiveStats,
+    /// The notices since the last status (faults that stopped the poses, in words), printed
+    /// each on its own line above the status line.
+    pub new_notices: Vec<String>,
 }
 
 impl std::fmt::Display for LiveStatus {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for notice in &self.new_notices {
+            writeln!(f, "{notice}")?;
+        }
         match self.fc_time_s {
             Some(t) => write!(f, "t {t:.1} s")?,
             None => write!(f, "waiting for the flight controller's IMU")?,
@@ -58,18 +64,24 @@ impl std::fmt::Display for LiveStatus {
             + s.csi_skips
             + s.csi_no_transmitter
             + s.csi_unknown_transmitter
-            + s.nic_clock_jumps
-            + s.imu_time_jumps
+            + s.nic_clock_outliers
+            + s.nic_clock_relocks
+            + s.fc_clock_outliers
+            + s.fc_clock_relocks
             + s.fc_refused
             + s.csi_disconnects;
         if events > 0 {
             write!(
                 f,
-                " | late {} garbage {} unknown AP {} clock jumps {} dropped links {}",
+                " | late {} garbage {} unknown AP {} clock outliers fc {} nic {} re-locks fc {} nic {} \
+                 dropped links {}",
                 s.late,
                 s.csi_skips,
                 s.csi_no_transmitter + s.csi_unknown_transmitter,
-                s.nic_clock_jumps + s.imu_time_jumps,
+                s.fc_clock_outliers,
+                s.nic_clock_outliers,
+                s.fc_clock_relocks,
+                s.nic_clock_relocks,
                 s.csi_disconnects
             )?;
         }

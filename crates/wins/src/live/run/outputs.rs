@@ -31,8 +31,15 @@ pub(super) struct Outputs<'a> {
 }
 
 impl Outputs<'_> {
-    /// Writes a frame; sends it when it is fresh and `age_ms` (how old it is now) is known.
-    pub(super) fn frame(&mut self, f: &LiveFrame, age_ms: Option<f64>) -> Result<(), LiveError> {
+    /// Writes a frame; sends it when it is fresh and `age_ms` (how old it is now) is known, its
+    /// time put back on the flight controller's current clock (`fc_epoch_offset_ns`: the
+    /// session's timeline minus that clock, [`crate::live::session::LiveSession::fc_epoch_offset_ns`]).
+    pub(super) fn frame(
+        &mut self,
+        f: &LiveFrame,
+        age_ms: Option<f64>,
+        fc_epoch_offset_ns: i64,
+    ) -> Result<(), LiveError> {
         self.converged = f.pose.converged;
         if !f.pose.converged {
             return Ok(());
@@ -43,7 +50,7 @@ impl Outputs<'_> {
         let Some(age) = age_ms.filter(|_| f.fresh) else {
             return Ok(());
         };
-        match self.send(f) {
+        match self.send(f, fc_epoch_offset_ns) {
             true => {
                 self.sent += 1;
                 self.ages.push(age);
@@ -54,9 +61,10 @@ impl Outputs<'_> {
         Ok(())
     }
 
-    fn send(&self, f: &LiveFrame) -> bool {
+    fn send(&self, f: &LiveFrame, fc_epoch_offset_ns: i64) -> bool {
+        let fc_ns = f.pose.t.as_nanos().saturating_sub(fc_epoch_offset_ns);
         let extras = OdometryExtras {
-            time_usec: u64::try_from(f.pose.t.as_nanos() / 1000).unwrap_or(0),
+            time_usec: u64::try_from(fc_ns / 1000).unwrap_or(0),
             reset_counter: f.reset_counter,
             quality: quality(&f.pose),
             angular_velocity_rad_s: None,

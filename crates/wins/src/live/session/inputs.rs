@@ -2,8 +2,9 @@
 //! their times related to the flight controller's clock, each record's AP told, all handed to the
 //! merger, with what is left out counted.
 
-use super::{CLOCK_WARMUP_RECORDS, LiveSession, Nic};
+use super::{LiveSession, Nic, SILENCE_NOTICE_NS};
 use crate::csi::intel5300::MacAddress;
+use crate::live::clock::ClockTrack;
 use crate::live::merge::Merged;
 use crate::live::{ApBy, CsiEvent, FcEvent, LiveInput};
 use crate::time::Timestamp;
@@ -19,20 +20,26 @@ impl LiveSession {
 
     fn handle_fc(&mut self, event: FcEvent) {
         match event {
-            FcEvent::Imu { sample, arrival_ns } => {
+            FcEvent::Imu {
+                mut sample,
+                arrival_ns,
+            } => {
                 self.stats.imu_received += 1;
-                let t = sample.t;
-                // A sample out of order (a reordered datagram) goes to the merger, which
-                // places it or counts it late; a jump beyond `max_clock_jump_s` either way is the
-                // flight controller's clock restarting, which the estimator cannot follow.
-                if self
-                    .imu_last
-                    .is_some_and(|last| (t.as_nanos() - last.as_nanos()).abs() > self.max_jump_ns)
-                {
-                    self.stats.imu_time_jumps += 1;
+                // The sample's time on the flight controller's timeline, or none while it is
+                // held (an outlier, or the start of a re-lock). A sample out of order (a
+                // reordered datagram) goes to the merger, which places it or counts it late.
+                let pushed = self.fc.push(sample.t.as_nanos(), arrival_ns);
+                self.stats.fc_clock_outliers += pushed.outliers;
+                self.stats.imu_clock_locking += pushed.dropped_unlocked;
+                let Some(t) = pushed.t_ns.map(Timestamp) else {
+                    self.stats.imu_clock_locking += 1;
                     return;
+                };
+                if pushed.relocked {
+                    self.stats.fc_clock_relocks += 1;
                 }
-                self.fc.push(t.as_nanos(), arrival_ns);
+                self.say_imu_gap(t, pushed.relocked);
+                sample.t = t;
                 self.imu_last = Some(self.imu_last.map_or(t, |last| last.max(t)));
                 self.push_merged(Merged::Imu(sample));
             }
@@ -42,6 +49,9 @@ impl LiveSession {
                 arrival_ns: _,
             } => {
                 self.stats.baro_received += 1;
+                // On the timeline of the flight controller's clock as its IMU last placed it
+                // (the barometer does not move the clock's line).
+                let t = Timestamp(t.as_nanos().saturating_add(self.fc.epoch_offset_ns()));
                 if self.use_baro {
                     self.push_merged(Merged::Baro { t, altitude_m });
                 }
@@ -59,6 +69,7 @@ impl LiveSession {
                     conn,
                     Nic {
                         connected: true,
+                        clock: ClockTrack::new(self.track),
                         ..Nic::default()
                     },
                 );
@@ -120,33 +131,67 @@ impl LiveSession {
     }
 
     /// A record's time on the flight controller's clock, whole µs, from its NIC time and
-    /// arrival (module doc); `None` (counted) before the flight controller's clock is known or
-    /// while the connection's clock relation warms up.
+    /// arrival (module doc); `None` (counted) before the flight controller's clock is known,
+    /// while the connection's clock locks or re-locks, for an outlier, or when the record
+    /// lands further than `max_clock_jump_s` from the present.
     fn csi_time(&mut self, conn: u64, nic_ns: i64, arrival_ns: i64) -> Option<Timestamp> {
-        let Some(fc_now) = self.fc.to_remote(arrival_ns) else {
+        let Some(fc_now) = self.fc.to_timeline(arrival_ns) else {
             self.stats.csi_before_fc_clock += 1;
             return None;
         };
-        let nic = self.nics.entry(conn).or_default();
-        nic.clock.push(nic_ns, arrival_ns);
-        if nic.clock.samples() <= CLOCK_WARMUP_RECORDS {
+        let track = self.track;
+        let nic = self.nics.entry(conn).or_insert_with(|| Nic {
+            clock: ClockTrack::new(track),
+            ..Nic::default()
+        });
+        let pushed = nic.clock.push(nic_ns, arrival_ns);
+        self.stats.nic_clock_outliers += pushed.outliers;
+        self.stats.csi_clock_warmup += pushed.dropped_unlocked;
+        let Some(nic_t) = pushed.t_ns else {
             self.stats.csi_clock_warmup += 1;
             return None;
+        };
+        if pushed.relocked {
+            self.stats.nic_clock_relocks += 1;
+            let notice = format!(
+                "t {:.1} s: nic{conn}'s clock jumped; re-locked on its records",
+                fc_now as f64 * 1e-9
+            );
+            self.stats.notices.push(notice);
         }
-        let mut t = nic
+        let t = nic
             .clock
-            .to_host(nic_ns)
-            .and_then(|h| self.fc.to_remote(h))?;
+            .to_host(nic_t)
+            .and_then(|h| self.fc.to_timeline(h))?;
         if (t - fc_now).abs() > self.max_jump_ns {
-            self.stats.nic_clock_jumps += 1;
-            nic.clock.reset();
-            nic.clock.push(nic_ns, arrival_ns);
-            t = nic
-                .clock
-                .to_host(nic_ns)
-                .and_then(|h| self.fc.to_remote(h))?;
+            self.stats.csi_far_from_present += 1;
+            return None;
         }
         Some(Timestamp((t - self.csi_extra_ns).div_euclid(1000) * 1000))
+    }
+
+    /// Says in words, once, that the IMU stopped long enough to stop the poses (a restart of the
+    /// flight controller's clock, or a silence), when the sample at `t` ends it.
+    fn say_imu_gap(&mut self, t: Timestamp, relocked: bool) {
+        let Some(last) = self.imu_last else {
+            return;
+        };
+        let gap_ns = t.as_nanos() - last.as_nanos();
+        if !relocked && gap_ns < SILENCE_NOTICE_NS {
+            return;
+        }
+        let what = if relocked {
+            "the flight controller's clock restarted (re-locked)"
+        } else {
+            "the IMU came back"
+        };
+        let notice = format!(
+            "t {:.1} s: {what} after {:.1} s without IMU: no pose across the gap; the \
+             estimator's hole recovery takes over",
+            t.as_secs_f64(),
+            gap_ns as f64 * 1e-9
+        );
+        self.stats.notices.push(notice);
     }
 
     fn push_merged(&mut self, input: Merged) {
