@@ -18,12 +18,13 @@ pub struct LiveArgs {
     /// and the APs with their `mac` (its logs are not read). Also `live.rig`.
     #[arg(long, value_name = "DIR")]
     rig: Option<PathBuf>,
-    /// Where the CSI Tool's `log_to_server` connects, IP:PORT (default 0.0.0.0:8090). Also
+    /// Where the CSI Tool's `log_to_server` connects, IP:PORT (default 127.0.0.1:8090,
+    /// the loopback; 0.0.0.0:8090 for every network). Also
     /// `live.csi_listen`.
     #[arg(long, value_name = "HOST:PORT")]
     csi_listen: Option<String>,
     /// The flight controller's link: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT,
-    /// tcpin:HOST:PORT or serial:DEVICE:BAUD (default udpin:0.0.0.0:14540). Also `live.mavlink`.
+    /// tcpin:HOST:PORT or serial:DEVICE:BAUD (default udpin:127.0.0.1:14540). Also `live.mavlink`.
     #[arg(long, value_name = "URL")]
     mavlink: Option<String>,
     /// Output folder (new or empty): trajectory.tum, stats.json, config.toml, recording/.
@@ -92,6 +93,12 @@ pub fn live(args: LiveArgs) -> Result<()> {
         config.live.mavlink,
         args.out.display()
     );
+    for open in config.live.open_to_every_network() {
+        eprintln!(
+            "wins live: {open} listens on every network this computer is on: anyone who reaches \
+             it can send inputs"
+        );
+    }
     let summary = run_live(&config, &options, &stop, &mut |status| {
         eprintln!("{status}");
     })?;

@@ -38,10 +38,14 @@ pub struct LiveConfig {
     /// the array and its mounting, the channel and the APs (with their `mac`); its logs and IMU
     /// file are not read. Relative to the working directory; empty: given on the command line.
     pub rig: String,
-    /// Where the CSI Tool's `log_to_server` connects (TCP; its conventional port is 8090).
+    /// Where the CSI Tool's `log_to_server` connects (TCP; its conventional port is 8090). The
+    /// default listens on the loopback only (a logger on the same computer); `0.0.0.0:8090`
+    /// opens it to every network the computer is on, which is said at start.
     pub csi_listen: String,
     /// The flight controller's MAVLink link: `udpin:HOST:PORT` (listen and answer the peer),
-    /// `udpout:HOST:PORT`, `tcp:HOST:PORT`, `tcpin:HOST:PORT` or `serial:DEVICE:BAUD`.
+    /// `udpout:HOST:PORT`, `tcp:HOST:PORT`, `tcpin:HOST:PORT` or `serial:DEVICE:BAUD`. The
+    /// default listens on the loopback only (a router such as mavlink-router on the same
+    /// computer).
     pub mavlink: String,
     /// How a CSI record's AP is told.
     pub ap_by: ApBy,
@@ -87,8 +91,8 @@ impl Default for LiveConfig {
     fn default() -> Self {
         Self {
             rig: String::new(),
-            csi_listen: "0.0.0.0:8090".into(),
-            mavlink: "udpin:0.0.0.0:14540".into(),
+            csi_listen: "127.0.0.1:8090".into(),
+            mavlink: "udpin:127.0.0.1:14540".into(),
             ap_by: ApBy::Transmitter,
             message: PoseMessage::Odometry,
             system_id: 1,
@@ -107,6 +111,24 @@ impl Default for LiveConfig {
 }
 
 impl LiveConfig {
+    /// The inputs that listen on every interface (`0.0.0.0`, `::`): anyone who reaches the
+    /// computer's networks can connect to them. Named as `live.KEY = "VALUE"`; empty when both
+    /// listen on one address (the loopback by default) or connect out.
+    pub fn open_to_every_network(&self) -> Vec<String> {
+        let mut open = Vec::new();
+        if host_is_unspecified(self.csi_listen.rsplit_once(':').map_or("", |(h, _)| h)) {
+            open.push(format!("live.csi_listen = {:?}", self.csi_listen));
+        }
+        let mavlink_host = match self.mavlink.split_once(':') {
+            Some(("udpin" | "tcpin", rest)) => rest.rsplit_once(':').map_or("", |(h, _)| h),
+            _ => "",
+        };
+        if host_is_unspecified(mavlink_host) {
+            open.push(format!("live.mavlink = {:?}", self.mavlink));
+        }
+        open
+    }
+
     /// Every setting out of its range, keys prefixed with `prefix`.
     pub fn problems(&self, prefix: &str) -> Problems {
         let mut p = Problems::new();
@@ -157,5 +179,51 @@ impl LiveConfig {
             ),
         );
         p
+    }
+}
+
+/// Whether `host` is the address of every interface.
+fn host_is_unspecified(host: &str) -> bool {
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    host.parse::<std::net::IpAddr>()
+        .is_ok_and(|ip| ip.is_unspecified())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_listen_on_the_loopback_and_every_interface_is_named() {
+        assert!(LiveConfig::default().open_to_every_network().is_empty());
+        let open = LiveConfig {
+            csi_listen: "0.0.0.0:8090".into(),
+            mavlink: "udpin:[::]:14540".into(),
+            ..LiveConfig::default()
+        };
+        assert_eq!(
+            open.open_to_every_network(),
+            vec![
+                "live.csi_listen = \"0.0.0.0:8090\"".to_string(),
+                "live.mavlink = \"udpin:[::]:14540\"".to_string()
+            ]
+        );
+        // Connecting out, or a serial port, listens nowhere.
+        for mavlink in [
+            "udpout:0.0.0.0:14540",
+            "tcp:0.0.0.0:5760",
+            "serial:/dev/ttyACM0:921600",
+        ] {
+            let c = LiveConfig {
+                mavlink: mavlink.into(),
+                ..LiveConfig::default()
+            };
+            assert!(c.open_to_every_network().is_empty(), "{mavlink}");
+        }
+        let one = LiveConfig {
+            csi_listen: "192.168.1.20:8090".into(),
+            ..LiveConfig::default()
+        };
+        assert!(one.open_to_every_network().is_empty());
     }
 }
