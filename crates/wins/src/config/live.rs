@@ -51,10 +51,15 @@ pub struct LiveConfig {
     pub ap_by: ApBy,
     /// The message sent at every frame.
     pub message: PoseMessage,
-    /// MAVLink system id of what wins sends (the vehicle's, usually 1).
+    /// MAVLink system id of the vehicle (usually 1): the poses are sent with it, and inputs are
+    /// taken only from it.
     pub system_id: u8,
-    /// MAVLink component id (197: `MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY`).
+    /// MAVLink component id the poses are sent with (197: `MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY`).
     pub component_id: u8,
+    /// MAVLink component id of the flight controller whose IMU and barometer are taken (1:
+    /// `MAV_COMP_ID_AUTOPILOT1`; 0: any component of the vehicle). Messages from any other
+    /// system or component are counted (`other_sender`) and left out.
+    pub fc_component_id: u8,
     /// How long an input may arrive after its own time and still be used, ms: inputs are merged
     /// in time order, and a stream is waited for this long before the others pass it. The poses
     /// leave this much behind the flight (set the flight controller's vision delay to it plus
@@ -97,6 +102,7 @@ impl Default for LiveConfig {
             message: PoseMessage::Odometry,
             system_id: 1,
             component_id: 197,
+            fc_component_id: 1,
             max_latency_ms: 20.0,
             csi_extra_latency_ms: 0.0,
             max_clock_jump_s: 5.0,

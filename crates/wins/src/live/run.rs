@@ -22,6 +22,7 @@ use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::Duration;
 
+use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
 use serde::Serialize;
 
@@ -252,6 +253,8 @@ fn inbound_config(config: &Config) -> InboundConfig {
                 accel_m_s2_per_count: live.raw_accel_m_s2_per_count,
                 gyro_rad_s_per_count: live.raw_gyro_rad_s_per_count,
             }),
+        fc_system_id: live.system_id,
+        fc_component_id: live.fc_component_id,
         ..InboundConfig::default()
     }
 }
@@ -271,7 +274,7 @@ fn spawn_mavlink_reader(
         .spawn(move || {
             while !stop.load(Ordering::Relaxed) {
                 let events = match link.recv() {
-                    Ok((_, message)) => decode(&inbound, &message, clock.now_ns()),
+                    Ok((header, message)) => decode(&inbound, &header, &message, clock.now_ns()),
                     Err(e) => {
                         thread::sleep(Duration::from_millis(20));
                         vec![FcEvent::LinkError(e.to_string())]
@@ -288,12 +291,17 @@ fn spawn_mavlink_reader(
         .map_err(io_err("starting the MAVLink reader"))
 }
 
-fn decode(inbound: &Mutex<InboundDecoder>, message: &MavMessage, arrival_ns: i64) -> Vec<FcEvent> {
+fn decode(
+    inbound: &Mutex<InboundDecoder>,
+    header: &MavHeader,
+    message: &MavMessage,
+    arrival_ns: i64,
+) -> Vec<FcEvent> {
     let Ok(mut decoder) = inbound.lock() else {
         return Vec::new();
     };
     let before = decoder.stats().refused.total();
-    let got = decoder.decode(message);
+    let got = decoder.decode_from(header, message);
     let mut events = Vec::new();
     if decoder.stats().refused.total() > before {
         events.push(FcEvent::Refused(format!("{:?}", decoder.stats().refused)));

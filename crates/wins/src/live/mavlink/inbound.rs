@@ -27,6 +27,7 @@
 //! Nothing here panics on bad input: a non-finite or absurd value refuses the reading, counted
 //! with its reason in [`InboundStats`].
 
+use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::{
     HIGHRES_IMU_DATA, HighresImuUpdatedFlags, MavMessage, RAW_IMU_DATA, SCALED_IMU_DATA,
     SCALED_PRESSURE_DATA,
@@ -95,6 +96,11 @@ pub struct InboundConfig {
     pub max_gyro_rad_s: f64,
     /// Believable pressures, Pa (default 10 kPa to 120 kPa: 16 km up to well below sea level).
     pub pressure_range_pa: (f64, f64),
+    /// The flight controller's MAVLink system id: [`InboundDecoder::decode_from`] takes messages
+    /// from it only (default 1).
+    pub fc_system_id: u8,
+    /// The flight controller's component id (default 1, `MAV_COMP_ID_AUTOPILOT1`; 0: any).
+    pub fc_component_id: u8,
 }
 
 impl Default for InboundConfig {
@@ -105,6 +111,8 @@ impl Default for InboundConfig {
             max_accel_m_s2: 400.0,
             max_gyro_rad_s: 50.0,
             pressure_range_pa: (10_000.0, 120_000.0),
+            fc_system_id: 1,
+            fc_component_id: 1,
         }
     }
 }
@@ -162,6 +170,8 @@ pub struct InboundStats {
     pub refused: RefusedCounts,
     /// Messages of other kinds.
     pub other: u64,
+    /// Messages from another system or component than the flight controller's, left out.
+    pub other_sender: u64,
 }
 
 /// Decodes the flight controller's messages and counts what it did with them.
@@ -191,7 +201,23 @@ impl InboundDecoder {
         &self.stats
     }
 
-    /// Decodes one message.
+    /// Decodes one message if it comes from the configured flight controller
+    /// ([`InboundConfig::fc_system_id`], [`InboundConfig::fc_component_id`]); anything else is
+    /// counted ([`InboundStats::other_sender`]) and gives nothing, so that no other sender on the
+    /// network can move the poses.
+    pub fn decode_from(&mut self, header: &MavHeader, message: &MavMessage) -> Inbound {
+        let c = &self.config;
+        let system_ok = header.system_id == u32::from(c.fc_system_id);
+        let component_ok = c.fc_component_id == 0 || header.component_id == c.fc_component_id;
+        if system_ok && component_ok {
+            self.decode(message)
+        } else {
+            self.stats.other_sender += 1;
+            Inbound::default()
+        }
+    }
+
+    /// Decodes one message, whoever sent it.
     pub fn decode(&mut self, message: &MavMessage) -> Inbound {
         match message {
             MavMessage::HIGHRES_IMU(m) => self.highres_imu(m),

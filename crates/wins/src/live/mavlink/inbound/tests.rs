@@ -178,3 +178,31 @@ fn other_messages_are_counted_and_stats_serialize() {
     assert!(json.contains("\"other\":1"), "{json}");
     assert!(json.contains("\"raw_imu_without_scale\":0"), "{json}");
 }
+
+#[test]
+fn only_the_flight_controller_moves_the_inputs() {
+    let from = |system_id: u32, component_id: u8| MavHeader {
+        system_id,
+        component_id,
+        sequence: 0,
+    };
+    let mut decoder = InboundDecoder::default();
+    let m = highres(0x3F);
+    assert!(decoder.decode_from(&from(1, 1), &m).imu.is_some());
+    // Another vehicle, a companion's component, a ground station: counted, left out.
+    for (system, component) in [(2, 1), (1, 190), (255, 190)] {
+        let got = decoder.decode_from(&from(system, component), &m);
+        assert_eq!(got, Inbound::default(), "{system}/{component}");
+    }
+    assert_eq!(decoder.stats().other_sender, 3);
+    assert_eq!(decoder.stats().imu, 1);
+    // Any component of the vehicle, when asked.
+    let mut any = InboundDecoder::new(InboundConfig {
+        fc_system_id: 7,
+        fc_component_id: 0,
+        ..InboundConfig::default()
+    });
+    assert!(any.decode_from(&from(7, 190), &m).imu.is_some());
+    assert!(any.decode_from(&from(1, 1), &m).imu.is_none());
+    assert_eq!(any.stats().other_sender, 1);
+}
