@@ -5,7 +5,7 @@
 //!
 //! | form | meaning |
 //! |---|---|
-//! | `udpin:HOST:PORT` | listen on HOST:PORT; replies go to the address of the last datagram received, so one link works both ways (what a flight controller's `udpout`/telemetry forwarding talks to) |
+//! | `udpin:HOST:PORT` | listen on HOST:PORT; replies go to the address the vehicle's messages come from, so one link works both ways (what a flight controller's `udpout`/telemetry forwarding talks to); another sender never takes the replies ([`super::udp_in`]) |
 //! | `udpout:HOST:PORT` | send to HOST:PORT from an ephemeral port; read what comes back |
 //! | `tcp:HOST:PORT` (or `tcpout:`) | TCP client |
 //! | `tcpin:HOST:PORT` | TCP server, waits for one client |
@@ -17,6 +17,8 @@ use std::str::FromStr;
 use ::mavlink::dialects::common::{MavComponent, MavMessage};
 use ::mavlink::error::{MessageReadError, MessageWriteError};
 use ::mavlink::{MavConnection, MavHeader, MavlinkVersion};
+
+use super::udp_in::UdpIn;
 
 /// The component id a WiFi-inertial odometry source uses by default:
 /// `MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY` (197).
@@ -232,26 +234,50 @@ pub enum LinkError {
     /// A message could not be received.
     #[error("cannot receive MAVLink message: {0}")]
     Recv(#[from] MessageReadError),
+    /// The socket failed.
+    #[error("MAVLink socket: {0}")]
+    Io(std::io::Error),
 }
 
 /// An open link: the connection and the header our messages go out with.
 pub struct MavlinkLink {
-    /// The mavlink crate's connection (MAVLink 2 out; MAVLink 1 or 2 accepted in).
-    pub connection: FcConnection,
+    transport: Transport,
     /// Our system and component ids (the sequence number is the connection's).
     pub header: MavHeader,
+}
+
+/// What carries the bytes.
+enum Transport {
+    /// The mavlink crate's connection (MAVLink 2 out; MAVLink 1 or 2 accepted in).
+    Crate(FcConnection),
+    /// Our UDP server for `udpin:`.
+    UdpIn(UdpIn),
 }
 
 impl MavlinkLink {
     /// Sends one message with our ids; returns the bytes written (0 when a `udpin` link has not
     /// heard from a peer yet, so there is nobody to answer).
     pub fn send(&self, message: &MavMessage) -> Result<usize, LinkError> {
-        Ok(self.connection.send(&self.header, message)?)
+        match &self.transport {
+            Transport::Crate(c) => Ok(c.send(&self.header, message)?),
+            Transport::UdpIn(u) => Ok(u.send(&self.header, message).map_err(LinkError::Io)?),
+        }
     }
 
     /// Blocks until one message arrives.
     pub fn recv(&self) -> Result<(MavHeader, MavMessage), LinkError> {
-        Ok(self.connection.recv()?)
+        match &self.transport {
+            Transport::Crate(c) => Ok(c.recv()?),
+            Transport::UdpIn(u) => u.recv().map_err(LinkError::Io),
+        }
+    }
+
+    /// Datagrams dropped for holding no CRC-valid message (`udpin:` only; 0 otherwise).
+    pub fn garbage_datagrams(&self) -> u64 {
+        match &self.transport {
+            Transport::Crate(_) => 0,
+            Transport::UdpIn(u) => u.garbage_datagrams(),
+        }
     }
 }
 
@@ -265,20 +291,35 @@ impl fmt::Debug for MavlinkLink {
 
 /// Opens the link: MAVLink 2 for what we send (ODOMETRY needs it), either version accepted for
 /// what we receive, our messages sent as `system_id` / `component_id` (usually the flight
-/// controller's system id and [`DEFAULT_COMPONENT_ID`]).
+/// controller's system id and [`DEFAULT_COMPONENT_ID`]). A `udpin:` link answers the vehicle
+/// `system_id` only ([`super::udp_in`]).
 pub fn open(url: &MavlinkUrl, system_id: u8, component_id: u8) -> Result<MavlinkLink, LinkError> {
+    let header = MavHeader {
+        system_id: u32::from(system_id),
+        component_id,
+        sequence: 0,
+    };
     let text = url.to_string();
+    if let MavlinkUrl::UdpIn { host, port } = url {
+        let addr = if host.contains(':') && !host.starts_with('[') {
+            format!("[{host}]:{port}")
+        } else {
+            format!("{host}:{port}")
+        };
+        let server = UdpIn::bind(&addr, system_id)
+            .map_err(|source| LinkError::Open { url: text, source })?;
+        return Ok(MavlinkLink {
+            transport: Transport::UdpIn(server),
+            header,
+        });
+    }
     let mut connection = ::mavlink::connect::<MavMessage>(&text)
         .map_err(|source| LinkError::Open { url: text, source })?;
     connection.set_protocol_version(MavlinkVersion::V2);
     connection.set_allow_recv_any_version(true);
     Ok(MavlinkLink {
-        connection: Box::new(connection),
-        header: MavHeader {
-            system_id: u32::from(system_id),
-            component_id,
-            sequence: 0,
-        },
+        transport: Transport::Crate(Box::new(connection)),
+        header,
     })
 }
 
@@ -353,7 +394,7 @@ mod tests {
     fn udpin_answers_the_sender_on_one_socket() {
         let port = free_udp_port();
         let url: MavlinkUrl = format!("udpin:127.0.0.1:{port}").parse().unwrap();
-        let link = open(&url, 42, DEFAULT_COMPONENT_ID).unwrap();
+        let link = open(&url, 1, DEFAULT_COMPONENT_ID).unwrap();
         // Nobody to answer yet: nothing is sent.
         let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
         assert_eq!(link.send(&heartbeat).unwrap(), 0);
@@ -384,7 +425,7 @@ mod tests {
         let (reply_header, reply) = reader
             .read_message::<MavMessage>(MavlinkVersion::V2)
             .unwrap();
-        assert_eq!(reply_header.system_id, 42);
+        assert_eq!(reply_header.system_id, 1);
         assert_eq!(reply_header.component_id, 197);
         assert!(matches!(reply, MavMessage::HEARTBEAT(_)));
     }

@@ -4,3 +4,4 @@
 pub mod inbound;
 pub mod link;
 pub mod outbound;
+pub mod udp_in;

@@ -1,0 +1,184 @@
+//! `udpin:HOST:PORT`: a UDP server that answers the flight controller, never whoever spoke last.
+//!
+//! A flight controller (or a router forwarding it) sends to our port; we answer the address its
+//! datagrams come from. The mavlink crate's own UDP server answers the last datagram's sender,
+//! whoever it is: one HEARTBEAT from another host on the network then diverts the poses. Here the
+//! answering address is learned only from a datagram that holds a CRC-valid message of the
+//! vehicle's system id; a datagram that holds no valid message at all is counted
+//! ([`UdpIn::garbage_datagrams`]) and dropped, and messages of other systems are passed on (the
+//! decoder refuses and counts them) without moving the answering address.
+
+use std::collections::VecDeque;
+use std::io;
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
+
+use ::mavlink::dialects::common::MavMessage;
+use ::mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
+
+/// Largest UDP payload.
+const DATAGRAM: usize = 65_536;
+
+/// A listening UDP link (module doc).
+#[derive(Debug)]
+pub struct UdpIn {
+    socket: UdpSocket,
+    /// The vehicle's system id: only its datagrams set [`Self::peer`].
+    vehicle_system_id: u32,
+    /// Where replies go: the last address the vehicle's messages came from.
+    peer: Mutex<Option<SocketAddr>>,
+    /// Messages of the last datagram not yet handed out.
+    pending: Mutex<VecDeque<(MavHeader, MavMessage)>>,
+    sequence: AtomicU8,
+    garbage: AtomicU64,
+}
+
+impl UdpIn {
+    /// Binds `addr`; replies will go to the vehicle `vehicle_system_id`.
+    pub fn bind(addr: &str, vehicle_system_id: u8) -> io::Result<Self> {
+        Ok(Self {
+            socket: UdpSocket::bind(addr)?,
+            vehicle_system_id: u32::from(vehicle_system_id),
+            peer: Mutex::new(None),
+            pending: Mutex::new(VecDeque::new()),
+            sequence: AtomicU8::new(0),
+            garbage: AtomicU64::new(0),
+        })
+    }
+
+    /// Datagrams that held no CRC-valid MAVLink message (dropped).
+    pub fn garbage_datagrams(&self) -> u64 {
+        self.garbage.load(Ordering::Relaxed)
+    }
+
+    /// The address replies go to, once the vehicle has been heard.
+    pub fn peer(&self) -> Option<SocketAddr> {
+        self.peer.lock().ok().and_then(|p| *p)
+    }
+
+    /// Blocks until one message arrives (datagrams are split into their messages).
+    pub fn recv(&self) -> io::Result<(MavHeader, MavMessage)> {
+        let mut buffer = vec![0_u8; DATAGRAM];
+        loop {
+            if let Some(m) = self.pending.lock().ok().and_then(|mut p| p.pop_front()) {
+                return Ok(m);
+            }
+            let (n, from) = self.socket.recv_from(&mut buffer)?;
+            let mut reader = MavlinkReader::new(buffer.get(..n).unwrap_or_default());
+            let mut messages = VecDeque::new();
+            while let Ok(m) = reader.read_any_message::<MavMessage>() {
+                messages.push_back(m);
+            }
+            if messages.is_empty() {
+                self.garbage.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            if messages
+                .iter()
+                .any(|(h, _)| h.system_id == self.vehicle_system_id)
+                && let Ok(mut peer) = self.peer.lock()
+            {
+                *peer = Some(from);
+            }
+            if let Ok(mut pending) = self.pending.lock() {
+                pending.extend(messages);
+            }
+        }
+    }
+
+    /// Sends one message as MAVLink 2 with `header`'s ids (the sequence is this link's); 0 bytes
+    /// when the vehicle has not been heard yet.
+    pub fn send(&self, header: &MavHeader, message: &MavMessage) -> io::Result<usize> {
+        let Some(peer) = self.peer() else {
+            return Ok(0);
+        };
+        let header = MavHeader {
+            sequence: self.sequence.fetch_add(1, Ordering::Relaxed),
+            ..*header
+        };
+        let mut bytes = Vec::with_capacity(300);
+        ::mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, message)
+            .map_err(|e| io::Error::other(e.to_string()))?;
+        self.socket.send_to(&bytes, peer)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use ::mavlink::dialects::common::HEARTBEAT_DATA;
+
+    use super::*;
+
+    fn datagram(system_id: u32) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        let header = MavHeader {
+            system_id,
+            component_id: 1,
+            sequence: 0,
+        };
+        let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
+        ::mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, &heartbeat)
+            .expect("encoded");
+        bytes
+    }
+
+    #[test]
+    fn replies_go_to_the_vehicle_not_to_the_last_sender() {
+        let link = UdpIn::bind("127.0.0.1:0", 1).expect("bound");
+        let to = link.socket.local_addr().expect("address");
+        let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
+        let ours = MavHeader {
+            system_id: 1,
+            component_id: 197,
+            sequence: 0,
+        };
+        assert_eq!(link.send(&ours, &heartbeat).expect("nothing sent"), 0);
+
+        let fc = UdpSocket::bind("127.0.0.1:0").expect("fc");
+        let stranger = UdpSocket::bind("127.0.0.1:0").expect("stranger");
+        fc.set_read_timeout(Some(Duration::from_secs(5)))
+            .expect("timeout");
+        stranger
+            .set_read_timeout(Some(Duration::from_millis(200)))
+            .expect("timeout");
+        fc.send_to(&datagram(1), to).expect("sent");
+        assert_eq!(link.recv().expect("fc message").0.system_id, 1);
+        assert_eq!(link.peer(), fc.local_addr().ok());
+
+        // Another system's HEARTBEAT and garbage: passed on or counted, the peer unmoved.
+        stranger.send_to(&datagram(9), to).expect("sent");
+        stranger.send_to(&[0x55; 300], to).expect("sent");
+        fc.send_to(&datagram(1), to).expect("sent");
+        assert_eq!(link.recv().expect("stranger's").0.system_id, 9);
+        assert_eq!(link.recv().expect("fc's again").0.system_id, 1);
+        assert_eq!(link.garbage_datagrams(), 1);
+        assert_eq!(link.peer(), fc.local_addr().ok());
+
+        assert!(link.send(&ours, &heartbeat).expect("sent") > 0);
+        let mut buffer = [0_u8; 512];
+        let (n, _) = fc.recv_from(&mut buffer).expect("the reply reaches the fc");
+        let mut reader = MavlinkReader::new(buffer.get(..n).unwrap_or_default());
+        let (h, _) = reader.read_any_message::<MavMessage>().expect("a message");
+        assert_eq!((h.system_id, h.component_id), (1, 197));
+        assert!(
+            stranger.recv_from(&mut buffer).is_err(),
+            "nothing to the stranger"
+        );
+    }
+
+    #[test]
+    fn a_datagram_of_several_messages_gives_each() {
+        let link = UdpIn::bind("127.0.0.1:0", 1).expect("bound");
+        let to = link.socket.local_addr().expect("address");
+        let fc = UdpSocket::bind("127.0.0.1:0").expect("fc");
+        let mut two = datagram(1);
+        two.extend(datagram(1));
+        fc.send_to(&two, to).expect("sent");
+        assert!(link.recv().is_ok());
+        assert!(link.recv().is_ok());
+        assert_eq!(link.garbage_datagrams(), 0);
+    }
+}
