@@ -23,6 +23,10 @@ pub struct LiveArgs {
     /// `live.csi_listen`.
     #[arg(long, value_name = "HOST:PORT")]
     csi_listen: Option<String>,
+    /// A logger allowed to connect, by IP address (repeat for each NIC's; none: any). Also
+    /// `live.csi_peers`.
+    #[arg(long = "csi-peer", value_name = "IP")]
+    csi_peers: Vec<String>,
     /// The flight controller's link: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT,
     /// tcpin:HOST:PORT or serial:DEVICE:BAUD (default udpin:127.0.0.1:14540). Also `live.mavlink`.
     #[arg(long, value_name = "URL")]
@@ -59,6 +63,9 @@ pub fn live(args: LiveArgs) -> Result<()> {
     }
     if let Some(a) = args.csi_listen {
         l.csi_listen = a;
+    }
+    if !args.csi_peers.is_empty() {
+        l.csi_peers = args.csi_peers;
     }
     if let Some(m) = args.mavlink {
         l.mavlink = m;

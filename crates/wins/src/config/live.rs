@@ -42,6 +42,9 @@ pub struct LiveConfig {
     /// default listens on the loopback only (a logger on the same computer); `0.0.0.0:8090`
     /// opens it to every network the computer is on, which is said at start.
     pub csi_listen: String,
+    /// The IP addresses allowed to connect to `csi_listen` (the NICs' loggers); empty: any.
+    /// Others are refused and counted (`csi_refused_connections`).
+    pub csi_peers: Vec<String>,
     /// The flight controller's MAVLink link: `udpin:HOST:PORT` (listen and answer the peer),
     /// `udpout:HOST:PORT`, `tcp:HOST:PORT`, `tcpin:HOST:PORT` or `serial:DEVICE:BAUD`. The
     /// default listens on the loopback only (a router such as mavlink-router on the same
@@ -97,6 +100,7 @@ impl Default for LiveConfig {
         Self {
             rig: String::new(),
             csi_listen: "127.0.0.1:8090".into(),
+            csi_peers: Vec::new(),
             mavlink: "udpin:127.0.0.1:14540".into(),
             ap_by: ApBy::Transmitter,
             message: PoseMessage::Odometry,
@@ -175,6 +179,14 @@ impl LiveConfig {
             0.0,
             1.0,
         );
+        for peer in &self.csi_peers {
+            p.require(
+                peer.parse::<std::net::IpAddr>().is_ok(),
+                prefix,
+                "csi_peers",
+                format!("{peer:?} is not an IP address"),
+            );
+        }
         p.require(
             self.csi_listen.parse::<std::net::SocketAddr>().is_ok(),
             prefix,

@@ -39,6 +39,11 @@ pub struct LiveStats {
     pub csi_no_transmitter: u64,
     /// Records from a transmitter no AP of the rig has.
     pub csi_unknown_transmitter: u64,
+    /// Records of an AP that another, still open, connection already streams: a second stream
+    /// for one AP is refused (the first stays until it closes or goes idle).
+    pub csi_second_stream: u64,
+    /// CSI connections refused: beyond the cap on open connections, or from a peer not allowed.
+    pub csi_refused_connections: u64,
     /// Records that came before the flight controller's clock was known.
     pub csi_before_fc_clock: u64,
     /// Records left out while their connection's clock locked (its first records) or

@@ -7,9 +7,15 @@
 //! counted by the decoder (its memory stays bounded, [`StreamDecoder::MAX_PENDING`]); a
 //! connection that drops is reported and the server keeps listening, so a logger that
 //! reconnects is taken back.
+//!
+//! Limits ([`CsiServerLimits`]), so that nobody on the network can starve the NICs: a few
+//! connections at most are open at once and a connection from a peer outside the allowed ones
+//! (when any are named) is refused at once (both reported as [`CsiEvent::Refused`]); a
+//! connection that sends nothing for a few seconds is closed, so a logger's half-open old connection gives way
+//! to its reconnection. Each connection's buffered bytes are bounded by the decoder.
 
 use std::io::{self, Read};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::SyncSender;
@@ -23,6 +29,27 @@ use crate::csi::intel5300::{CsiRecord, Event, MacAddress, Skip, StreamDecoder};
 const POLL: Duration = Duration::from_millis(50);
 /// Read size per call.
 const CHUNK: usize = 1 << 16;
+/// Who may connect, how many, and how long a silent connection stays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CsiServerLimits {
+    /// The peers allowed to connect; empty: any.
+    pub allowed_peers: Vec<IpAddr>,
+    /// Most connections open at once (default 8: a rig has a few NICs).
+    pub max_connections: usize,
+    /// A connection silent this long is closed (default 5 s; a logger sends tens of records a
+    /// second).
+    pub idle_close: Duration,
+}
+
+impl Default for CsiServerLimits {
+    fn default() -> Self {
+        Self {
+            allowed_peers: Vec::new(),
+            max_connections: 8,
+            idle_close: Duration::from_secs(5),
+        }
+    }
+}
 
 /// What a CSI connection reports.
 #[derive(Clone, Debug, PartialEq)]
@@ -52,6 +79,13 @@ pub enum CsiEvent {
         /// What and why.
         skip: Skip,
     },
+    /// A connection refused at once.
+    Refused {
+        /// Its address.
+        peer: SocketAddr,
+        /// Why.
+        reason: String,
+    },
     /// The connection ended.
     Disconnected {
         /// The connection.
@@ -78,13 +112,14 @@ impl CsiServer {
         tx: SyncSender<LiveInput>,
         clock: HostClock,
         stop: Arc<AtomicBool>,
+        limits: CsiServerLimits,
     ) -> io::Result<Self> {
         let listener = TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
         let local_addr = listener.local_addr()?;
         let thread = thread::Builder::new()
             .name("csi-accept".into())
-            .spawn(move || accept_loop(&listener, &tx, clock, &stop))?;
+            .spawn(move || accept_loop(&listener, &tx, clock, &stop, &limits))?;
         Ok(Self { local_addr, thread })
     }
 }
@@ -94,12 +129,36 @@ fn accept_loop(
     tx: &SyncSender<LiveInput>,
     clock: HostClock,
     stop: &Arc<AtomicBool>,
+    limits: &CsiServerLimits,
 ) {
     let mut next_conn = 0u64;
     let mut workers: Vec<JoinHandle<()>> = Vec::new();
     while !stop.load(Ordering::Relaxed) {
         match listener.accept() {
             Ok((stream, peer)) => {
+                workers.retain(|h| !h.is_finished());
+                let refusal = if !limits.allowed_peers.is_empty()
+                    && !limits.allowed_peers.contains(&peer.ip())
+                {
+                    Some(format!("{} is not among live.csi_peers", peer.ip()))
+                } else if workers.len() >= limits.max_connections {
+                    Some(format!(
+                        "{} connections are open already",
+                        limits.max_connections
+                    ))
+                } else {
+                    None
+                };
+                if let Some(reason) = refusal {
+                    drop(stream);
+                    if tx
+                        .send(LiveInput::Csi(CsiEvent::Refused { peer, reason }))
+                        .is_err()
+                    {
+                        return;
+                    }
+                    continue;
+                }
                 let conn = next_conn;
                 next_conn += 1;
                 if tx
@@ -109,9 +168,10 @@ fn accept_loop(
                     return;
                 }
                 let (worker_tx, worker_stop) = (tx.clone(), Arc::clone(stop));
+                let idle = limits.idle_close;
                 let spawned = thread::Builder::new()
                     .name(format!("csi-{conn}"))
-                    .spawn(move || serve(conn, stream, &worker_tx, clock, &worker_stop));
+                    .spawn(move || serve(conn, stream, &worker_tx, clock, &worker_stop, idle));
                 match spawned {
                     Ok(h) => workers.push(h),
                     Err(e) => {
@@ -139,9 +199,11 @@ fn serve(
     tx: &SyncSender<LiveInput>,
     clock: HostClock,
     stop: &AtomicBool,
+    idle_close: Duration,
 ) {
     let mut decoder = StreamDecoder::new();
     let mut buf = vec![0u8; CHUNK];
+    let mut last_bytes = std::time::Instant::now();
     let reason = match stream
         .set_nonblocking(false)
         .and_then(|()| stream.set_read_timeout(Some(POLL)))
@@ -151,9 +213,13 @@ fn serve(
             if stop.load(Ordering::Relaxed) {
                 break "stopped".to_string();
             }
+            if last_bytes.elapsed() >= idle_close {
+                break format!("idle for {:.1} s: closed", idle_close.as_secs_f64());
+            }
             match stream.read(&mut buf) {
                 Ok(0) => break "closed by the peer".to_string(),
                 Ok(n) => {
+                    last_bytes = std::time::Instant::now();
                     let arrival_ns = clock.now_ns();
                     decoder.push(buf.get(..n).unwrap_or_default());
                     if !drain(conn, &mut decoder, tx, arrival_ns) {
@@ -199,4 +265,64 @@ fn drain(
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::mpsc::{self, Receiver};
+
+    use super::*;
+
+    fn server(limits: CsiServerLimits) -> (CsiServer, Receiver<LiveInput>, Arc<AtomicBool>) {
+        let (tx, rx) = mpsc::sync_channel(64);
+        let stop = Arc::new(AtomicBool::new(false));
+        let addr = "127.0.0.1:0".parse().expect("an address");
+        let s = CsiServer::spawn(addr, tx, HostClock::new(), Arc::clone(&stop), limits)
+            .expect("listening");
+        (s, rx, stop)
+    }
+
+    fn next(rx: &Receiver<LiveInput>) -> CsiEvent {
+        match rx.recv_timeout(Duration::from_secs(5)) {
+            Ok(LiveInput::Csi(e)) => e,
+            other => panic!("expected a CSI event, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn peers_outside_the_list_and_beyond_the_cap_are_refused_and_silence_closes() {
+        let (s, rx, stop) = server(CsiServerLimits {
+            allowed_peers: vec!["10.1.2.3".parse().expect("an IP")],
+            ..CsiServerLimits::default()
+        });
+        let _c = TcpStream::connect(s.local_addr).expect("connected");
+        assert!(
+            matches!(next(&rx), CsiEvent::Refused { reason, .. } if reason.contains("csi_peers"))
+        );
+        stop.store(true, Ordering::Relaxed);
+
+        let (s, rx, stop) = server(CsiServerLimits {
+            max_connections: 2,
+            idle_close: Duration::from_millis(400),
+            ..CsiServerLimits::default()
+        });
+        let _a = TcpStream::connect(s.local_addr).expect("a");
+        assert!(matches!(next(&rx), CsiEvent::Connected { conn: 0, .. }));
+        let _b = TcpStream::connect(s.local_addr).expect("b");
+        assert!(matches!(next(&rx), CsiEvent::Connected { conn: 1, .. }));
+        let _c = TcpStream::connect(s.local_addr).expect("c");
+        assert!(
+            matches!(next(&rx), CsiEvent::Refused { reason, .. } if reason.contains("2 connections"))
+        );
+        // Both silent: closed, and their places free again.
+        for _ in 0..2 {
+            assert!(
+                matches!(next(&rx), CsiEvent::Disconnected { reason, .. } if reason.contains("idle"))
+            );
+        }
+        thread::sleep(Duration::from_millis(100));
+        let _d = TcpStream::connect(s.local_addr).expect("d");
+        assert!(matches!(next(&rx), CsiEvent::Connected { conn: 2, .. }));
+        stop.store(true, Ordering::Relaxed);
+    }
 }

@@ -26,7 +26,7 @@ use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
 use serde::Serialize;
 
-use super::csi_server::CsiServer;
+use super::csi_server::{CsiServer, CsiServerLimits};
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, InboundStats, RawImuScale};
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
 use super::recorder::Recorder;
@@ -149,7 +149,15 @@ pub fn run_live(
 
     let clock = HostClock::new();
     let (tx, rx) = mpsc::sync_channel(CHANNEL);
-    let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop))
+    let limits = CsiServerLimits {
+        allowed_peers: live
+            .csi_peers
+            .iter()
+            .filter_map(|p| p.parse().ok())
+            .collect(),
+        ..CsiServerLimits::default()
+    };
+    let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop), limits)
         .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
     let link =
         Arc::new(

@@ -111,6 +111,8 @@ pub struct LiveSession {
     stage: Stage,
     fc: ClockTrack,
     nics: HashMap<u64, Nic>,
+    /// Which connection streams each AP (the first one to bring its records).
+    ap_streams: HashMap<usize, u64>,
     merger: Merger,
     /// Released inputs not fed yet: feeding stops at the first input that gives frames, so
     /// that they can be sent before the next input (and the solve it runs first) is fed.
@@ -195,6 +197,7 @@ impl LiveSession {
             },
             fc: ClockTrack::new(track),
             nics: HashMap::new(),
+            ap_streams: HashMap::new(),
             merger: Merger::new(),
             backlog: VecDeque::new(),
             recorder,

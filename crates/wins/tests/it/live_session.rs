@@ -331,12 +331,58 @@ fn faults_while_flying_are_counted_and_flown_through() {
             record.timestamp = Timestamp(record.timestamp.as_nanos() + 100_000_000_000);
         }
     }
+    // 40–42 s: a second connection streams the same AP's records (0.1 ms after the real ones):
+    // refused and counted, not taken as more packets.
+    let (s_host, s_t) = at(&a, 40.0);
+    a.push(csi_event(
+        s_host - 1,
+        s_t,
+        CsiEvent::Connected {
+            conn: 5,
+            peer: "127.0.0.1:40005".parse().unwrap(),
+        },
+    ));
+    let spoofed: Vec<Arrival> = a
+        .iter()
+        .filter(|x| x.is_csi() && x.within(40.0, 42.0))
+        .filter_map(|x| match &x.input {
+            LiveInput::Csi(CsiEvent::Record {
+                record,
+                transmitter,
+                arrival_ns,
+                ..
+            }) => Some(csi_event(
+                x.host_ns + 100_000,
+                x.t,
+                CsiEvent::Record {
+                    conn: 5,
+                    record: record.clone(),
+                    transmitter: *transmitter,
+                    arrival_ns: arrival_ns + 100_000,
+                },
+            )),
+            _ => None,
+        })
+        .collect();
+    let second_stream = spoofed.len() as u64;
+    assert!(second_stream > 50);
+    a.extend(spoofed);
+    let (e_host, e_t) = at(&a, 42.0);
+    a.push(csi_event(
+        e_host,
+        e_t,
+        CsiEvent::Disconnected {
+            conn: 5,
+            reason: "closed by the peer".into(),
+        },
+    ));
     // 62–62.3 s: no IMU.
     a.retain(|x| !(x.is_imu() && x.within(62.0, 62.3)));
     a.sort_by_key(|x| x.host_ns);
     let (frames, stats) = fly(session(&dir, &config, None), a);
-    assert_eq!(stats.csi_connections, 3, "{stats:?}");
-    assert_eq!(stats.csi_disconnects, 2, "{stats:?}");
+    assert_eq!(stats.csi_connections, 4, "{stats:?}");
+    assert_eq!(stats.csi_disconnects, 3, "{stats:?}");
+    assert_eq!(stats.csi_second_stream, second_stream, "{stats:?}");
     assert_eq!(stats.csi_skips, 4, "{stats:?}");
     assert_eq!(stats.csi_skipped_bytes, 65_536, "{stats:?}");
     assert_eq!(stats.nic_clock_relocks, 1, "{stats:?}");

@@ -77,7 +77,9 @@ impl LiveSession {
             CsiEvent::Disconnected { conn, .. } => {
                 self.stats.csi_disconnects += 1;
                 self.nics.remove(&conn);
+                self.ap_streams.retain(|_, c| *c != conn);
             }
+            CsiEvent::Refused { .. } => self.stats.csi_refused_connections += 1,
             CsiEvent::Skipped { skip, .. } => {
                 if matches!(
                     skip.reason,
@@ -101,6 +103,15 @@ impl LiveSession {
                 let Some(ap) = self.ap_of(transmitter) else {
                     return;
                 };
+                // The AP's stream is the first open connection that brought its records.
+                let owner = *self.ap_streams.entry(ap).or_insert(conn);
+                if owner != conn {
+                    if self.nics.get(&owner).is_some_and(|n| n.connected) {
+                        self.stats.csi_second_stream += 1;
+                        return;
+                    }
+                    self.ap_streams.insert(ap, conn);
+                }
                 let Some(t) = self.csi_time(conn, record.timestamp.as_nanos(), arrival_ns) else {
                     return;
                 };
