@@ -166,7 +166,9 @@ pub fn run_live(
                 source: io::Error::other(e.to_string()),
             })?,
         );
-    let inbound = Arc::new(Mutex::new(InboundDecoder::new(inbound_config(config))));
+    let inbound = Arc::new(Mutex::new(InboundDecoder::new(inbound_config(
+        config, &manifest,
+    ))));
     spawn_mavlink_reader(&link, &inbound, tx, clock, stop)?;
 
     let mut out = Outputs {
@@ -253,7 +255,9 @@ fn prepare_out(out: &Path, rig_dir: &Path) -> Result<(), LiveError> {
     fs::create_dir_all(out).map_err(io_err(format!("creating {}", out.display())))
 }
 
-fn inbound_config(config: &Config) -> InboundConfig {
+/// The decoder's settings: the rig's sensor ranges (as `wins run` checks them) and the flight
+/// controller's ids.
+fn inbound_config(config: &Config, manifest: &Manifest) -> InboundConfig {
     let live = &config.live;
     InboundConfig {
         raw_imu_scale: (live.raw_accel_m_s2_per_count > 0.0 && live.raw_gyro_rad_s_per_count > 0.0)
@@ -263,6 +267,8 @@ fn inbound_config(config: &Config) -> InboundConfig {
             }),
         fc_system_id: live.system_id,
         fc_component_id: live.fc_component_id,
+        max_accel_m_s2: manifest.imu.accel_range_m_s2,
+        max_gyro_rad_s: manifest.imu.gyro_range_rad_s,
         ..InboundConfig::default()
     }
 }

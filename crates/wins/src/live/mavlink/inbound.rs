@@ -89,10 +89,12 @@ pub struct InboundConfig {
     pub raw_imu_scale: Option<RawImuScale>,
     /// Reference pressure of the altitude, Pa (default: standard sea level, 101 325 Pa).
     pub sea_level_pa: f64,
-    /// Largest believable specific force per axis, m/s² (default 400, about 40 g: beyond any
-    /// drone IMU's range).
+    /// The accelerometer's full scale per axis, m/s²: a sample at or beyond it (saturated or
+    /// corrupt) is refused, as `wins run` drops it. Default 400 (about 40 g); `wins live` sets the
+    /// rig's `imu.accel_range_m_s2`, so that its recording replays to the same poses.
     pub max_accel_m_s2: f64,
-    /// Largest believable angular rate per axis, rad/s (default 50, about 2900 °/s).
+    /// The gyroscope's full scale per axis, rad/s, likewise (default 50; live: the rig's
+    /// `imu.gyro_range_rad_s`).
     pub max_gyro_rad_s: f64,
     /// Believable pressures, Pa (default 10 kPa to 120 kPa: 16 km up to well below sea level).
     pub pressure_range_pa: (f64, f64),
@@ -305,8 +307,8 @@ impl InboundDecoder {
             {
                 return Err(Refusal::NonFinite);
             }
-            if accel_m_s2.amax() > self.config.max_accel_m_s2
-                || gyro_rad_s.amax() > self.config.max_gyro_rad_s
+            if accel_m_s2.amax() >= self.config.max_accel_m_s2
+                || gyro_rad_s.amax() >= self.config.max_gyro_rad_s
             {
                 return Err(Refusal::OutOfRange);
             }

@@ -206,3 +206,25 @@ fn only_the_flight_controller_moves_the_inputs() {
     assert!(any.decode_from(&from(1, 1), &m).imu.is_none());
     assert_eq!(any.stats().other_sender, 1);
 }
+
+#[test]
+fn a_sample_at_the_rigs_full_scale_is_refused_as_wins_run_drops_it() {
+    let mut decoder = InboundDecoder::new(InboundConfig {
+        max_accel_m_s2: 16.0,
+        max_gyro_rad_s: 2.0,
+        ..InboundConfig::default()
+    });
+    let with = |xacc: f32, zgyro: f32| {
+        MavMessage::HIGHRES_IMU(HIGHRES_IMU_DATA {
+            time_usec: 1_000,
+            xacc,
+            zgyro,
+            fields_updated: HighresImuUpdatedFlags::from_bits_truncate(ALL_IMU_BITS),
+            ..Default::default()
+        })
+    };
+    assert!(decoder.decode(&with(15.9, 0.0)).imu.is_some());
+    assert!(decoder.decode(&with(16.0, 0.0)).imu.is_none());
+    assert!(decoder.decode(&with(0.0, -2.0)).imu.is_none());
+    assert_eq!(decoder.stats().refused.out_of_range, 2);
+}
