@@ -45,7 +45,7 @@ pub struct LiveConfig {
     /// The IP addresses allowed to connect to `csi_listen` (the NICs' loggers); empty: any.
     /// Others are refused and counted (`csi_refused_connections`).
     pub csi_peers: Vec<String>,
-    /// The flight controller's MAVLink link: `udpin:HOST:PORT` (listen and answer the peer),
+    /// The flight controller's MAVLink link: `udpin:HOST:PORT` (listen and answer the vehicle),
     /// `udpout:HOST:PORT`, `tcp:HOST:PORT`, `tcpin:HOST:PORT` or `serial:DEVICE:BAUD`. The
     /// default listens on the loopback only (a router such as mavlink-router on the same
     /// computer).
