@@ -32,6 +32,12 @@ pub fn bound(args: BoundArgs) -> Result<()> {
     if !(args.bearing_sigma_deg.is_finite() && args.bearing_sigma_deg > 0.0) {
         bail!("--bearing-sigma-deg must be > 0");
     }
+    if let Some(path) = &args.csv {
+        // Never written over a dataset's own files.
+        let inputs: Vec<&std::path::Path> = args.datasets.iter().map(PathBuf::as_path).collect();
+        wins::io_safety::refuse_overlap(path, &inputs)
+            .with_context(|| format!("--csv {}", path.display()))?;
+    }
     let config = BoundConfig {
         bearing_sigma_rad: args.bearing_sigma_deg.to_radians(),
         bearing_correlation_s: args.bearing_correlation_s,

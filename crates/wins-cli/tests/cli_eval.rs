@@ -406,7 +406,14 @@ fn bound_gives_each_flight_its_lowest_reachable_error() {
         bound_of(&csv)
     );
 
-    // No truth: refused by name, and the other dataset still bounded.
+    // The CSV is never written over the dataset's own files.
+    let manifest = ds.join("dataset.toml");
+    let before = std::fs::read(&manifest).expect("manifest");
+    let out = wins(&["bound", s(&ds), "--csv", s(&manifest)]);
+    assert!(!out.status.success());
+    assert_eq!(std::fs::read(&manifest).expect("manifest"), before);
+
+    // No truth: refused by name.
     std::fs::remove_dir_all(ds.join("truth")).expect("remove truth");
     let out = wins(&["bound", s(&ds)]);
     assert!(!out.status.success());

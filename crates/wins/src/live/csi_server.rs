@@ -181,7 +181,6 @@ fn accept_loop(
                         }));
                     }
                 }
-                workers.retain(|h| !h.is_finished());
             }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock => thread::sleep(POLL),
             Err(_) => thread::sleep(POLL),

@@ -91,6 +91,8 @@ pub struct LiveSummary {
     pub live: LiveStats,
     /// The flight controller link's counts.
     pub mavlink_in: InboundStats,
+    /// Datagrams of a `udpin:` link dropped for holding no CRC-valid MAVLink message.
+    pub mavlink_garbage_datagrams: u64,
     /// Poses sent to the flight controller.
     pub poses_sent: u64,
     /// Poses that could not be sent (the link failed, or a pose not finite).
@@ -203,6 +205,7 @@ pub fn run_live(
     let summary = LiveSummary {
         live: stats,
         mavlink_in,
+        mavlink_garbage_datagrams: link.garbage_datagrams(),
         poses_sent: out.sent,
         poses_not_sent: out.not_sent,
         clocks,

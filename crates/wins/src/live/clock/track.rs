@@ -220,11 +220,6 @@ impl ClockTrack {
         self.candidates.clear();
     }
 
-    /// Whether a line is locked.
-    pub fn is_locked(&self) -> bool {
-        self.sync.is_some()
-    }
-
     /// Host time (ns) of timeline time `t_ns`, without the transport delay; `None` before the
     /// first lock.
     pub fn to_host(&self, t_ns: i64) -> Option<i64> {

@@ -30,6 +30,8 @@ pub struct UdpIn {
     peer: Mutex<Option<SocketAddr>>,
     /// Messages of the last datagram not yet handed out.
     pending: Mutex<VecDeque<(MavHeader, MavMessage)>>,
+    /// The receive buffer, kept (one datagram at a time).
+    buffer: Mutex<Vec<u8>>,
     sequence: AtomicU8,
     garbage: AtomicU64,
 }
@@ -42,6 +44,7 @@ impl UdpIn {
             vehicle_system_id: u32::from(vehicle_system_id),
             peer: Mutex::new(None),
             pending: Mutex::new(VecDeque::new()),
+            buffer: Mutex::new(vec![0_u8; DATAGRAM]),
             sequence: AtomicU8::new(0),
             garbage: AtomicU64::new(0),
         })
@@ -59,11 +62,14 @@ impl UdpIn {
 
     /// Blocks until one message arrives (datagrams are split into their messages).
     pub fn recv(&self) -> io::Result<(MavHeader, MavMessage)> {
-        let mut buffer = vec![0_u8; DATAGRAM];
         loop {
             if let Some(m) = self.pending.lock().ok().and_then(|mut p| p.pop_front()) {
                 return Ok(m);
             }
+            let mut buffer = self
+                .buffer
+                .lock()
+                .map_err(|_| io::Error::other("the receive buffer's lock is poisoned"))?;
             let (n, from) = self.socket.recv_from(&mut buffer)?;
             let mut reader = MavlinkReader::new(buffer.get(..n).unwrap_or_default());
             let mut messages = VecDeque::new();
