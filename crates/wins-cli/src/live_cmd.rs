@@ -154,7 +154,8 @@ pub struct ReplayArgs {
     capture: Option<PathBuf>,
     /// Put a fault into the streams, KIND@AT:VALUE with AT in s of the dataset (repeatable):
     /// imu-shift@AT:S (one IMU sample S s off), imu-silence@AT:S (no IMU for S s),
-    /// fc-reboot@AT:S (silent S s, then the clock reads from 0 at AT), csi-shift@AT:S (one
+    /// fc-reboot@AT:S (silent S s, then the clock reads from 0 at AT), imu-nan@AT:S (NaN
+    /// readings for S s), imu-saturate@AT:S (39 g and 45 rad/s for S s), csi-shift@AT:S (one
     /// record's NIC time S s off), csi-garbage@AT:BYTES (random bytes in the CSI stream).
     #[arg(long, value_name = "KIND@AT:VALUE")]
     fault: Vec<String>,

@@ -192,6 +192,13 @@ fn count(stats: &Value, key: &str) -> u64 {
         .unwrap_or_else(|| panic!("{key} missing in {stats}"))
 }
 
+/// Readings refused by the flight controller link's decoder for `why`.
+fn refused(stats: &Value, why: &str) -> u64 {
+    stats["mavlink_in"]["refused"][why]
+        .as_u64()
+        .unwrap_or_else(|| panic!("{why} missing in {stats}"))
+}
+
 /// A lone misdated message: refused (`outliers` counted once, no re-lock), the poses go on,
 /// and the ATE stays within [`ATE_FACTOR`] of the clean `wins run`'s.
 fn lone_fault(name: &str, fault: &str, outliers_key: &str) -> (Value, String) {
@@ -329,6 +336,34 @@ fn the_imu_stopping_12_s_is_taken_back_at_once_as_wins_run_takes_the_gap() {
         "{}",
         stats["live"]
     );
+}
+
+/// A second of NaN readings (a failing driver) is refused, counted, and taken as the 1 s gap
+/// it leaves, as `wins run` takes it: not a restart of the clock.
+#[test]
+fn a_second_of_nan_imu_is_a_short_gap_bridged_as_wins_run_bridges_it() {
+    let (stats, resumed) = imu_gap("imu-nan", "imu-nan@22:1", 1.0);
+    assert!(resumed, "wins run did not resume after a 1 s IMU gap");
+    assert!(
+        refused(&stats, "non_finite") >= 190,
+        "{}",
+        stats["mavlink_in"]
+    );
+    assert_eq!(count(&stats, "fc_clock_relocks"), 0, "{}", stats["live"]);
+}
+
+/// A second beyond the rig's range (39 g, 45 rad/s against 16 g, 2000 °/s) is refused and
+/// counted as `wins run` refuses it, so the recording replays to the same poses.
+#[test]
+fn a_second_beyond_the_imu_range_is_refused_as_wins_run_refuses_it() {
+    let (stats, resumed) = imu_gap("imu-saturate", "imu-saturate@22:1", 1.0);
+    assert!(resumed, "wins run did not resume after a 1 s IMU gap");
+    assert!(
+        refused(&stats, "out_of_range") >= 190,
+        "{}",
+        stats["mavlink_in"]
+    );
+    assert_eq!(count(&stats, "fc_clock_relocks"), 0, "{}", stats["live"]);
 }
 
 #[test]

@@ -236,6 +236,7 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
                     continue;
                 };
                 s.t = crate::time::Timestamp(t_ns);
+                faults.imu_readings(&mut s, rel_s);
                 let message = highres_imu(&s);
                 send_mavlink(&socket, options.mavlink_to, &mut header, &message, &mut buf)?;
                 summary.imu_sent += 1;

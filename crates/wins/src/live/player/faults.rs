@@ -10,11 +10,16 @@
 //! | `fc-reboot@AT:S` | the flight controller reboots at `AT`: silent for `S` s, then its clock reads from 0 at `AT` |
 //! | `csi-shift@AT:S` | the first CSI record at or after `AT` with its NIC time `S` s off (once) |
 //! | `csi-garbage@AT:N` | `N` bytes of seeded random garbage in the CSI stream before the first record at or after `AT` |
+//! | `imu-nan@AT:S` | the IMU samples of `S` s from `AT` with NaN readings (a failing sensor driver) |
+//! | `imu-saturate@AT:S` | the IMU samples of `S` s from `AT` reading 39 g and 45 rad/s on every axis (beyond a 16 g, 2000 °/s IMU's range) |
 
 use std::str::FromStr;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+use crate::imu::ImuSample;
+use nalgebra::Vector3;
 
 /// Nanoseconds per second.
 const NS_PER_S: f64 = 1e9;
@@ -22,6 +27,10 @@ const NS_PER_S: f64 = 1e9;
 const GARBAGE_SEED: u64 = 0x5EED;
 /// Most garbage one fault sends, bytes.
 const MAX_GARBAGE: usize = 1 << 24;
+/// A saturated accelerometer's reading, m/s² (39 g).
+const SATURATED_ACCEL_M_S2: f64 = 39.0 * 9.806_65;
+/// A saturated gyroscope's reading, rad/s.
+const SATURATED_GYRO_RAD_S: f64 = 45.0;
 
 /// One fault (module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +62,20 @@ pub enum PlayFault {
         at_s: f64,
         /// By how much, s.
         shift_s: f64,
+    },
+    /// The IMU's readings NaN.
+    ImuNan {
+        /// From, s of the dataset.
+        at_s: f64,
+        /// For, s.
+        for_s: f64,
+    },
+    /// The IMU's readings beyond its range.
+    ImuSaturate {
+        /// From, s of the dataset.
+        at_s: f64,
+        /// For, s.
+        for_s: f64,
     },
     /// Random bytes in the CSI stream.
     CsiGarbage {
@@ -89,6 +112,14 @@ impl FromStr for PlayFault {
                 at_s,
                 for_s: positive(value_s)?,
             }),
+            "imu-nan" => Ok(Self::ImuNan {
+                at_s,
+                for_s: positive(value_s)?,
+            }),
+            "imu-saturate" => Ok(Self::ImuSaturate {
+                at_s,
+                for_s: positive(value_s)?,
+            }),
             "csi-shift" => Ok(Self::CsiShift {
                 at_s,
                 shift_s: value_s,
@@ -101,7 +132,8 @@ impl FromStr for PlayFault {
                 Ok(Self::CsiGarbage { at_s, bytes })
             }
             _ => Err(format!(
-                "{s:?}: the kinds are imu-shift, imu-silence, fc-reboot, csi-shift, csi-garbage"
+                "{s:?}: the kinds are imu-shift, imu-silence, fc-reboot, imu-nan, imu-saturate, \
+                 csi-shift, csi-garbage"
             )),
         }
     }
@@ -145,6 +177,23 @@ impl Faults {
             }
         }
         Some(t)
+    }
+
+    /// The readings to send for the IMU sample `s` at `rel_s` s into the dataset.
+    pub(super) fn imu_readings(&self, s: &mut ImuSample, rel_s: f64) {
+        for (fault, _) in &self.faults {
+            match *fault {
+                PlayFault::ImuNan { at_s, for_s } if (at_s..at_s + for_s).contains(&rel_s) => {
+                    s.accel_m_s2 = Vector3::repeat(f64::NAN);
+                    s.gyro_rad_s = Vector3::repeat(f64::NAN);
+                }
+                PlayFault::ImuSaturate { at_s, for_s } if (at_s..at_s + for_s).contains(&rel_s) => {
+                    s.accel_m_s2 = Vector3::repeat(SATURATED_ACCEL_M_S2);
+                    s.gyro_rad_s = Vector3::repeat(SATURATED_GYRO_RAD_S);
+                }
+                _ => {}
+            }
+        }
     }
 
     /// The NIC time to send (µs, wrapping) for a record with `timestamp_low` at `rel_s`, and
@@ -204,6 +253,26 @@ mod tests {
         assert_eq!(f.fc_time(102 * s, 2.0, true), Some(102 * s));
         assert_eq!(f.fc_time(111 * s, 11.0, true), None);
         assert_eq!(f.fc_time(113 * s, 13.0, false), Some(3 * s));
+        let f = Faults::new(&[
+            "imu-nan@1:0.5".parse().unwrap(),
+            "imu-saturate@2:0.5".parse().unwrap(),
+        ]);
+        let clean = ImuSample {
+            t: crate::time::Timestamp(0),
+            gyro_rad_s: Vector3::new(0.1, 0.0, 0.0),
+            accel_m_s2: Vector3::new(0.0, 0.0, 9.8),
+        };
+        let mut x = clean;
+        f.imu_readings(&mut x, 0.9);
+        assert_eq!(x, clean);
+        f.imu_readings(&mut x, 1.2);
+        assert!(x.accel_m_s2.x.is_nan() && x.gyro_rad_s.z.is_nan());
+        let mut x = clean;
+        f.imu_readings(&mut x, 2.4);
+        assert!(x.accel_m_s2.norm() > 600.0 && x.gyro_rad_s.norm() > 70.0);
+        let mut x = clean;
+        f.imu_readings(&mut x, 2.5);
+        assert_eq!(x, clean);
         let mut f = Faults::new(&[
             "csi-shift@1:-1000".parse().unwrap(),
             "csi-garbage@2:100".parse().unwrap(),
