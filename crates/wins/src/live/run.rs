@@ -360,9 +360,11 @@ impl Loop<'_> {
                     break;
                 }
             }
+            // The recording first: the trajectory's lines on disk then come from inputs the
+            // recording on disk holds.
             if now - last_flush >= duration_ns(FLUSH_PERIOD) {
-                out.flush()?;
                 session.flush_recording()?;
+                out.flush()?;
                 last_flush = now;
             }
             if now - last_stats >= duration_ns(STATS_PERIOD) {
