@@ -44,7 +44,7 @@ impl<W: Write> TrajectoryWriter<W> {
     /// Writes the header into `out` (best unbuffered: the writer buffers whole lines).
     pub fn new(out: W) -> io::Result<Self> {
         let mut out = WholeRecords::new(out);
-        out.line(|b| write_tum_header(b))?;
+        out.line(write_tum_header)?;
         Ok(Self { out, poses: 0 })
     }
 
