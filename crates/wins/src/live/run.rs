@@ -2,8 +2,9 @@
 //!
 //! Output folder (which must not exist, or be empty):
 //! - `trajectory.tum`: every converged frame, flight controller time, world frame `w` (z up);
-//! - `stats.json`: the session's counts ([`LiveStats`]), the flight controller link's
-//!   ([`InboundStats`]), the clocks and the latency of the poses sent ([`LiveSummary`]);
+//! - `stats.json` ([`LiveSummary`]): the session's counts ([`LiveStats`]), the flight
+//!   controller link's ([`super::mavlink::inbound::InboundStats`]), the clocks and the latency
+//!   of the poses sent;
 //! - `config.toml`: the settings in effect (give it to `wins run --config` with the recording);
 //! - `recording/`: every input as a dataset (when `live.record`).
 //!
