@@ -1,11 +1,16 @@
 //! Outputs that cannot destroy inputs or leave half files: path comparison through canonical
 //! paths ([`resolve`]), the refusals of an output onto an input ([`refuse_same_file`],
-//! [`refuse_overlap`]), a writability probe ([`check_writable_dir`]) and atomic replacement of a
-//! file ([`write_atomically`], [`replace_atomically`]).
+//! [`refuse_overlap`]), a writability probe ([`check_writable_dir`]), atomic replacement of a
+//! file ([`write_atomically`], [`replace_atomically`], [`write_atomically_unsynced`]) and a
+//! writer of streamed files that hands them whole lines and records only ([`WholeRecords`]).
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Read, Write};
 use std::path::{Component, Path, PathBuf};
+
+mod whole;
+
+pub use whole::{HAND_OFF_BYTES, WholeRecords};
 
 /// Prefix of the temporary files [`replace_atomically`] writes next to their target.
 pub const TEMP_PREFIX: &str = ".wins-tmp-";
@@ -238,9 +243,33 @@ pub fn replace_atomically(
     path: &Path,
     create: impl FnOnce(&Path) -> io::Result<()>,
 ) -> io::Result<()> {
+    replace(path, true, create)
+}
+
+/// [`replace_atomically`], the temporary file renamed without waiting for the disk: for a file
+/// rewritten every few seconds by a program that must not stall (`wins live`'s interim
+/// `stats.json`). A killed process still leaves the previous file or the new one, whole; after
+/// a power loss the new one may be missing or, on a file system that does not order a rename
+/// after the data it replaces (ext4 does, for a rename over an existing file), empty.
+pub fn write_atomically_unsynced(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+) -> io::Result<()> {
+    replace(path, false, |temp| write_buffered(temp, write))
+}
+
+/// [`replace_atomically`], the temporary file synced to the disk first when `sync`.
+fn replace(
+    path: &Path,
+    sync: bool,
+    create: impl FnOnce(&Path) -> io::Result<()>,
+) -> io::Result<()> {
     let temp = temp_path(path)?;
     let done = create(&temp)
-        .and_then(|()| OpenOptions::new().write(true).open(&temp)?.sync_all())
+        .and_then(|()| match sync {
+            true => OpenOptions::new().write(true).open(&temp)?.sync_all(),
+            false => Ok(()),
+        })
         .and_then(|()| fs::rename(&temp, path));
     if done.is_err() {
         // Nothing to do if it is already gone: the error that matters is `done`'s.
@@ -260,11 +289,17 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 ) -> io::Result<()> {
-    replace_atomically(path, |temp| {
-        let mut w = BufWriter::new(File::create(temp)?);
-        write(&mut w)?;
-        w.flush()
-    })
+    replace_atomically(path, |temp| write_buffered(temp, write))
+}
+
+/// Creates `path` and fills it through a buffered writer.
+fn write_buffered(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+) -> io::Result<()> {
+    let mut w = BufWriter::new(File::create(path)?);
+    write(&mut w)?;
+    w.flush()
 }
 
 #[cfg(test)]

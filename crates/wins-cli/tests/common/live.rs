@@ -1,5 +1,5 @@
 //! Helpers of the tests that run `wins live` over real sockets (`cli_live.rs`,
-//! `cli_live_faults.rs`).
+//! `cli_live_faults.rs`, `cli_live_kill.rs`).
 
 // Tests stop at the line that failed.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -83,6 +83,17 @@ impl Running {
             self.output()
         );
         self.output()
+    }
+}
+
+impl Running {
+    /// Kills it at once (SIGKILL on Unix: no handler runs, nothing is flushed) and waits for it.
+    pub fn kill(&mut self) {
+        if let Some(mut child) = self.child.take() {
+            child.kill().unwrap();
+            let status = child.wait().unwrap();
+            assert!(!status.success(), "{} was not killed: {status}", self.name);
+        }
     }
 }
 

@@ -126,5 +126,10 @@ fn a_failed_write_keeps_the_previous_file_and_leaves_no_temporary() {
     .unwrap();
     assert_eq!(fs::read(&path).unwrap(), b"second");
     assert_eq!(names(&dir), ["report.txt"]);
+    write_atomically_unsynced(&path, |w| w.write_all(b"third")).unwrap();
+    let err = write_atomically_unsynced(&path, |_| Err(io::Error::other("no"))).unwrap_err();
+    assert_eq!(err.to_string(), "no");
+    assert_eq!(fs::read(&path).unwrap(), b"third");
+    assert_eq!(names(&dir), ["report.txt"]);
     fs::remove_dir_all(&dir).unwrap();
 }

@@ -9,15 +9,22 @@
 //! pipeline whole microseconds, so nothing is rounded away. The NIC's own timestamps are not
 //! kept in the logs (the clock relation the session used is in its `stats.json`), nor are the
 //! frame records (the manifest keeps each AP's `mac`).
+//!
+//! Every file is written in whole lines and whole records ([`WholeRecords`]), handed to the
+//! files when [`Recorder::flush`] is called (`wins live` does every half second) and when a
+//! buffer fills; the manifest is replaced atomically. A run killed while it records leaves a
+//! dataset that `wins run` reads: every IMU and barometer row whole, every CSI log ending with
+//! a whole record, the manifest naming each AP's first packet before its records reach the log.
 
 use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use super::merge::Merged;
 use crate::csi::intel5300::encode_record;
 use crate::dataset::load::MANIFEST_FILE;
 use crate::dataset::{BaroEntry, Manifest, baro_csv, imu_csv};
+use crate::io_safety::WholeRecords;
 
 /// The IMU file of a recording.
 const IMU_FILE: &str = "imu.csv";
@@ -31,14 +38,13 @@ const CALIBRATION_FILE: &str = "calibration.toml";
 pub struct Recorder {
     dir: PathBuf,
     manifest: Manifest,
-    imu: BufWriter<File>,
-    baro: Option<BufWriter<File>>,
+    imu: WholeRecords<File>,
+    baro: Option<WholeRecords<File>>,
     /// The barometer's nominal rate for the manifest, Hz.
     baro_rate_hz: f64,
-    logs: Vec<BufWriter<File>>,
+    logs: Vec<WholeRecords<File>>,
     /// Each AP's first packet, µs on the flight controller's clock.
     first_us: Vec<Option<i64>>,
-    buf: Vec<u8>,
     /// Inputs written: IMU samples, barometer readings, CSI records.
     pub counts: [u64; 3],
 }
@@ -65,10 +71,10 @@ impl Recorder {
         for (l, ap) in manifest.aps.iter_mut().enumerate() {
             ap.log = format!("ap{l}.dat");
             ap.imu_minus_nic_ns = 0;
-            logs.push(BufWriter::new(File::create(dir.join(&ap.log))?));
+            logs.push(WholeRecords::new(File::create(dir.join(&ap.log))?));
         }
-        let mut imu = BufWriter::new(File::create(dir.join(IMU_FILE))?);
-        writeln!(imu, "{}", imu_csv::HEADER)?;
+        let mut imu = WholeRecords::new(File::create(dir.join(IMU_FILE))?);
+        imu.line(|b| writeln!(b, "{}", imu_csv::HEADER))?;
         let baro_rate_hz = rig.baro.as_ref().map_or(rig.imu.rate_hz, |b| b.rate_hz);
         let n = manifest.aps.len();
         let recorder = Self {
@@ -79,7 +85,6 @@ impl Recorder {
             baro_rate_hz,
             logs,
             first_us: vec![None; n],
-            buf: Vec::with_capacity(512),
             counts: [0; 3],
         };
         recorder.write_manifest()?;
@@ -91,8 +96,8 @@ impl Recorder {
         if self.baro.is_some() {
             return Ok(());
         }
-        let mut w = BufWriter::new(File::create(self.dir.join(BARO_FILE))?);
-        writeln!(w, "{}", baro_csv::HEADER)?;
+        let mut w = WholeRecords::new(File::create(self.dir.join(BARO_FILE))?);
+        w.line(|b| writeln!(b, "{}", baro_csv::HEADER))?;
         self.baro = Some(w);
         self.manifest.baro = Some(BaroEntry {
             file: BARO_FILE.into(),
@@ -110,12 +115,12 @@ impl Recorder {
     pub fn record(&mut self, input: &Merged) -> io::Result<()> {
         match input {
             Merged::Imu(s) => {
-                imu_csv::write_row(&mut self.imu, s)?;
+                self.imu.line(|b| imu_csv::write_row(b, s))?;
                 self.counts[0] += 1;
             }
             Merged::Baro { t, altitude_m } => {
                 if let Some(w) = &mut self.baro {
-                    writeln!(w, "{},{}", t.as_nanos(), altitude_m)?;
+                    w.line(|b| writeln!(b, "{},{}", t.as_nanos(), altitude_m))?;
                     self.counts[1] += 1;
                 }
             }
@@ -130,22 +135,24 @@ impl Recorder {
                 let mut record = record.as_ref().clone();
                 // µs since the AP's first packet, modulo 2³² as the NIC's counter wraps.
                 record.header.timestamp_low = (t_us - base).rem_euclid(1 << 32) as u32;
-                self.buf.clear();
-                encode_record(&record, &mut self.buf);
-                log.write_all(&self.buf)?;
-                self.counts[2] += 1;
+                // The manifest first: the record's time in the log needs the AP's base.
                 if new_base {
                     if let Some(entry) = self.manifest.aps.get_mut(*ap) {
                         entry.imu_minus_nic_ns = base * 1000;
                     }
-                    self.write_manifest()?;
+                    write_manifest(&self.dir, &self.manifest)?;
                 }
+                log.record(|b| {
+                    encode_record(&record, b);
+                    Ok(())
+                })?;
+                self.counts[2] += 1;
             }
         }
         Ok(())
     }
 
-    /// Flushes every file.
+    /// Hands what is buffered (whole rows and records) to every file.
     pub fn flush(&mut self) -> io::Result<()> {
         self.imu.flush()?;
         if let Some(w) = &mut self.baro {
@@ -165,9 +172,12 @@ impl Recorder {
     }
 
     fn write_manifest(&self) -> io::Result<()> {
-        let text = toml::to_string(&self.manifest).map_err(io::Error::other)?;
-        crate::io_safety::write_atomically(&self.dir.join(MANIFEST_FILE), |w| {
-            w.write_all(text.as_bytes())
-        })
+        write_manifest(&self.dir, &self.manifest)
     }
+}
+
+/// Replaces the manifest of the recording in `dir` (atomically).
+fn write_manifest(dir: &Path, manifest: &Manifest) -> io::Result<()> {
+    let text = toml::to_string(manifest).map_err(io::Error::other)?;
+    crate::io_safety::write_atomically(&dir.join(MANIFEST_FILE), |w| w.write_all(text.as_bytes()))
 }

@@ -2,18 +2,25 @@
 //!
 //! Output folder (which must not exist, or be empty):
 //! - `trajectory.tum`: every converged frame, flight controller time, world frame `w` (z up);
-//! - `stats.json`: the session's counts ([`LiveStats`]), the flight controller link's
-//!   ([`InboundStats`]), the clocks and the latency of the poses sent;
+//! - `stats.json` ([`LiveSummary`]): the session's counts ([`LiveStats`]), the flight
+//!   controller link's ([`super::mavlink::inbound::InboundStats`]), the clocks and the latency
+//!   of the poses sent;
 //! - `config.toml`: the settings in effect (give it to `wins run --config` with the recording);
 //! - `recording/`: every input as a dataset (when `live.record`).
 //!
-//! Every file is flushed when the run stops (the stop flag, set by Ctrl-C in the binary, or
+//! The streamed files (`trajectory.tum`, the recording's) are handed whole lines and records
+//! only ([`crate::io_safety::WholeRecords`]), every [`FLUSH_PERIOD`]; `stats.json` is replaced
+//! atomically every [`STATS_PERIOD`] (`"complete": false`). A run killed (SIGKILL, a crash)
+//! leaves them readable: the trajectory and the recording up to at most [`FLUSH_PERIOD`] before,
+//! the counts up to [`STATS_PERIOD`] before. Every file is flushed, and `stats.json` written
+//! `"complete": true`, when the run stops (the stop flag, set by Ctrl-C in the binary, or
 //! `live.idle_exit_s` without input).
 
 mod outputs;
+mod stats;
 
 use std::fs::{self, File};
-use std::io::{self, BufWriter};
+use std::io;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -24,13 +31,11 @@ use std::time::Duration;
 
 use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
-use serde::Serialize;
 
 use super::csi_server::{CsiServer, CsiServerLimits};
-use super::mavlink::inbound::{InboundConfig, InboundDecoder, InboundStats, RawImuScale};
+use super::mavlink::inbound::{InboundConfig, InboundDecoder, RawImuScale};
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
 use super::recorder::Recorder;
-use super::session::ClockReport;
 use super::session::{LiveSession, LiveStats, SessionError};
 use super::status::{Histogram, LiveStatus, percentiles};
 use super::{FcEvent, HostClock, LiveInput};
@@ -43,7 +48,9 @@ use crate::run::output::TRAJECTORY_FILE;
 use crate::run::replay::rig_of_manifest;
 use crate::run::trajectory::TrajectoryWriter;
 use outputs::Outputs;
-pub use outputs::{QUALITY_SIGMA_M, quality};
+pub use outputs::{FLUSH_PERIOD, QUALITY_SIGMA_M, quality};
+use stats::StatsFile;
+pub use stats::{LiveSummary, STATS_FILE, STATS_PERIOD};
 
 /// Capacity of the inputs' channel (about 10 s of a 200 Hz IMU and two 100 packet/s APs):
 /// beyond it the links wait, and the TCP stream backs up to the logger.
@@ -84,29 +91,6 @@ pub struct LiveOptions {
     pub out: PathBuf,
 }
 
-/// What a live run leaves (`stats.json`).
-#[derive(Clone, Debug, Serialize)]
-pub struct LiveSummary {
-    /// The session's counts.
-    pub live: LiveStats,
-    /// The flight controller link's counts.
-    pub mavlink_in: InboundStats,
-    /// Datagrams of a `udpin:` link dropped for holding no CRC-valid MAVLink message.
-    pub mavlink_garbage_datagrams: u64,
-    /// Poses sent to the flight controller.
-    pub poses_sent: u64,
-    /// Poses that could not be sent (the link failed, or a pose not finite).
-    pub poses_not_sent: u64,
-    /// The clocks at the end.
-    pub clocks: ClockReport,
-    /// Median and 99th percentile of the poses' age when sent, ms, over the whole run.
-    pub latency_ms: Option<(f64, f64)>,
-    /// The CSI server's address.
-    pub csi_listen: String,
-    /// The recording, when made.
-    pub recording: Option<PathBuf>,
-}
-
 /// Runs `wins live` until `stop` is set (or the idle limit), calling `on_status` every
 /// `live.status_interval_s`.
 pub fn run_live(
@@ -143,10 +127,10 @@ pub fn run_live(
     let config_text = toml::to_string(config).map_err(|e| LiveError::Setup(e.to_string()))?;
     fs::write(options.out.join("config.toml"), config_text)
         .map_err(io_err("writing config.toml"))?;
-    let tum = TrajectoryWriter::new(BufWriter::new(
+    let tum = TrajectoryWriter::new(
         File::create(options.out.join(TRAJECTORY_FILE))
             .map_err(io_err("creating trajectory.tum"))?,
-    ))
+    )
     .map_err(io_err("writing trajectory.tum"))?;
 
     let clock = HostClock::new();
@@ -183,41 +167,33 @@ pub fn run_live(
         window_ages_ms: Vec::new(),
         converged: false,
     };
+    let stats_file = StatsFile {
+        path: options.out.join(STATS_FILE),
+        inbound: &inbound,
+        link: &link,
+        csi_listen: server.local_addr.to_string(),
+        recording: session.recording().map(Path::to_path_buf),
+    };
     let run = Loop {
         rx: &rx,
         clock,
         status_every_ns: (live.status_interval_s * 1e9) as i64,
         idle_exit_ns: (live.idle_exit_s * 1e9) as i64,
         names: &names,
+        stats: &stats_file,
     };
     run.go(&mut session, &mut out, stop, on_status)?;
     stop.store(true, Ordering::Relaxed);
     let clocks = session.clocks();
-    let recording = session.recording().map(Path::to_path_buf);
     let fc_epoch_offset_ns = session.fc_epoch_offset_ns();
     let (frames, stats) = session.finish()?;
     for f in frames {
         out.frame(&f, None, fc_epoch_offset_ns)?;
     }
-    out.tum.flush().map_err(io_err("writing trajectory.tum"))?;
+    out.flush()?;
     let _ = server.thread.join();
-    let mavlink_in = inbound.lock().map(|d| *d.stats()).unwrap_or_default();
-    let summary = LiveSummary {
-        live: stats,
-        mavlink_in,
-        mavlink_garbage_datagrams: link.garbage_datagrams(),
-        poses_sent: out.sent,
-        poses_not_sent: out.not_sent,
-        clocks,
-        latency_ms: out.ages.percentiles(),
-        csi_listen: server.local_addr.to_string(),
-        recording,
-    };
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| LiveError::Io {
-        what: "writing stats.json".into(),
-        source: io::Error::other(e),
-    })?;
-    fs::write(options.out.join("stats.json"), json).map_err(io_err("writing stats.json"))?;
+    let summary = stats_file.summary(stats, clocks, &out, true);
+    stats_file.write(&summary)?;
     Ok(summary)
 }
 
@@ -343,6 +319,7 @@ struct Loop<'a> {
     status_every_ns: i64,
     idle_exit_ns: i64,
     names: &'a [String],
+    stats: &'a StatsFile<'a>,
 }
 
 impl Loop<'_> {
@@ -354,7 +331,9 @@ impl Loop<'_> {
         on_status: &mut dyn FnMut(&LiveStatus),
     ) -> Result<(), LiveError> {
         let mut last_input: Option<i64> = None;
-        let mut last_status = (self.clock.now_ns(), LiveStats::default(), 0u64);
+        let start = self.clock.now_ns();
+        let mut last_status = (start, LiveStats::default(), 0u64);
+        let (mut last_flush, mut last_stats) = (start, start);
         while !stop.load(Ordering::Relaxed) {
             match self.rx.recv_timeout(TICK) {
                 Ok(input) => {
@@ -381,6 +360,20 @@ impl Loop<'_> {
                 if !session.has_backlog() {
                     break;
                 }
+            }
+            // The recording first: the trajectory's lines on disk then come from inputs the
+            // recording on disk holds.
+            if now - last_flush >= duration_ns(FLUSH_PERIOD) {
+                session.flush_recording()?;
+                out.flush()?;
+                last_flush = now;
+            }
+            if now - last_stats >= duration_ns(STATS_PERIOD) {
+                let summary =
+                    self.stats
+                        .summary(session.stats().clone(), session.clocks(), out, false);
+                self.stats.write(&summary)?;
+                last_stats = now;
             }
             if self.status_every_ns > 0 && now - last_status.0 >= self.status_every_ns {
                 let status = self.status(session, out, &last_status, now);
@@ -430,4 +423,9 @@ impl Loop<'_> {
             stats,
         }
     }
+}
+
+/// `d` in ns (saturating).
+fn duration_ns(d: Duration) -> i64 {
+    i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)
 }

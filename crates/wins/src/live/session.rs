@@ -409,6 +409,14 @@ impl LiveSession {
     pub fn recording(&self) -> Option<&std::path::Path> {
         self.recorder.as_ref().map(Recorder::dir)
     }
+
+    /// Hands the recording's buffered rows and records to its files ([`Recorder::flush`]).
+    pub fn flush_recording(&mut self) -> Result<(), SessionError> {
+        match &mut self.recorder {
+            Some(r) => Ok(r.flush()?),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Counts the released frames and appends them to `frames`, the reset counter bumped by the

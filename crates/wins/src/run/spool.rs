@@ -66,10 +66,10 @@ struct ScoringWriters {
 /// A [`RunSink`] writing the per-frame and per-packet files as they come.
 #[derive(Debug)]
 pub struct Spool {
-    trajectory: TrajectoryWriter<BufWriter<File>>,
+    trajectory: TrajectoryWriter<File>,
     covariance: BufWriter<File>,
-    trajectory_all: TrajectoryWriter<BufWriter<File>>,
-    trajectory_sent: TrajectoryWriter<BufWriter<File>>,
+    trajectory_all: TrajectoryWriter<File>,
+    trajectory_sent: TrajectoryWriter<File>,
     aoa: csv::Writer<BufWriter<File>>,
     kept: Spooled,
     scoring: Option<ScoringWriters>,
@@ -94,9 +94,11 @@ impl Spool {
                 .map(|name| (dir.join(format!("{SPOOL_PREFIX}{id}-{name}")), *name))
                 .collect(),
         };
-        let open = |k: usize| File::create(&files.files[k].0).map(BufWriter::new);
-        let (trajectory, mut covariance, trajectory_all) = (open(0)?, open(1)?, open(2)?);
-        let trajectory_sent = TrajectoryWriter::new(open(3)?)?;
+        // The trajectories buffer their own lines.
+        let file = |k: usize| File::create(&files.files[k].0);
+        let open = |k: usize| file(k).map(BufWriter::new);
+        let (trajectory, mut covariance, trajectory_all) = (file(0)?, open(1)?, file(2)?);
+        let trajectory_sent = TrajectoryWriter::new(file(3)?)?;
         let aoa = csv::Writer::from_writer(open(4)?);
         let trajectory = TrajectoryWriter::new(trajectory)?;
         write_covariance_header(&mut covariance)?;

@@ -3,15 +3,18 @@
 //! ([`TrajectoryWriter`]): a comment header, then one TUM line per pose (`t x y z qx qy qz qw`,
 //! the format of [`crate::dataset::truth::write_tum`]), written as the poses come and flushed
 //! explicitly at the end, so that a failed write is an error and not lost when a buffer is
-//! dropped. The batch run writes through it ([`super::output`] from memory, [`super::spool`] as
-//! the replay goes), and so does `wins live` ([`crate::live`]).
+//! dropped. The file is handed whole lines only ([`WholeRecords`]): a program killed while it
+//! writes leaves a file that ends with a whole line. The batch run writes through it
+//! ([`super::output`] from memory, [`super::spool`] as the replay goes), and so does
+//! `wins live` ([`crate::live`]), which flushes it every half second.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::Path;
 
 use crate::dataset::truth::{Pose, write_tum_header, write_tum_pose};
 use crate::fusion::pose::PoseEstimate;
+use crate::io_safety::WholeRecords;
 
 /// A frame's pose, as a trajectory file holds it.
 pub(crate) fn pose_of(p: &PoseEstimate) -> Pose {
@@ -25,27 +28,29 @@ pub(crate) fn pose_of(p: &PoseEstimate) -> Pose {
 /// A TUM trajectory being written: the header is written when it is made, a line per pose after.
 #[derive(Debug)]
 pub struct TrajectoryWriter<W: Write> {
-    out: W,
+    out: WholeRecords<W>,
     poses: usize,
 }
 
-impl TrajectoryWriter<BufWriter<File>> {
-    /// Creates (or truncates) the file at `path`, buffered, and writes the header.
+impl TrajectoryWriter<File> {
+    /// Creates (or truncates) the file at `path` and writes the header (buffered: the writer is
+    /// its buffer).
     pub fn create(path: &Path) -> io::Result<Self> {
-        Self::new(BufWriter::new(File::create(path)?))
+        Self::new(File::create(path)?)
     }
 }
 
 impl<W: Write> TrajectoryWriter<W> {
-    /// Writes the header into `out`.
-    pub fn new(mut out: W) -> io::Result<Self> {
-        write_tum_header(&mut out)?;
+    /// Writes the header into `out` (best unbuffered: the writer buffers whole lines).
+    pub fn new(out: W) -> io::Result<Self> {
+        let mut out = WholeRecords::new(out);
+        out.line(write_tum_header)?;
         Ok(Self { out, poses: 0 })
     }
 
     /// Writes one pose's line.
     pub fn pose(&mut self, pose: &Pose) -> io::Result<()> {
-        write_tum_pose(&mut self.out, pose)?;
+        self.out.line(|b| write_tum_pose(b, pose))?;
         self.poses += 1;
         Ok(())
     }
@@ -68,15 +73,15 @@ impl<W: Write> TrajectoryWriter<W> {
         self.poses
     }
 
-    /// Flushes what is buffered (the writer stays usable).
+    /// Hands what is buffered (whole lines) to the file and flushes it (the writer stays
+    /// usable).
     pub fn flush(&mut self) -> io::Result<()> {
         self.out.flush()
     }
 
     /// Flushes and gives the writer back.
-    pub fn finish(mut self) -> io::Result<W> {
-        self.out.flush()?;
-        Ok(self.out)
+    pub fn finish(self) -> io::Result<W> {
+        self.out.into_inner()
     }
 }
 

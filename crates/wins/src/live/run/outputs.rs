@@ -2,7 +2,7 @@
 //! the trajectory file, with the latency of what was sent.
 
 use std::fs::File;
-use std::io::BufWriter;
+use std::time::Duration;
 
 use ::mavlink::dialects::common::MavMessage;
 
@@ -18,11 +18,16 @@ use crate::run::trajectory::TrajectoryWriter;
 /// 1σ of position at which `quality` is 37 (it falls as `exp(−σ / this)`), m.
 pub const QUALITY_SIGMA_M: f64 = 0.5;
 
+/// How often `wins live` hands its streamed files (`trajectory.tum`, the recording) what it
+/// buffered, whole lines and records: a killed run loses at most this much of them, and the
+/// files get one `write` each per period.
+pub const FLUSH_PERIOD: Duration = Duration::from_millis(500);
+
 /// Where frames go: the flight controller and the trajectory file.
 pub(super) struct Outputs<'a> {
     pub(super) link: &'a MavlinkLink,
     pub(super) message: PoseMessage,
-    pub(super) tum: TrajectoryWriter<BufWriter<File>>,
+    pub(super) tum: TrajectoryWriter<File>,
     pub(super) sent: u64,
     pub(super) not_sent: u64,
     pub(super) ages: Histogram,
@@ -59,6 +64,11 @@ impl Outputs<'_> {
             false => self.not_sent += 1,
         }
         Ok(())
+    }
+
+    /// Hands the trajectory's buffered lines to its file.
+    pub(super) fn flush(&mut self) -> Result<(), LiveError> {
+        self.tum.flush().map_err(io_err("writing trajectory.tum"))
     }
 
     fn send(&self, f: &LiveFrame, fc_epoch_offset_ns: i64) -> bool {
