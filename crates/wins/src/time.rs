@@ -49,40 +49,71 @@ impl Timestamp {
 /// Unwraps a free-running 32-bit microsecond counter (the Intel 5300's `timestamp_low` wraps every
 /// 2³² µs ≈ 71.6 min) into a continuous count.
 ///
-/// Each new reading is placed on the lap that puts it nearest to the previous reading, so a forward
-/// wrap adds a lap and a slightly late (reordered) packet just before a wrap does not. The first
-/// reading defines lap 0: timestamps stay on the NIC clock, only made continuous.
+/// Each new reading is placed on the lap that puts it nearest to the reference (the last
+/// reading that belonged to the stream), so a forward wrap adds a lap and a slightly late
+/// (reordered) packet just before a wrap does not. The first reading defines lap 0: timestamps
+/// stay on the NIC clock, only made continuous.
+///
+/// A lone reading far from the reference (more than [`Self::NEAR_US`]: a corrupt or misdated
+/// record) is placed the same way but does not become the reference until the next reading
+/// confirms it (lies nearer to it than the far reading lies to the reference): a glitch half a
+/// lap off cannot move every later reading onto another lap, while a stream that really moved
+/// on (a long silence, a clock that restarted) is followed from its second reading.
 #[derive(Clone, Debug, Default)]
 pub struct MicrosUnwrapper {
+    /// The reference: the last reading that belonged to the stream, unwrapped.
     last_us: Option<i64>,
+    /// A far reading waiting for the next to confirm it, unwrapped.
+    candidate_us: Option<i64>,
 }
 
 impl MicrosUnwrapper {
     const LAP: i64 = 1 << 32;
+    /// Readings within this of the reference belong to the stream, µs (67 s: far beyond a
+    /// packet's reordering, far below half a lap).
+    pub const NEAR_US: i64 = 1 << 26;
 
     /// A fresh unwrapper (lap 0).
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// `raw` on the lap nearest to `reference`.
+    fn nearest(raw: i64, reference: i64) -> i64 {
+        let lap = reference.div_euclid(Self::LAP);
+        let mut best = lap * Self::LAP + raw;
+        for l in [lap - 1, lap + 1] {
+            let c = l * Self::LAP + raw;
+            if (c - reference).abs() < (best - reference).abs() {
+                best = c;
+            }
+        }
+        best
+    }
+
     /// Unwrapped microseconds for the raw 32-bit reading.
     pub fn unwrap_micros(&mut self, raw: u32) -> i64 {
         let raw = i64::from(raw);
-        let us = match self.last_us {
-            None => raw,
-            Some(last) => {
-                let lap = last.div_euclid(Self::LAP);
-                let candidates = [lap - 1, lap, lap + 1].map(|l| l * Self::LAP + raw);
-                let mut best = candidates[1];
-                for c in candidates {
-                    if (c - last).abs() < (best - last).abs() {
-                        best = c;
-                    }
-                }
-                best
-            }
+        let Some(reference) = self.last_us else {
+            self.last_us = Some(raw);
+            return raw;
         };
-        self.last_us = Some(us);
+        let us = Self::nearest(raw, reference);
+        let off = (us - reference).abs();
+        if off <= Self::NEAR_US {
+            self.last_us = Some(us);
+            self.candidate_us = None;
+            return us;
+        }
+        if let Some(c) = self.candidate_us.take() {
+            let moved = Self::nearest(raw, c);
+            if (moved - c).abs() < off {
+                // The stream moved on: the far reading was its first.
+                self.last_us = Some(moved);
+                return moved;
+            }
+        }
+        self.candidate_us = Some(us);
         us
     }
 
@@ -110,6 +141,29 @@ mod tests {
         for _ in 0..8 {
             t += 1 << 30;
             assert_eq!(u.unwrap_micros((t & 0xFFFF_FFFF) as u32), t);
+        }
+    }
+
+    #[test]
+    fn a_lone_reading_half_a_lap_off_moves_no_later_reading_to_another_lap() {
+        let mut u = MicrosUnwrapper::new();
+        let t0 = 1_000_000_i64;
+        assert_eq!(u.unwrap_micros(t0 as u32), t0);
+        // A corrupt reading just over half a lap ahead: placed on lap −1 (nearest) ...
+        let glitch = (t0 + (1 << 31) + 5) as u32;
+        assert_eq!(u.unwrap_micros(glitch), i64::from(glitch) - (1 << 32));
+        // ... and the stream goes on on lap 0.
+        for k in 1..5 {
+            let t = t0 + k * 20_000;
+            assert_eq!(u.unwrap_micros(t as u32), t);
+        }
+        // A clock that restarted (a driver reload) is followed from its second reading.
+        // (3e9 µs lies nearest on lap −1.)
+        let restarted = 3_000_000_000_i64 - (1 << 32);
+        assert_eq!(u.unwrap_micros(3_000_000_000), restarted);
+        for k in 1..4 {
+            let raw = (3_000_000_000 + k * 20_000) as u32;
+            assert_eq!(u.unwrap_micros(raw), restarted + k * 20_000);
         }
     }
 

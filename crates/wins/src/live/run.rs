@@ -19,6 +19,9 @@
 mod outputs;
 mod stats;
 
+#[cfg(test)]
+mod fuzz;
+
 use std::fs::{self, File};
 use std::io;
 use std::net::SocketAddr;

@@ -400,9 +400,13 @@ impl LiveSession {
         self.fc.epoch_offset_ns()
     }
 
-    /// Inputs waiting in the merger.
+    /// Inputs held: waiting in the merger, released but not yet fed, or held for the start.
     pub fn held(&self) -> usize {
-        self.merger.held()
+        let waiting = match &self.stage {
+            Stage::Waiting { held, .. } => held.len(),
+            Stage::Running(_) => 0,
+        };
+        self.merger.held() + self.backlog.len() + waiting
     }
 
     /// The recording's folder, when recording.

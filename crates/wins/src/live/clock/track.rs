@@ -83,6 +83,9 @@ pub struct Pushed {
     pub dropped_unlocked: u64,
     /// Whether this sample re-locked the line (not the first lock).
     pub relocked: bool,
+    /// Earlier samples the lock (or re-lock) this sample completed was made on: held, their
+    /// times not used.
+    pub locked_on: u64,
 }
 
 /// A remote clock tracked robustly (module doc).
@@ -126,14 +129,18 @@ impl ClockTrack {
             self.refuse_one(&mut out);
             return out;
         };
-        if self.agrees_with_line(remote_ns, d) {
+        if let Some(e) = self.residual(remote_ns, d).filter(|e| self.agrees(*e)) {
             let n = self.candidates.len() as u64;
             self.candidates.clear();
             self.outliers += n;
             out.outliers = n;
-            // A reordered sample older than the line's newest block is not taken into it,
-            // but its time is good.
-            if let Some(sync) = &mut self.sync {
+            // Only a sample near the line shapes it: the line is a lower envelope, so a late
+            // arrival tells nothing of it, and a misdated time that passes as late (read
+            // earlier than it was sent) must not tilt it. A reordered sample older than the
+            // line's newest block is not taken into it either, but its time is good.
+            if e <= self.config.tolerance_ns
+                && let Some(sync) = &mut self.sync
+            {
                 sync.push(remote_ns, host_ns);
             }
             out.t_ns = remote_ns.checked_add(self.epoch_offset_ns);
@@ -153,6 +160,7 @@ impl ClockTrack {
         self.candidates.push((remote_ns, host_ns));
         if self.lock_is_due() {
             out.relocked = self.sync.is_some();
+            out.locked_on = self.candidates.len().saturating_sub(1) as u64;
             self.lock();
             out.t_ns = remote_ns.checked_add(self.epoch_offset_ns);
         }
@@ -170,16 +178,16 @@ impl ClockTrack {
         }
     }
 
-    fn agrees_with_line(&self, remote_ns: i64, d: i64) -> bool {
-        let Some(line_host) = self.sync.as_ref().and_then(|s| s.to_host(remote_ns)) else {
-            return false;
-        };
-        let Some(e) = line_host
+    /// The residual `e = d − d̂(r)` of a sample on the line; `None` before the first lock.
+    fn residual(&self, remote_ns: i64, d: i64) -> Option<i64> {
+        let line_host = self.sync.as_ref().and_then(|s| s.to_host(remote_ns))?;
+        line_host
             .checked_sub(remote_ns)
             .and_then(|line_d| d.checked_sub(line_d))
-        else {
-            return false;
-        };
+    }
+
+    /// Whether a residual agrees with the line (module doc).
+    fn agrees(&self, e: i64) -> bool {
         (-self.config.tolerance_ns..=self.config.max_late_ns).contains(&e)
     }
 

@@ -30,9 +30,8 @@ impl LiveSession {
                 // reordered datagram) goes to the merger, which places it or counts it late.
                 let pushed = self.fc.push(sample.t.as_nanos(), arrival_ns);
                 self.stats.fc_clock_outliers += pushed.outliers;
-                self.stats.imu_clock_locking += pushed.dropped_unlocked;
+                self.stats.imu_clock_locking += pushed.dropped_unlocked + pushed.locked_on;
                 let Some(t) = pushed.t_ns.map(Timestamp) else {
-                    self.stats.imu_clock_locking += 1;
                     return;
                 };
                 if pushed.relocked {
@@ -157,11 +156,8 @@ impl LiveSession {
         });
         let pushed = nic.clock.push(nic_ns, arrival_ns);
         self.stats.nic_clock_outliers += pushed.outliers;
-        self.stats.csi_clock_warmup += pushed.dropped_unlocked;
-        let Some(nic_t) = pushed.t_ns else {
-            self.stats.csi_clock_warmup += 1;
-            return None;
-        };
+        self.stats.csi_clock_warmup += pushed.dropped_unlocked + pushed.locked_on;
+        let nic_t = pushed.t_ns?;
         if pushed.relocked {
             self.stats.nic_clock_relocks += 1;
             let notice = format!(
