@@ -4,4 +4,5 @@
 pub mod inbound;
 pub mod link;
 pub mod outbound;
+pub mod signing;
 pub mod udp_in;
