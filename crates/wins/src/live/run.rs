@@ -3,7 +3,8 @@
 //! Output folder (which must not exist, or be empty):
 //! - `trajectory.tum`: every converged frame, flight controller time, world frame `w` (z up);
 //! - `stats.json`: the session's counts ([`LiveStats`]), the flight controller link's
-//!   ([`InboundStats`]), the clocks and the latency of the poses sent;
+//!   ([`InboundStats`], and [`SigningCounts`] with a signing key), the clocks and the latency of
+//!   the poses sent;
 //! - `config.toml`: the settings in effect (give it to `wins run --config` with the recording);
 //! - `recording/`: every input as a dataset (when `live.record`).
 //!
@@ -28,7 +29,8 @@ use serde::Serialize;
 
 use super::csi_server::{CsiServer, CsiServerLimits};
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, InboundStats, RawImuScale};
-use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
+use super::mavlink::link::{MavlinkLink, MavlinkUrl, open_signed};
+use super::mavlink::signing::{MavlinkKey, SigningCounts};
 use super::recorder::Recorder;
 use super::session::ClockReport;
 use super::session::{LiveSession, LiveStats, SessionError};
@@ -93,6 +95,9 @@ pub struct LiveSummary {
     pub mavlink_in: InboundStats,
     /// Datagrams of a `udpin:` link dropped for holding no CRC-valid MAVLink message.
     pub mavlink_garbage_datagrams: u64,
+    /// With a signing key (`live.mavlink_key`): the messages signed and sent, and those received
+    /// taken or refused by reason; `null` without one.
+    pub mavlink_signing: Option<SigningCounts>,
     /// Poses sent to the flight controller.
     pub poses_sent: u64,
     /// Poses that could not be sent (the link failed, or a pose not finite).
@@ -129,6 +134,13 @@ pub fn run_live(
         .csi_listen
         .parse()
         .map_err(|_| LiveError::Setup(format!("live.csi_listen {:?}", live.csi_listen)))?;
+    let key = match live.mavlink_key.as_str() {
+        "" => None,
+        path => Some(
+            MavlinkKey::read(Path::new(path))
+                .map_err(|e| LiveError::Setup(format!("live.mavlink_key: {e}")))?,
+        ),
+    };
     prepare_out(&options.out, &options.rig_dir)?;
     let use_baro = live.barometer && config.pipeline.use_barometer;
     let recorder = match live.record {
@@ -161,13 +173,12 @@ pub fn run_live(
     };
     let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop), limits)
         .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
-    let link =
-        Arc::new(
-            open(&url, live.system_id, live.component_id).map_err(|e| LiveError::Io {
-                what: format!("opening the MAVLink link {}", live.mavlink),
-                source: io::Error::other(e.to_string()),
-            })?,
-        );
+    let link = Arc::new(
+        open_signed(&url, live.system_id, live.component_id, key).map_err(|e| LiveError::Io {
+            what: format!("opening the MAVLink link {}", live.mavlink),
+            source: io::Error::other(e.to_string()),
+        })?,
+    );
     let inbound = Arc::new(Mutex::new(InboundDecoder::new(inbound_config(
         config, &manifest,
     ))));
@@ -206,6 +217,7 @@ pub fn run_live(
         live: stats,
         mavlink_in,
         mavlink_garbage_datagrams: link.garbage_datagrams(),
+        mavlink_signing: link.signing_counts(),
         poses_sent: out.sent,
         poses_not_sent: out.not_sent,
         clocks,
@@ -422,6 +434,7 @@ impl Loop<'_> {
             converged: out.converged,
             clocks: session.clocks(),
             latency_ms: percentiles(&mut out.window_ages_ms),
+            mavlink_signing: out.link.signing_counts(),
             new_notices: stats
                 .notices
                 .get(last.1.notices.len()..)
