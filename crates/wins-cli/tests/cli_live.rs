@@ -12,7 +12,8 @@
 //! The ODOMETRY is checked for its frames, rate, covariance, its agreement with `wins run` on the
 //! same dataset (the same estimator on the same inputs: within a few cm) and with the truth (ATE by
 //! `wins eval`, no worse than `wins run`'s over the same times). Each test lasts about 35 s of wall
-//! time; they run in parallel on free ports.
+//! time; they run in parallel on free ports. The signed session checks the signing, and that its
+//! ODOMETRY is the trajectory `wins live` wrote (no `wins run` beside it: less load).
 //!
 //! The Python is `$WINS_PYTHON` (then any failure fails the test, as in CI); without it, `python3`
 //! when it has pymavlink, else the tests that need it say they are skipped.
@@ -116,8 +117,19 @@ fn script() -> PathBuf {
 /// A simulated flight, and `wins run` on it started beside (it ends long before the live
 /// session): (dataset, run output, the run).
 fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
-    let ds = dir.join("ds");
+    let ds = simulate(dir);
     let run = dir.join("run");
+    let running = Running::wins(
+        "wins run",
+        &["run", s(&ds), "--out", s(&run), "--no-plots"],
+        dir,
+    );
+    (ds, run, running)
+}
+
+/// The simulated flight, `dir/ds`.
+fn simulate(dir: &Path) -> PathBuf {
+    let ds = dir.join("ds");
     wins(&[
         "simulate",
         "--scenario",
@@ -129,12 +141,7 @@ fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
         "-o",
         s(&ds),
     ]);
-    let running = Running::wins(
-        "wins run",
-        &["run", s(&ds), "--out", s(&run), "--no-plots"],
-        dir,
-    );
-    (ds, run, running)
+    ds
 }
 
 /// How long a 30 s flight may take from its start to `wins live`'s end.
@@ -511,27 +518,34 @@ fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() 
 }
 
 /// What a session with pymavlink as the flight controller left: the folder, the dataset, `wins
-/// run`'s output, what pymavlink reports (`fc.json`), `wins live`'s stats.json and its output.
+/// run`'s output (when asked for), what pymavlink reports (`fc.json`), `wins live`'s stats.json
+/// and its output.
 struct FcSession {
     dir: PathBuf,
     ds: PathBuf,
-    run: PathBuf,
+    run: Option<PathBuf>,
     got: Value,
     stats: Value,
     said: String,
 }
 
-/// pymavlink plays the flight controller (`fc_pymavlink.py fc`, with `fc_args` more) to
-/// `wins live` (with `live_args` more), `wins replay --only csi` the CSI from the same instant;
-/// `key` writes itself into the folder first and returns the arguments naming its file.
+/// pymavlink plays the flight controller (`fc_pymavlink.py fc`) to `wins live`, `wins replay
+/// --only csi` the CSI from the same instant, `wins run` beside when `with_run`; `args` prepares
+/// the folder and returns more arguments for `wins live` and for the script.
 fn fc_session(
     python: &str,
     name: &str,
-    key: impl Fn(&Path) -> (Vec<String>, Vec<String>),
+    with_run: bool,
+    args: impl Fn(&Path) -> (Vec<String>, Vec<String>),
 ) -> FcSession {
     let dir = scratch(name);
-    let (live_args, fc_args) = key(&dir);
-    let (ds, run, mut offline) = flight(&dir);
+    let (live_args, fc_args) = args(&dir);
+    let (ds, run, mut offline) = if with_run {
+        let (ds, run, offline) = flight(&dir);
+        (ds, Some(run), Some(offline))
+    } else {
+        (simulate(&dir), None, None)
+    };
     let live_args: Vec<&str> = live_args.iter().map(String::as_str).collect();
     let (mut live, csi_port, mav_port) = start_live_with(&dir, &ds, IDLE_EXIT_S, &live_args);
     // Both players start the dataset at the same instant, a moment from now.
@@ -578,7 +592,9 @@ fn fc_session(
     fc.finish(play_timeout());
     let said = live.finish(Duration::from_secs(30));
     print_summary(&said);
-    offline.finish(Duration::from_secs(60));
+    if let Some(offline) = &mut offline {
+        offline.finish(Duration::from_secs(60));
+    }
     let got: Value = serde_json::from_str(&fs::read_to_string(&fc_json).unwrap()).unwrap();
     let stats = live_stats(&dir);
     FcSession {
@@ -598,7 +614,7 @@ fn pymavlink_plays_the_flight_controller() {
     let Some(python) = python("pymavlink as the flight controller") else {
         return;
     };
-    let session = fc_session(&python, "fc", |_| (Vec::new(), Vec::new()));
+    let session = fc_session(&python, "fc", true, |_| (Vec::new(), Vec::new()));
     let FcSession {
         dir,
         ds,
@@ -630,7 +646,7 @@ fn pymavlink_plays_the_flight_controller() {
     );
     assert_eq!(stats["poses_sent"].as_u64(), Some(odometry.len() as u64));
 
-    check_odometry(odometry, dir, ds, run);
+    check_odometry(odometry, dir, ds, run.as_ref().unwrap());
     // Every message reached the flight controller (sequence numbers without a gap), fresh.
     let seqs: Vec<u64> = odometry
         .iter()
@@ -670,7 +686,7 @@ fn pymavlink_plays_a_signing_flight_controller() {
     let Some(python) = python("pymavlink as a signing flight controller") else {
         return;
     };
-    let session = fc_session(&python, "fc-signed", |dir| {
+    let session = fc_session(&python, "fc-signed", false, |dir| {
         let key = dir.join("fc.key");
         let hex: String = (0..32_u8).map(|i| format!("{:02x}", i * 7 + 3)).collect();
         fs::write(&key, format!("{hex}\n")).unwrap();
@@ -689,10 +705,10 @@ fn pymavlink_plays_a_signing_flight_controller() {
     let FcSession {
         dir,
         ds,
-        run,
         got,
         stats,
         said,
+        ..
     } = &session;
     assert!(said.contains("MAVLink signing with the key in"), "{said}");
     assert!(!said.contains("warning"), "a key file of mode 600: {said}");
@@ -751,7 +767,37 @@ fn pymavlink_plays_a_signing_flight_controller() {
          replayed refused",
         imu_sent + baro_sent
     );
-    check_odometry(odometry, dir, ds, run);
-    check_recording_replays(dir);
+    check_odometry_is_the_trajectory(odometry, dir);
     fs::remove_dir_all(dir).unwrap();
+}
+
+/// The ODOMETRY is what `wins live` wrote to trajectory.tum (the estimate's quality and its
+/// agreement with `wins run` are the unsigned sessions' checks): enough of it, in time order.
+fn check_odometry_is_the_trajectory(odometry: &[Value], dir: &Path) {
+    assert!(
+        odometry.len() >= MIN_POSES,
+        "{} ODOMETRY messages (at least {MIN_POSES} expected)",
+        odometry.len()
+    );
+    let live_poses = read_tum(&dir.join("live/trajectory.tum"));
+    let mut last_t = 0;
+    for o in odometry {
+        assert_eq!(o["type"], "ODOMETRY");
+        assert_eq!(o["src_component"].as_u64(), Some(197), "MAV_COMP_ID_VIO");
+        let t = o["time_usec"].as_u64().unwrap();
+        assert!(t > last_t, "time_usec goes up: {last_t} then {t}");
+        last_t = t;
+        let t_us = i64::try_from(t).unwrap();
+        let k = live_poses.partition_point(|p| p.0 < t_us);
+        let (_, p_w, _) = live_poses
+            .get(k)
+            .filter(|p| p.0 == t_us)
+            .unwrap_or_else(|| panic!("no pose at {t} µs in live/trajectory.tum"));
+        let p_l = [num(o, "x"), num(o, "y"), num(o, "z")];
+        let d = distance(&[p_w[0], -p_w[1], -p_w[2]], &p_l);
+        assert!(
+            d <= MAX_DIFF_TO_LIVE_M,
+            "{d} m from trajectory.tum at {t} µs"
+        );
+    }
 }
