@@ -25,9 +25,11 @@
 //! The key file ([`MavlinkKey::read`]) holds the 32-byte secret key in one of three forms, told
 //! apart by its length: the 32 bytes themselves; PX4's key file (40 bytes: the key, then an
 //! 8-byte timestamp, which is not used); or 64 hexadecimal digits (either case, blank space around
-//! them allowed). A passphrase is not read: convert it first (MAVProxy's `signing setup
-//! PASSPHRASE` uses SHA-256 of the passphrase, i.e. the hex digits `sha256sum` prints). Errors
-//! and `Debug` never show the key.
+//! them allowed). A passphrase is not read, since it could not be told from a key: convert it
+//! first (MAVProxy's `signing setup PASSPHRASE` uses SHA-256 of the passphrase, i.e. the hex
+//! digits `sha256sum` prints); a file that is all printable text but not 64 hex digits is taken
+//! for one and refused (a random 32-byte key is all printable with a chance below 10⁻¹³). Errors and
+//! `Debug` never show the key.
 
 use std::collections::HashMap;
 use std::fmt;
