@@ -14,7 +14,7 @@ Used by the Rust test crates/wins-cli/tests/cli_live.rs (Python from $WINS_PYTHO
         the bytes pymavlink could not take (bad CRC, bad prefix).
 
     fc_pymavlink.py fc DATASET --connect udpout:HOST:PORT [--start-at UNIX_TIME] [--speed S]
-                       [--linger SECONDS] [--out FILE]
+                       [--linger SECONDS] [--out FILE] [--key KEYFILE [--inject N]]
         plays the flight controller: DATASET/imu.csv (and the barometer file when dataset.toml has
         one) goes out as HIGHRES_IMU at the pace of its times (from UNIX_TIME, when given, so that
         `wins replay DATASET --realtime --only csi --start-at UNIX_TIME` plays the CSI from the same
@@ -22,6 +22,12 @@ Used by the Rust test crates/wins-cli/tests/cli_live.rs (Python from $WINS_PYTHO
         (its udpin answers the sender). At the end (the dataset played, then --linger seconds,
         0.5 by default) prints JSON (or writes it to FILE): what was sent, every ODOMETRY /
         VISION_POSITION_ESTIMATE received with its local receive time, the counts.
+        With --key (a file of 64 hex digits, `wins live --mavlink-key`'s), MAVLink 2 signing is on
+        as pymavlink's mavutil sets it up: every message sent is signed, and a message received
+        without a valid signature is refused (`bad_signature`; `signing` has pymavlink's counts).
+        --inject N then sends, a third of the way through the flight, N HIGHRES_IMU unsigned, N
+        signed with another key and N copies of the last one sent (replays), all with absurd
+        values (`injected` counts them): `wins live` must refuse every one.
 
 The messages are those `wins replay` sends (crates/wins/src/live/player.rs): HIGHRES_IMU with
 `time_usec` the dataset's IMU clock (ns / 1000, rounded down), the accelerometer (specific force,
@@ -39,6 +45,7 @@ is the pose's age on arrival).
 
 import argparse
 import csv
+import hashlib
 import json
 import math
 import os
@@ -81,7 +88,12 @@ class Tally:
         kind = message.get_type()
         if kind == "BAD_DATA":
             reason = str(getattr(message, "reason", ""))
-            key = "bad_crc" if "CRC" in reason else "other"
+            if "CRC" in reason:
+                key = "bad_crc"
+            elif "signature" in reason:
+                key = "bad_signature"
+            else:
+                key = "other"
             self.bad_data[key] = self.bad_data.get(key, 0) + 1
             return
         self.counts[kind] = self.counts.get(kind, 0) + 1
@@ -94,6 +106,7 @@ class Tally:
         return {
             "messages": self.counts,
             "bad_crc": self.bad_data.get("bad_crc", 0),
+            "bad_signature": self.bad_data.get("bad_signature", 0),
             "bad_data_other": self.bad_data.get("other", 0),
             "odometry": [p for p in self.poses if p["type"] == "ODOMETRY"],
             "vision_position_estimate": [
@@ -157,6 +170,15 @@ def fc(args):
         args.connect, source_system=1, source_component=1, dialect="common"
     )
     conn.mav.robust_parsing = True
+    key = None
+    if args.key:
+        with open(args.key) as f:
+            key = bytes.fromhex(f.read().strip())
+        if len(key) != 32:
+            sys.exit(f"--key {args.key}: not 64 hex digits")
+        conn.setup_signing(key, sign_outgoing=True, allow_unsigned_callback=None, link_id=1)
+    elif args.inject:
+        sys.exit("--inject needs --key")
     tally = Tally()
     # The dataset time t plays at monotonic start + (t - t0) / speed.
     now_unix, now_mono = time.time(), time.monotonic()
@@ -188,16 +210,24 @@ def fc(args):
             select.select([conn.port], [], [], left)
 
     sent = {"imu": 0, "baro": 0}
+    injected = {"unsigned": 0, "wrong_key": 0, "replayed": 0}
+    inject_at = events[len(events) // 3][0] if args.inject else None
+    last = None  # the bytes of the last signed HIGHRES_IMU sent
     max_lag = 0.0
     for t_ns, kind, values in events:
         due = start + (t_ns - t0) / 1e9 / args.speed
         wait_until(due)
         max_lag = max(max_lag, time.monotonic() - due)
+        if inject_at is not None and t_ns >= inject_at and last is not None:
+            inject(conn, key, last, micros(t_ns), args.inject, injected)
+            inject_at = None
         if kind == 1:
             accel, gyro = values
-            conn.mav.highres_imu_send(
+            message = conn.mav.highres_imu_encode(
                 micros(t_ns), *accel, *gyro, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ACCEL_GYRO_BITS
             )
+            conn.mav.send(message)
+            last = bytes(message.get_msgbuf())
             sent["imu"] += 1
         else:
             hpa = pressure_at_altitude_pa(values) / 100.0
@@ -208,6 +238,11 @@ def fc(args):
     wait_until(time.monotonic() + args.linger)
     out = tally.report()
     out["sent"] = sent
+    if key is not None:
+        s = conn.mav.signing
+        out["signing"] = {"goodsig": s.goodsig_count, "badsig": s.badsig_count,
+                          "unsigned_taken": s.unsigned_count}
+        out["injected"] = injected
     out["played_s"] = (events[-1][0] - t0) / 1e9
     out["max_lag_s"] = max_lag
     out["start_unix_s"] = now_unix + (start - now_mono)
@@ -217,6 +252,27 @@ def fc(args):
             f.write(text + "\n")
     else:
         print(text)
+
+
+def inject(conn, key, last, time_usec, n, injected):
+    """Sends n HIGHRES_IMU unsigned, n signed with another key (both with absurd values) and n
+    copies of `last` (a signed message already sent), counting them in `injected`."""
+    signing = conn.mav.signing
+    absurd = (time_usec, 50.0, -50.0, 50.0, 20.0, -20.0, 20.0,
+              0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ACCEL_GYRO_BITS)
+    signing.sign_outgoing = False
+    for _ in range(n):
+        conn.mav.highres_imu_send(*absurd)
+        injected["unsigned"] += 1
+    signing.sign_outgoing = True
+    signing.secret_key = hashlib.sha256(key).digest()
+    for _ in range(n):
+        conn.mav.highres_imu_send(*absurd)
+        injected["wrong_key"] += 1
+    signing.secret_key = key
+    for _ in range(n):
+        conn.write(last)
+        injected["replayed"] += 1
 
 
 def main(argv):
@@ -232,6 +288,10 @@ def main(argv):
     f.add_argument("--linger", type=float, default=0.5,
                    help="seconds to keep receiving after the last sample (default 0.5)")
     f.add_argument("--out", help="write the JSON here instead of printing it")
+    f.add_argument("--key", help="sign with the key in this file (64 hex digits) and check "
+                   "what comes back")
+    f.add_argument("--inject", type=int, default=0,
+                   help="with --key: N unsigned, N wrongly signed and N replayed HIGHRES_IMU")
     args = parser.parse_args(argv[1:])
     if args.mode == "decode":
         decode(args.capture)

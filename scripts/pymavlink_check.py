@@ -12,12 +12,20 @@ Used by the Rust test crates/wins/tests/it/pymavlink.rs (Python from $WINS_PYTHO
     pymavlink_check.py decode IN.bin
         parses the ODOMETRY and VISION_POSITION_ESTIMATE messages in IN.bin (written by wins) and
         prints their fields as JSON (NaN as null), with the sender's ids and the MAVLink version.
+    pymavlink_check.py sign-imu KEYFILE OUT.bin
+        as encode-imu, every message signed (MAVLink 2 signing) with the key in KEYFILE (64 hex
+        digits), link id 3, timestamps from the current time.
+    pymavlink_check.py verify KEYFILE IN.bin
+        parses IN.bin with signing on and the key in KEYFILE, unsigned messages refused (no
+        allow_unsigned_callback), and prints JSON: the messages taken (as decode does, plus
+        `signed`) and pymavlink's signing counts (goodsig, badsig, unsigned, refused).
 """
 
 import json
 import math
 import os
 import sys
+import time
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink2  # noqa: E402
@@ -55,10 +63,32 @@ def imu_messages():
     return out
 
 
-def encode_imu(path):
+def read_key(path):
+    """The 32-byte key of a file of 64 hex digits."""
+    with open(path) as f:
+        key = bytes.fromhex(f.read().strip())
+    if len(key) != 32:
+        sys.exit(f"{path}: not a 32-byte key")
+    return key
+
+
+def setup_signing(mav, key, link_id, sign_outgoing):
+    """Signing as mavutil's setup_signing does it: the timestamp from the current time, in 10 us
+    units since 2015-01-01."""
+    mav.signing.secret_key = key
+    mav.signing.link_id = link_id
+    mav.signing.sign_outgoing = sign_outgoing
+    mav.signing.allow_unsigned_callback = None
+    epoch_offset = 1420070400
+    mav.signing.timestamp = int((max(time.time(), epoch_offset) - epoch_offset) * 100 * 1000)
+
+
+def encode_imu(path, key=None):
     data = b""
     values = []
     for mav, message, fields in imu_messages():
+        if key is not None and not mav.signing.sign_outgoing:
+            setup_signing(mav, key, link_id=3, sign_outgoing=True)
         data += message.pack(mav)
         values.append(fields)
     with open(path, "wb") as f:
@@ -102,13 +132,44 @@ def decode(path):
     print(json.dumps(out, indent=1))
 
 
+def verify(key_path, path):
+    with open(path, "rb") as f:
+        data = f.read()
+    mav = mavlink2.MAVLink(None)
+    mav.robust_parsing = True  # a refused message is a BAD_DATA, not an exception
+    setup_signing(mav, read_key(key_path), link_id=0, sign_outgoing=False)
+    taken = []
+    refused = 0
+    for message in mav.parse_buffer(data) or []:
+        if message.get_type() == "BAD_DATA":
+            refused += 1
+            continue
+        fields = message_fields(message)
+        fields["signed"] = message.get_signed()
+        taken.append(fields)
+    s = mav.signing
+    print(json.dumps({
+        "taken": taken,
+        "refused": refused,
+        "goodsig": s.goodsig_count,
+        "badsig": s.badsig_count,
+        "unsigned_taken": s.unsigned_count,
+    }, indent=1))
+
+
 def main(argv):
-    if len(argv) != 3 or argv[1] not in ("encode-imu", "decode"):
-        sys.exit("usage: pymavlink_check.py encode-imu OUT.bin | decode IN.bin")
-    if argv[1] == "encode-imu":
+    usage = ("usage: pymavlink_check.py encode-imu OUT.bin | decode IN.bin | "
+             "sign-imu KEYFILE OUT.bin | verify KEYFILE IN.bin")
+    if len(argv) == 3 and argv[1] == "encode-imu":
         encode_imu(argv[2])
-    else:
+    elif len(argv) == 3 and argv[1] == "decode":
         decode(argv[2])
+    elif len(argv) == 4 and argv[1] == "sign-imu":
+        encode_imu(argv[3], read_key(argv[2]))
+    elif len(argv) == 4 and argv[1] == "verify":
+        verify(argv[2], argv[3])
+    else:
+        sys.exit(usage)
 
 
 if __name__ == "__main__":

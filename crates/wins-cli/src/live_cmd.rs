@@ -1,12 +1,13 @@
 //! `wins live` (the estimator on board: CSI over TCP, IMU over MAVLink, poses back over
 //! MAVLink) and `wins replay` (a dataset played as a drone would send it).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
 use wins::Config;
+use wins::live::mavlink::signing::key_file_warning;
 use wins::live::player::{PlayFault, PlayOptions, Streams, play};
 use wins::live::run::{LiveOptions, run_live};
 use wins::live::{ApBy, PoseMessage};
@@ -31,6 +32,11 @@ pub struct LiveArgs {
     /// tcpin:HOST:PORT or serial:DEVICE:BAUD (default udpin:127.0.0.1:14540). Also `live.mavlink`.
     #[arg(long, value_name = "URL")]
     mavlink: Option<String>,
+    /// Sign every MAVLink message sent, and refuse those received unsigned or not signed with
+    /// this key: a file of 32 raw bytes, PX4's 40-byte key file, or 64 hex digits (the key the
+    /// flight controller has; docs/LIVE.md, Security). Also `live.mavlink_key`.
+    #[arg(long, value_name = "FILE")]
+    mavlink_key: Option<PathBuf>,
     /// Output folder (new or empty): trajectory.tum, stats.json, config.toml, recording/.
     #[arg(long, short)]
     out: PathBuf,
@@ -70,6 +76,9 @@ pub fn live(args: LiveArgs) -> Result<()> {
     if let Some(m) = args.mavlink {
         l.mavlink = m;
     }
+    if let Some(k) = &args.mavlink_key {
+        l.mavlink_key = k.display().to_string();
+    }
     if args.vision_position_estimate {
         l.message = PoseMessage::VisionPositionEstimate;
     }
@@ -100,6 +109,17 @@ pub fn live(args: LiveArgs) -> Result<()> {
         config.live.mavlink,
         args.out.display()
     );
+    if !config.live.mavlink_key.is_empty() {
+        let key = Path::new(&config.live.mavlink_key);
+        eprintln!(
+            "wins live: MAVLink signing with the key in {}: every message sent is signed; \
+             unsigned or wrongly signed messages received are refused and counted",
+            key.display()
+        );
+        if let Some(warning) = key_file_warning(key) {
+            eprintln!("wins live: warning: {warning}");
+        }
+    }
     for open in config.live.open_to_every_network() {
         eprintln!(
             "wins live: {open} listens on every network this computer is on: anyone who reaches \
@@ -119,6 +139,13 @@ pub fn live(args: LiveArgs) -> Result<()> {
         s.frames_converged,
         summary.poses_sent
     );
+    if let Some(c) = summary.mavlink_signing {
+        println!(
+            "MAVLink signing: {} messages signed and sent, {} taken, refused: {} unsigned, {} bad \
+             signature, {} replayed, {} stale",
+            c.signed_out, c.accepted, c.unsigned, c.bad_signature, c.replayed, c.stale
+        );
+    }
     if let Some((p50, p99)) = summary.latency_ms {
         println!("pose age when sent: {p50:.1} ms median, {p99:.1} ms p99");
     }

@@ -4,13 +4,16 @@
 //! - `wins replay` plays the IMU and the CSI to `wins live` and captures the ODOMETRY that comes
 //!   back, which pymavlink decodes;
 //! - pymavlink plays the flight controller (HIGHRES_IMU out, ODOMETRY in, on one connection) while
-//!   `wins replay --only csi` plays the CSI from the same instant;
+//!   `wins replay --only csi` plays the CSI from the same instant; once more with MAVLink 2 signing
+//!   on both sides (`--mavlink-key`), pymavlink also sending unsigned, wrongly signed and replayed
+//!   messages that `wins live` must refuse;
 //! - the recording `wins live` writes replays with `wins run` to its trajectory, bit for bit.
 //!
 //! The ODOMETRY is checked for its frames, rate, covariance, its agreement with `wins run` on the
 //! same dataset (the same estimator on the same inputs: within a few cm) and with the truth (ATE by
 //! `wins eval`, no worse than `wins run`'s over the same times). Each test lasts about 35 s of wall
-//! time; they run in parallel on free ports.
+//! time; they run in parallel on free ports. The signed session checks the signing, and that its
+//! ODOMETRY is the trajectory `wins live` wrote (no `wins run` beside it: less load).
 //!
 //! The Python is `$WINS_PYTHON` (then any failure fails the test, as in CI); without it, `python3`
 //! when it has pymavlink, else the tests that need it say they are skipped.
@@ -32,7 +35,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, Trajectory, read_tum, start_live};
+use common::live::{Running, Trajectory, read_tum, start_live, start_live_with};
 use common::s;
 
 /// The flight: long enough for the estimator to converge (the chain-offset resolution decides
@@ -114,8 +117,19 @@ fn script() -> PathBuf {
 /// A simulated flight, and `wins run` on it started beside (it ends long before the live
 /// session): (dataset, run output, the run).
 fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
-    let ds = dir.join("ds");
+    let ds = simulate(dir);
     let run = dir.join("run");
+    let running = Running::wins(
+        "wins run",
+        &["run", s(&ds), "--out", s(&run), "--no-plots"],
+        dir,
+    );
+    (ds, run, running)
+}
+
+/// The simulated flight, `dir/ds`.
+fn simulate(dir: &Path) -> PathBuf {
+    let ds = dir.join("ds");
     wins(&[
         "simulate",
         "--scenario",
@@ -127,12 +141,7 @@ fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
         "-o",
         s(&ds),
     ]);
-    let running = Running::wins(
-        "wins run",
-        &["run", s(&ds), "--out", s(&run), "--no-plots"],
-        dir,
-    );
-    (ds, run, running)
+    ds
 }
 
 /// How long a 30 s flight may take from its start to `wins live`'s end.
@@ -508,16 +517,37 @@ fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() 
     fs::remove_dir_all(&dir).unwrap();
 }
 
-/// pymavlink plays the flight controller (HIGHRES_IMU out and ODOMETRY in on one connection),
-/// `wins replay --only csi` the CSI from the same instant.
-#[test]
-fn pymavlink_plays_the_flight_controller() {
-    let Some(python) = python("pymavlink as the flight controller") else {
-        return;
+/// What a session with pymavlink as the flight controller left: the folder, the dataset, `wins
+/// run`'s output (when asked for), what pymavlink reports (`fc.json`), `wins live`'s stats.json
+/// and its output.
+struct FcSession {
+    dir: PathBuf,
+    ds: PathBuf,
+    run: Option<PathBuf>,
+    got: Value,
+    stats: Value,
+    said: String,
+}
+
+/// pymavlink plays the flight controller (`fc_pymavlink.py fc`) to `wins live`, `wins replay
+/// --only csi` the CSI from the same instant, `wins run` beside when `with_run`; `args` prepares
+/// the folder and returns more arguments for `wins live` and for the script.
+fn fc_session(
+    python: &str,
+    name: &str,
+    with_run: bool,
+    args: impl Fn(&Path) -> (Vec<String>, Vec<String>),
+) -> FcSession {
+    let dir = scratch(name);
+    let (live_args, fc_args) = args(&dir);
+    let (ds, run, mut offline) = if with_run {
+        let (ds, run, offline) = flight(&dir);
+        (ds, Some(run), Some(offline))
+    } else {
+        (simulate(&dir), None, None)
     };
-    let dir = scratch("fc");
-    let (ds, run, mut offline) = flight(&dir);
-    let (mut live, csi_port, mav_port) = start_live(&dir, &ds, IDLE_EXIT_S);
+    let live_args: Vec<&str> = live_args.iter().map(String::as_str).collect();
+    let (mut live, csi_port, mav_port) = start_live_with(&dir, &ds, IDLE_EXIT_S, &live_args);
     // Both players start the dataset at the same instant, a moment from now.
     let start_at = SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -526,22 +556,21 @@ fn pymavlink_plays_the_flight_controller() {
         + 1.5;
     let start_at = format!("{start_at:.6}");
     let fc_json = dir.join("fc.json");
-    let mut fc = Running::spawn(
-        "fc_pymavlink.py fc",
-        &python,
-        &[
-            s(&script()),
-            "fc",
-            s(&ds),
-            "--connect",
-            &format!("udpout:127.0.0.1:{mav_port}"),
-            "--start-at",
-            &start_at,
-            "--out",
-            s(&fc_json),
-        ],
-        dir.join("fc.log"),
-    );
+    let connect = format!("udpout:127.0.0.1:{mav_port}");
+    let script = script();
+    let mut args = vec![
+        s(&script),
+        "fc",
+        s(&ds),
+        "--connect",
+        &connect,
+        "--start-at",
+        &start_at,
+        "--out",
+        s(&fc_json),
+    ];
+    args.extend(fc_args.iter().map(String::as_str));
+    let mut fc = Running::spawn("fc_pymavlink.py fc", python, &args, dir.join("fc.log"));
     let mut replay = Running::wins(
         "wins replay --only csi",
         &[
@@ -555,23 +584,51 @@ fn pymavlink_plays_the_flight_controller() {
             "--csi-connect",
             &format!("127.0.0.1:{csi_port}"),
             "--mavlink",
-            &format!("udpout:127.0.0.1:{mav_port}"),
+            &connect,
         ],
         &dir,
     );
     println!("{}", replay.finish(play_timeout()).trim());
     fc.finish(play_timeout());
-    print_summary(&live.finish(Duration::from_secs(30)));
-    offline.finish(Duration::from_secs(60));
-
+    let said = live.finish(Duration::from_secs(30));
+    print_summary(&said);
+    if let Some(offline) = &mut offline {
+        offline.finish(Duration::from_secs(60));
+    }
     let got: Value = serde_json::from_str(&fs::read_to_string(&fc_json).unwrap()).unwrap();
+    let stats = live_stats(&dir);
+    FcSession {
+        dir,
+        ds,
+        run,
+        got,
+        stats,
+        said,
+    }
+}
+
+/// pymavlink plays the flight controller (HIGHRES_IMU out and ODOMETRY in on one connection),
+/// `wins replay --only csi` the CSI from the same instant.
+#[test]
+fn pymavlink_plays_the_flight_controller() {
+    let Some(python) = python("pymavlink as the flight controller") else {
+        return;
+    };
+    let session = fc_session(&python, "fc", true, |_| (Vec::new(), Vec::new()));
+    let FcSession {
+        dir,
+        ds,
+        run,
+        got,
+        stats,
+        ..
+    } = &session;
     let imu_sent = got["sent"]["imu"].as_u64().unwrap();
-    assert_eq!(imu_sent, imu_samples(&ds));
+    assert_eq!(imu_sent, imu_samples(ds));
     assert_eq!(got["bad_crc"].as_u64(), Some(0), "{}", got["messages"]);
     assert_eq!(got["bad_data_other"].as_u64(), Some(0));
     let odometry = got["odometry"].as_array().unwrap();
     // Our decoder took every HIGHRES_IMU pymavlink sent (IMU and pressure), refusing none.
-    let stats = live_stats(&dir);
     assert_eq!(stats["mavlink_in"]["imu"].as_u64(), Some(imu_sent));
     assert_eq!(stats["mavlink_in"]["baro"], got["sent"]["baro"]);
     let refused = &stats["mavlink_in"]["refused"];
@@ -583,9 +640,13 @@ fn pymavlink_plays_the_flight_controller() {
     ] {
         assert_eq!(refused[key].as_u64(), Some(0), "refused {key}");
     }
+    assert!(
+        stats["mavlink_signing"].is_null(),
+        "no signing without a key"
+    );
     assert_eq!(stats["poses_sent"].as_u64(), Some(odometry.len() as u64));
 
-    check_odometry(odometry, &dir, &ds, &run);
+    check_odometry(odometry, dir, ds, run.as_ref().unwrap());
     // Every message reached the flight controller (sequence numbers without a gap), fresh.
     let seqs: Vec<u64> = odometry
         .iter()
@@ -609,6 +670,134 @@ fn pymavlink_plays_the_flight_controller() {
         median < 0.1 && worst < 1.0,
         "poses arrive {median} s old (median)"
     );
-    check_recording_replays(&dir);
-    fs::remove_dir_all(&dir).unwrap();
+    check_recording_replays(dir);
+    fs::remove_dir_all(dir).unwrap();
+}
+
+/// Unsigned, wrongly signed and replayed messages of each kind pymavlink slips in.
+const INJECTED: u64 = 5;
+
+/// MAVLink 2 signing on both sides with one key: pymavlink (the flight controller) takes every
+/// ODOMETRY `wins live` signs; `wins live` takes every message pymavlink signs and refuses, and
+/// counts, the unsigned, wrongly signed and replayed ones pymavlink slips in, none of which
+/// reaches the estimator.
+#[test]
+fn pymavlink_plays_a_signing_flight_controller() {
+    let Some(python) = python("pymavlink as a signing flight controller") else {
+        return;
+    };
+    let session = fc_session(&python, "fc-signed", false, |dir| {
+        let key = dir.join("fc.key");
+        let hex: String = (0..32_u8).map(|i| format!("{:02x}", i * 7 + 3)).collect();
+        fs::write(&key, format!("{hex}\n")).unwrap();
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            fs::set_permissions(&key, fs::Permissions::from_mode(0o600)).unwrap();
+        }
+        let key = key.display().to_string();
+        let inject = INJECTED.to_string();
+        (
+            vec!["--mavlink-key".into(), key.clone()],
+            vec!["--key".into(), key, "--inject".into(), inject],
+        )
+    });
+    let FcSession {
+        dir,
+        ds,
+        got,
+        stats,
+        said,
+        ..
+    } = &session;
+    assert!(said.contains("MAVLink signing with the key in"), "{said}");
+    assert!(!said.contains("warning"), "a key file of mode 600: {said}");
+
+    // Every ODOMETRY came signed with the key, as pymavlink checks it.
+    let odometry = got["odometry"].as_array().unwrap();
+    assert_eq!(got["bad_signature"].as_u64(), Some(0), "{got}");
+    assert_eq!(got["bad_crc"].as_u64(), Some(0));
+    assert_eq!(got["bad_data_other"].as_u64(), Some(0));
+    let received: u64 = got["messages"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|n| n.as_u64().unwrap())
+        .sum();
+    assert_eq!(got["signing"]["goodsig"].as_u64(), Some(received));
+    assert_eq!(got["signing"]["badsig"].as_u64(), Some(0));
+    assert_eq!(got["signing"]["unsigned_taken"].as_u64(), Some(0));
+    assert_eq!(stats["poses_sent"].as_u64(), Some(odometry.len() as u64));
+
+    // wins live took exactly what pymavlink signed, and refused each message slipped in.
+    let (imu_sent, baro_sent) = (
+        got["sent"]["imu"].as_u64().unwrap(),
+        got["sent"]["baro"].as_u64().unwrap(),
+    );
+    assert_eq!(imu_sent, imu_samples(ds));
+    for kind in ["unsigned", "wrong_key", "replayed"] {
+        assert_eq!(got["injected"][kind].as_u64(), Some(INJECTED), "{kind}");
+    }
+    let signing = &stats["mavlink_signing"];
+    assert_eq!(
+        signing["accepted"].as_u64(),
+        Some(imu_sent + baro_sent),
+        "{signing}"
+    );
+    assert_eq!(signing["unsigned"].as_u64(), Some(INJECTED), "{signing}");
+    assert_eq!(
+        signing["bad_signature"].as_u64(),
+        Some(INJECTED),
+        "{signing}"
+    );
+    assert_eq!(signing["replayed"].as_u64(), Some(INJECTED), "{signing}");
+    assert_eq!(signing["stale"].as_u64(), Some(0), "{signing}");
+    assert_eq!(signing["signed_out"].as_u64(), Some(received), "{signing}");
+    assert_eq!(stats["mavlink_in"]["imu"].as_u64(), Some(imu_sent));
+    assert_eq!(stats["mavlink_in"]["baro"].as_u64(), Some(baro_sent));
+    assert!(
+        said.contains(&format!(
+            "MAVLink refused: unsigned {INJECTED} bad signature {INJECTED} replayed {INJECTED}"
+        )),
+        "the status line: {said}"
+    );
+    println!(
+        "signed session: {received} messages signed by wins live and taken by pymavlink, \
+         {} taken by wins live, {INJECTED} unsigned, {INJECTED} wrongly signed and {INJECTED} \
+         replayed refused",
+        imu_sent + baro_sent
+    );
+    check_odometry_is_the_trajectory(odometry, dir);
+    fs::remove_dir_all(dir).unwrap();
+}
+
+/// The ODOMETRY is what `wins live` wrote to trajectory.tum (the estimate's quality and its
+/// agreement with `wins run` are the unsigned sessions' checks): enough of it, in time order.
+fn check_odometry_is_the_trajectory(odometry: &[Value], dir: &Path) {
+    assert!(
+        odometry.len() >= MIN_POSES,
+        "{} ODOMETRY messages (at least {MIN_POSES} expected)",
+        odometry.len()
+    );
+    let live_poses = read_tum(&dir.join("live/trajectory.tum"));
+    let mut last_t = 0;
+    for o in odometry {
+        assert_eq!(o["type"], "ODOMETRY");
+        assert_eq!(o["src_component"].as_u64(), Some(197), "MAV_COMP_ID_VIO");
+        let t = o["time_usec"].as_u64().unwrap();
+        assert!(t > last_t, "time_usec goes up: {last_t} then {t}");
+        last_t = t;
+        let t_us = i64::try_from(t).unwrap();
+        let k = live_poses.partition_point(|p| p.0 < t_us);
+        let (_, p_w, _) = live_poses
+            .get(k)
+            .filter(|p| p.0 == t_us)
+            .unwrap_or_else(|| panic!("no pose at {t} µs in live/trajectory.tum"));
+        let p_l = [num(o, "x"), num(o, "y"), num(o, "z")];
+        let d = distance(&[p_w[0], -p_w[1], -p_w[2]], &p_l);
+        assert!(
+            d <= MAX_DIFF_TO_LIVE_M,
+            "{d} m from trajectory.tum at {t} µs"
+        );
+    }
 }

@@ -110,25 +110,35 @@ impl Drop for Running {
 /// MAVLink port is bound (the CSI server is up before it), with (CSI port, MAVLink port); it
 /// stops `idle_exit_s` after its inputs stop.
 pub fn start_live(dir: &Path, ds: &Path, idle_exit_s: &str) -> (Running, u16, u16) {
+    start_live_with(dir, ds, idle_exit_s, &[])
+}
+
+/// [`start_live`] with more options.
+pub fn start_live_with(
+    dir: &Path,
+    ds: &Path,
+    idle_exit_s: &str,
+    more: &[&str],
+) -> (Running, u16, u16) {
     let (csi_port, mav_port) = free_ports();
     let out = dir.join("live");
-    let live = Running::wins(
-        "wins live",
-        &[
-            "live",
-            "--rig",
-            s(ds),
-            "--csi-listen",
-            &format!("127.0.0.1:{csi_port}"),
-            "--mavlink",
-            &format!("udpin:127.0.0.1:{mav_port}"),
-            "--out",
-            s(&out),
-            "--idle-exit",
-            idle_exit_s,
-        ],
-        dir,
-    );
+    let csi_listen = format!("127.0.0.1:{csi_port}");
+    let mavlink = format!("udpin:127.0.0.1:{mav_port}");
+    let mut args = vec![
+        "live",
+        "--rig",
+        s(ds),
+        "--csi-listen",
+        &csi_listen,
+        "--mavlink",
+        &mavlink,
+        "--out",
+        s(&out),
+        "--idle-exit",
+        idle_exit_s,
+    ];
+    args.extend_from_slice(more);
+    let live = Running::wins("wins live", &args, dir);
     let until = Instant::now() + Duration::from_secs(20);
     // The port is taken once `wins live` has bound it: no packet is sent to find out.
     while UdpSocket::bind(("127.0.0.1", mav_port)).is_ok() {

@@ -50,6 +50,12 @@ pub struct LiveConfig {
     /// default listens on the loopback only (a router such as mavlink-router on the same
     /// computer).
     pub mavlink: String,
+    /// A file holding the MAVLink 2 signing key shared with the flight controller (32 raw bytes,
+    /// PX4's 40-byte key file, or 64 hex digits; docs/LIVE.md "Security"); empty: no signing.
+    /// With a key every message sent is signed and every message received must be signed with
+    /// it: unsigned, wrongly signed and replayed ones are refused and counted
+    /// (`stats.json`'s `mavlink_signing`). Relative to the working directory.
+    pub mavlink_key: String,
     /// How a CSI record's AP is told.
     pub ap_by: ApBy,
     /// The message sent at every frame.
@@ -102,6 +108,7 @@ impl Default for LiveConfig {
             csi_listen: "127.0.0.1:8090".into(),
             csi_peers: Vec::new(),
             mavlink: "udpin:127.0.0.1:14540".into(),
+            mavlink_key: String::new(),
             ap_by: ApBy::Transmitter,
             message: PoseMessage::Odometry,
             system_id: 1,

@@ -3,7 +3,8 @@
 //! Output folder (which must not exist, or be empty):
 //! - `trajectory.tum`: every converged frame, flight controller time, world frame `w` (z up);
 //! - `stats.json` ([`LiveSummary`]): the session's counts ([`LiveStats`]), the flight
-//!   controller link's ([`super::mavlink::inbound::InboundStats`]), the clocks and the latency
+//!   controller link's ([`super::mavlink::inbound::InboundStats`], and
+//!   [`super::mavlink::signing::SigningCounts`] with a signing key), the clocks and the latency
 //!   of the poses sent;
 //! - `config.toml`: the settings in effect (give it to `wins run --config` with the recording);
 //! - `recording/`: every input as a dataset (when `live.record`).
@@ -37,7 +38,8 @@ use ::mavlink::dialects::common::MavMessage;
 
 use super::csi_server::{CsiServer, CsiServerLimits};
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, RawImuScale};
-use super::mavlink::link::{MavlinkLink, MavlinkUrl, open};
+use super::mavlink::link::{MavlinkLink, MavlinkUrl, open_signed};
+use super::mavlink::signing::MavlinkKey;
 use super::recorder::Recorder;
 use super::session::{LiveSession, LiveStats, SessionError};
 use super::status::{Histogram, LiveStatus, percentiles};
@@ -116,6 +118,13 @@ pub fn run_live(
         .csi_listen
         .parse()
         .map_err(|_| LiveError::Setup(format!("live.csi_listen {:?}", live.csi_listen)))?;
+    let key = match live.mavlink_key.as_str() {
+        "" => None,
+        path => Some(
+            MavlinkKey::read(Path::new(path))
+                .map_err(|e| LiveError::Setup(format!("live.mavlink_key: {e}")))?,
+        ),
+    };
     prepare_out(&options.out, &options.rig_dir)?;
     let use_baro = live.barometer && config.pipeline.use_barometer;
     let recorder = match live.record {
@@ -148,13 +157,12 @@ pub fn run_live(
     };
     let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop), limits)
         .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
-    let link =
-        Arc::new(
-            open(&url, live.system_id, live.component_id).map_err(|e| LiveError::Io {
-                what: format!("opening the MAVLink link {}", live.mavlink),
-                source: io::Error::other(e.to_string()),
-            })?,
-        );
+    let link = Arc::new(
+        open_signed(&url, live.system_id, live.component_id, key).map_err(|e| LiveError::Io {
+            what: format!("opening the MAVLink link {}", live.mavlink),
+            source: io::Error::other(e.to_string()),
+        })?,
+    );
     let inbound = Arc::new(Mutex::new(InboundDecoder::new(inbound_config(
         config, &manifest,
     ))));
@@ -418,6 +426,7 @@ impl Loop<'_> {
             converged: out.converged,
             clocks: session.clocks(),
             latency_ms: percentiles(&mut out.window_ages_ms),
+            mavlink_signing: out.link.signing_counts(),
             new_notices: stats
                 .notices
                 .get(last.1.notices.len()..)

@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::mavlink::signing::SigningCounts;
 use super::session::{ClockReport, LiveStats};
 
 /// A status line's content (the binary prints it).
@@ -24,6 +25,8 @@ pub struct LiveStatus {
     pub latency_ms: Option<(f64, f64)>,
     /// Every count so far.
     pub stats: LiveStats,
+    /// The MAVLink link's signed traffic so far (with a signing key).
+    pub mavlink_signing: Option<SigningCounts>,
     /// The notices since the last status (faults that stopped the poses, in words), printed
     /// each on its own line above the status line.
     pub new_notices: Vec<String>,
@@ -83,6 +86,13 @@ impl std::fmt::Display for LiveStatus {
                 s.fc_clock_relocks,
                 s.nic_clock_relocks,
                 s.csi_disconnects
+            )?;
+        }
+        if let Some(c) = self.mavlink_signing.filter(|c| c.refused() > 0) {
+            write!(
+                f,
+                " | MAVLink refused: unsigned {} bad signature {} replayed {} stale {}",
+                c.unsigned, c.bad_signature, c.replayed, c.stale
             )?;
         }
         Ok(())
@@ -146,4 +156,33 @@ pub(crate) fn percentiles(values: &mut [f64]) -> Option<(f64, f64)> {
     values.sort_by(f64::total_cmp);
     let at = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
     Some((at(0.5), at(0.99)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refused_mavlink_messages_are_said_only_when_there_are_some() {
+        let mut status = LiveStatus {
+            mavlink_signing: Some(SigningCounts {
+                accepted: 100,
+                signed_out: 50,
+                ..SigningCounts::default()
+            }),
+            ..LiveStatus::default()
+        };
+        assert!(!status.to_string().contains("MAVLink refused"));
+        status.mavlink_signing = Some(SigningCounts {
+            unsigned: 3,
+            bad_signature: 2,
+            replayed: 1,
+            ..SigningCounts::default()
+        });
+        let line = status.to_string();
+        assert!(
+            line.ends_with(" | MAVLink refused: unsigned 3 bad signature 2 replayed 1 stale 0"),
+            "{line}"
+        );
+    }
 }

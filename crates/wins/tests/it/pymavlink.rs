@@ -1,6 +1,7 @@
 //! Our MAVLink bytes against pymavlink, the reference implementation
 //! (`scripts/pymavlink_check.py`): pymavlink's IMU and pressure messages through our inbound
-//! decoder, and our ODOMETRY / VISION_POSITION_ESTIMATE through pymavlink's parser.
+//! decoder, and our ODOMETRY / VISION_POSITION_ESTIMATE through pymavlink's parser; with MAVLink 2
+//! signing, our signed messages through pymavlink's check and pymavlink's through ours.
 //!
 //! The Python is `$WINS_PYTHON` (then any failure fails the test, as in CI); without it, `python3`
 //! when it has pymavlink, else the test says it is skipped.
@@ -9,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use mavlink::dialects::common::{MavMessage, ODOMETRY_DATA};
-use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
+use mavlink::{MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion};
 use nalgebra::{Matrix3, Matrix6, UnitQuaternion, Vector3};
 use serde_json::Value;
 use wins::fusion::pose::PoseEstimate;
@@ -18,6 +19,7 @@ use wins::live::mavlink::inbound::{
 };
 use wins::live::mavlink::link::DEFAULT_COMPONENT_ID;
 use wins::live::mavlink::outbound::{OdometryExtras, odometry, vision_position_estimate};
+use wins::live::mavlink::signing::{MavlinkKey, Refusal, Signer};
 use wins::time::Timestamp;
 
 fn script() -> PathBuf {
@@ -292,5 +294,155 @@ fn our_odometry_decodes_the_same_in_pymavlink() {
     same_floats(&ours, &theirs_values, "VISION_POSITION_ESTIMATE");
     same_floats(&vpe.covariance, &theirs["covariance"], "covariance");
     assert_eq!(theirs["reset_counter"].as_u64(), Some(4));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A key, and a file of its 64 hex digits in `dir`.
+fn key_file(dir: &Path, name: &str, seed: u8) -> (MavlinkKey, PathBuf) {
+    let bytes: [u8; 32] = std::array::from_fn(|i| seed.wrapping_mul(31).wrapping_add(i as u8 * 7));
+    let path = dir.join(name);
+    let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
+    std::fs::write(&path, format!("{hex}\n")).unwrap();
+    let key = MavlinkKey::read(&path).unwrap();
+    assert_eq!(key, MavlinkKey::from_bytes(bytes));
+    (key, path)
+}
+
+#[test]
+fn our_signed_messages_pass_pymavlink_with_the_key_and_fail_with_another() {
+    let Some(python) = python() else { return };
+    let dir = scratch("signed-out");
+    let (key, key_path) = key_file(&dir, "fc.key", 1);
+    let (_, other_path) = key_file(&dir, "other.key", 2);
+    let signer = Signer::new(key);
+    let header = MavHeader {
+        system_id: 1,
+        component_id: DEFAULT_COMPONENT_ID,
+        sequence: 0,
+    };
+    let extras = OdometryExtras {
+        time_usec: 98_765_432_100,
+        reset_counter: 4,
+        quality: 87,
+        ..OdometryExtras::default()
+    };
+    let odom = odometry(&pose(), &extras).unwrap();
+    let mut bytes = Vec::new();
+    for sequence in 0..3 {
+        let header = MavHeader { sequence, ..header };
+        let frame = signer.sign(header, &MavMessage::ODOMETRY(odom.clone()));
+        bytes.extend_from_slice(frame.raw_bytes());
+    }
+    // One unsigned message among them: pymavlink with a key refuses it too.
+    let unsigned = MavMessage::ODOMETRY(odom.clone());
+    mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, &unsigned).unwrap();
+    let bin = dir.join("signed.bin");
+    std::fs::write(&bin, &bytes).unwrap();
+
+    let with_key = run(
+        &python,
+        &["verify", key_path.to_str().unwrap(), bin.to_str().unwrap()],
+    );
+    let taken = with_key["taken"].as_array().unwrap();
+    assert_eq!(taken.len(), 3, "{with_key}");
+    for (sequence, t) in taken.iter().enumerate() {
+        assert_eq!(t["signed"], true);
+        assert_eq!(t["seq"].as_u64(), Some(sequence as u64));
+        check_odometry_ids(&odom, t);
+    }
+    assert_eq!(
+        (with_key["goodsig"].as_u64(), with_key["badsig"].as_u64()),
+        (Some(3), Some(0))
+    );
+    assert_eq!(with_key["refused"].as_u64(), Some(1), "the unsigned one");
+
+    let other = run(
+        &python,
+        &[
+            "verify",
+            other_path.to_str().unwrap(),
+            bin.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(other["taken"].as_array().map(Vec::len), Some(0), "{other}");
+    assert_eq!(
+        (other["badsig"].as_u64(), other["refused"].as_u64()),
+        (Some(3), Some(4))
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The ODOMETRY pymavlink took is ours (its time, counter and quality) from our ids.
+fn check_odometry_ids(ours: &ODOMETRY_DATA, theirs: &Value) {
+    assert_eq!(theirs["type"], "ODOMETRY");
+    assert_eq!(theirs["time_usec"].as_u64(), Some(ours.time_usec));
+    assert_eq!(theirs["reset_counter"].as_u64(), Some(4));
+    assert_eq!(theirs["quality"].as_i64(), Some(87));
+    assert_eq!(theirs["src_system"].as_u64(), Some(1));
+    assert_eq!(
+        theirs["src_component"].as_u64(),
+        Some(u64::from(DEFAULT_COMPONENT_ID))
+    );
+}
+
+/// Every CRC-valid frame of `bytes`.
+fn frames(bytes: &[u8]) -> Vec<MAVLinkMessageRaw> {
+    let mut reader = MavlinkReader::new(bytes);
+    std::iter::from_fn(|| reader.read_any_raw_message::<MavMessage>().ok()).collect()
+}
+
+#[test]
+fn pymavlink_signed_messages_pass_our_check_once_and_only_with_the_key() {
+    let Some(python) = python() else { return };
+    let dir = scratch("signed-in");
+    let (key, key_path) = key_file(&dir, "fc.key", 3);
+    let (other, _) = key_file(&dir, "other.key", 4);
+    let bin = dir.join("imu.bin");
+    let expected = run(
+        &python,
+        &[
+            "sign-imu",
+            key_path.to_str().unwrap(),
+            bin.to_str().unwrap(),
+        ],
+    );
+    let expected = expected.as_array().unwrap();
+    let bytes = std::fs::read(&bin).unwrap();
+    let frames = frames(&bytes);
+    assert_eq!(frames.len(), expected.len());
+
+    let ours = Signer::new(key);
+    let mut decoder = InboundDecoder::default();
+    for (frame, want) in frames.iter().zip(expected) {
+        let MAVLinkMessageRaw::V2(raw) = frame else {
+            panic!("MAVLink 2")
+        };
+        assert_eq!(raw.signature_link_id(), 3);
+        let (header, message) = ours.accept(frame).expect("taken").unwrap();
+        assert_eq!((header.system_id, header.component_id), (1, 1));
+        let kind = want["type"].as_str().unwrap();
+        match (&message, kind) {
+            (MavMessage::HIGHRES_IMU(m), "HIGHRES_IMU") => {
+                assert_eq!(Some(m.time_usec), want["time_usec"].as_u64());
+            }
+            (MavMessage::SCALED_IMU(_), "SCALED_IMU")
+            | (MavMessage::SCALED_PRESSURE(_), "SCALED_PRESSURE") => {}
+            _ => panic!("{kind} decoded as {message:?}"),
+        }
+        decoder.decode_from(&header, &message);
+    }
+    let stats = decoder.stats();
+    assert_eq!((stats.imu, stats.baro, stats.refused.incomplete), (2, 3, 1));
+    // The same bytes again: replayed. Under another key: a bad signature.
+    for frame in &frames {
+        assert_eq!(ours.check(frame), Err(Refusal::Replayed));
+    }
+    let theirs_other = Signer::new(other);
+    for frame in &frames {
+        assert_eq!(theirs_other.check(frame), Err(Refusal::BadSignature));
+    }
+    let n = frames.len() as u64;
+    let counts = ours.counts();
+    assert_eq!((counts.accepted, counts.replayed), (n, n));
     std::fs::remove_dir_all(&dir).unwrap();
 }

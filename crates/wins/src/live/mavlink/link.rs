@@ -13,11 +13,14 @@
 
 use std::fmt;
 use std::str::FromStr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use ::mavlink::dialects::common::{MavComponent, MavMessage};
 use ::mavlink::error::{MessageReadError, MessageWriteError};
-use ::mavlink::{MavConnection, MavHeader, MavlinkVersion};
+use ::mavlink::{MAVLinkMessageRaw, MavConnection, MavHeader, MavlinkVersion};
 
+use super::signing::{MavlinkKey, Signer, SigningCounts};
 use super::udp_in::UdpIn;
 
 /// The component id a WiFi-inertial odometry source uses by default:
@@ -239,36 +242,56 @@ pub enum LinkError {
     Io(std::io::Error),
 }
 
-/// An open link: the connection and the header our messages go out with.
+/// An open link: the connection, the header our messages go out with, and the signing key's
+/// signer when one is given ([`super::signing`]).
 pub struct MavlinkLink {
     transport: Transport,
     /// Our system and component ids (the sequence number is the connection's).
     pub header: MavHeader,
+    signer: Option<Arc<Signer>>,
+    /// Sequence numbers of the signed messages sent on the crate's connection (its own count
+    /// covers only the messages it encodes).
+    sequence: AtomicU8,
 }
 
 /// What carries the bytes.
 enum Transport {
     /// The mavlink crate's connection (MAVLink 2 out; MAVLink 1 or 2 accepted in).
     Crate(FcConnection),
-    /// Our UDP server for `udpin:`.
+    /// Our UDP server for `udpin:` (which signs and checks with the link's signer itself).
     UdpIn(UdpIn),
 }
 
 impl MavlinkLink {
-    /// Sends one message with our ids; returns the bytes written (0 when a `udpin` link has not
-    /// heard from a peer yet, so there is nobody to answer).
+    /// Sends one message with our ids, signed when the link has a key; returns the bytes written
+    /// (0 when a `udpin` link has not heard from the vehicle yet, so there is nobody to answer).
     pub fn send(&self, message: &MavMessage) -> Result<usize, LinkError> {
-        match &self.transport {
-            Transport::Crate(c) => Ok(c.send(&self.header, message)?),
-            Transport::UdpIn(u) => Ok(u.send(&self.header, message).map_err(LinkError::Io)?),
+        match (&self.transport, &self.signer) {
+            (Transport::Crate(c), None) => Ok(c.send(&self.header, message)?),
+            (Transport::Crate(c), Some(signer)) => {
+                let header = MavHeader {
+                    sequence: self.sequence.fetch_add(1, Ordering::Relaxed),
+                    ..self.header
+                };
+                let frame = signer.sign(header, message);
+                Ok(c.send_raw(&MAVLinkMessageRaw::V2(frame))?)
+            }
+            (Transport::UdpIn(u), _) => Ok(u.send(&self.header, message).map_err(LinkError::Io)?),
         }
     }
 
-    /// Blocks until one message arrives.
+    /// Blocks until one message arrives; with a key, one whose signature holds (the others are
+    /// refused and counted, [`Self::signing_counts`]).
     pub fn recv(&self) -> Result<(MavHeader, MavMessage), LinkError> {
-        match &self.transport {
-            Transport::Crate(c) => Ok(c.recv()?),
-            Transport::UdpIn(u) => u.recv().map_err(LinkError::Io),
+        match (&self.transport, &self.signer) {
+            (Transport::Crate(c), None) => Ok(c.recv()?),
+            (Transport::Crate(c), Some(signer)) => loop {
+                let frame = c.recv_raw()?;
+                if let Some(decoded) = signer.accept(&frame) {
+                    return decoded.map_err(|e| LinkError::Recv(MessageReadError::Parse(e)));
+                }
+            },
+            (Transport::UdpIn(u), _) => u.recv().map_err(LinkError::Io),
         }
     }
 
@@ -278,6 +301,11 @@ impl MavlinkLink {
             Transport::Crate(_) => 0,
             Transport::UdpIn(u) => u.garbage_datagrams(),
         }
+    }
+
+    /// The signed traffic's counts (`None` without a key).
+    pub fn signing_counts(&self) -> Option<SigningCounts> {
+        self.signer.as_ref().map(|s| s.counts())
     }
 }
 
@@ -289,173 +317,52 @@ impl fmt::Debug for MavlinkLink {
     }
 }
 
+/// Opens the link without signing: [`open_signed`] with no key.
+pub fn open(url: &MavlinkUrl, system_id: u8, component_id: u8) -> Result<MavlinkLink, LinkError> {
+    open_signed(url, system_id, component_id, None)
+}
+
 /// Opens the link: MAVLink 2 for what we send (ODOMETRY needs it), either version accepted for
 /// what we receive, our messages sent as `system_id` / `component_id` (usually the flight
 /// controller's system id and [`DEFAULT_COMPONENT_ID`]). A `udpin:` link answers the vehicle
-/// `system_id` only ([`super::udp_in`]).
-pub fn open(url: &MavlinkUrl, system_id: u8, component_id: u8) -> Result<MavlinkLink, LinkError> {
+/// `system_id` only ([`super::udp_in`]). With `key`, every message sent is signed and only
+/// messages signed with it are received ([`super::signing`]).
+pub fn open_signed(
+    url: &MavlinkUrl,
+    system_id: u8,
+    component_id: u8,
+    key: Option<MavlinkKey>,
+) -> Result<MavlinkLink, LinkError> {
     let header = MavHeader {
         system_id: u32::from(system_id),
         component_id,
         sequence: 0,
     };
+    let signer = key.map(|k| Arc::new(Signer::new(k)));
     let text = url.to_string();
-    if let MavlinkUrl::UdpIn { host, port } = url {
+    let transport = if let MavlinkUrl::UdpIn { host, port } = url {
         let addr = if host.contains(':') && !host.starts_with('[') {
             format!("[{host}]:{port}")
         } else {
             format!("{host}:{port}")
         };
-        let server = UdpIn::bind(&addr, system_id)
+        let server = UdpIn::bind(&addr, system_id, signer.clone())
             .map_err(|source| LinkError::Open { url: text, source })?;
-        return Ok(MavlinkLink {
-            transport: Transport::UdpIn(server),
-            header,
-        });
-    }
-    let mut connection = ::mavlink::connect::<MavMessage>(&text)
-        .map_err(|source| LinkError::Open { url: text, source })?;
-    connection.set_protocol_version(MavlinkVersion::V2);
-    connection.set_allow_recv_any_version(true);
+        Transport::UdpIn(server)
+    } else {
+        let mut connection = ::mavlink::connect::<MavMessage>(&text)
+            .map_err(|source| LinkError::Open { url: text, source })?;
+        connection.set_protocol_version(MavlinkVersion::V2);
+        connection.set_allow_recv_any_version(true);
+        Transport::Crate(Box::new(connection))
+    };
     Ok(MavlinkLink {
-        transport: Transport::Crate(Box::new(connection)),
+        transport,
         header,
+        signer,
+        sequence: AtomicU8::new(0),
     })
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use ::mavlink::MavlinkReader;
-    use ::mavlink::dialects::common::HEARTBEAT_DATA;
-    use std::net::UdpSocket;
-    use std::time::Duration;
-
-    #[test]
-    fn parses_every_form_and_prints_the_crate_string() {
-        let cases = [
-            ("udpin:0.0.0.0:14550", "udpin:0.0.0.0:14550"),
-            ("udpout:192.168.1.2:14555", "udpout:192.168.1.2:14555"),
-            ("tcp:127.0.0.1:5760", "tcpout:127.0.0.1:5760"),
-            ("tcpout:localhost:5760", "tcpout:localhost:5760"),
-            ("tcpin:0.0.0.0:5761", "tcpin:0.0.0.0:5761"),
-            ("serial:/dev/ttyACM0:921600", "serial:/dev/ttyACM0:921600"),
-            ("UDPIN:[::1]:14550", "udpin:[::1]:14550"),
-        ];
-        for (text, shown) in cases {
-            let url: MavlinkUrl = text.parse().unwrap();
-            assert_eq!(url.to_string(), shown);
-            assert_eq!(shown.parse::<MavlinkUrl>().unwrap(), url);
-        }
-        assert_eq!(
-            "serial:COM3:57600".parse::<MavlinkUrl>().unwrap(),
-            MavlinkUrl::Serial {
-                device: "COM3".into(),
-                baud: 57600
-            }
-        );
-    }
-
-    #[test]
-    fn errors_say_what_is_wrong_and_list_the_forms() {
-        let cases = [
-            ("14550", "no scheme"),
-            ("udp:1.2.3.4:14550", "unknown scheme `udp`"),
-            ("udpin:14550", "expected HOST:PORT"),
-            ("udpout::14550", "host is empty"),
-            ("tcp:host:port", "port `port`"),
-            ("tcp:host:0", "port `0`"),
-            ("udpin:host:70000", "port `70000`"),
-            ("serial:/dev/ttyS0", "expected serial:DEVICE:BAUD"),
-            ("serial::57600", "expected serial:DEVICE:BAUD"),
-            ("serial:/dev/ttyS0:fast", "baud rate `fast`"),
-            ("serial:a:b:57600", "contains `:`"),
-        ];
-        for (text, needle) in cases {
-            let message = text.parse::<MavlinkUrl>().unwrap_err().to_string();
-            assert!(message.contains(needle), "{text}: {message}");
-            if !needle.contains("contains") {
-                assert!(message.contains("udpin:HOST:PORT"), "{message}");
-                assert!(message.contains("serial:DEVICE:BAUD"), "{message}");
-            }
-        }
-    }
-
-    /// A free local UDP port (bound and released).
-    fn free_udp_port() -> u16 {
-        UdpSocket::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    }
-
-    #[test]
-    fn udpin_answers_the_sender_on_one_socket() {
-        let port = free_udp_port();
-        let url: MavlinkUrl = format!("udpin:127.0.0.1:{port}").parse().unwrap();
-        let link = open(&url, 1, DEFAULT_COMPONENT_ID).unwrap();
-        // Nobody to answer yet: nothing is sent.
-        let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
-        assert_eq!(link.send(&heartbeat).unwrap(), 0);
-
-        // A "flight controller" on its own socket sends one message to us.
-        let fc = UdpSocket::bind("127.0.0.1:0").unwrap();
-        fc.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-        let mut bytes = Vec::new();
-        let fc_header = MavHeader {
-            system_id: 1,
-            component_id: 1,
-            sequence: 7,
-        };
-        ::mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, fc_header, &heartbeat)
-            .unwrap();
-        fc.send_to(&bytes, ("127.0.0.1", port)).unwrap();
-        let (header, message) = link.recv().unwrap();
-        assert_eq!(header.system_id, 1);
-        assert!(matches!(message, MavMessage::HEARTBEAT(_)));
-
-        // Our reply reaches the sender's address, as MAVLink 2 with our ids.
-        assert!(link.send(&heartbeat).unwrap() > 0);
-        let mut buffer = [0_u8; 512];
-        let (n, from) = fc.recv_from(&mut buffer).unwrap();
-        assert_eq!(from.port(), port);
-        let slice = buffer.get(..n).unwrap();
-        let mut reader = MavlinkReader::new(slice);
-        let (reply_header, reply) = reader
-            .read_message::<MavMessage>(MavlinkVersion::V2)
-            .unwrap();
-        assert_eq!(reply_header.system_id, 1);
-        assert_eq!(reply_header.component_id, 197);
-        assert!(matches!(reply, MavMessage::HEARTBEAT(_)));
-    }
-
-    #[test]
-    fn udpout_reaches_a_listener() {
-        let listener = UdpSocket::bind("127.0.0.1:0").unwrap();
-        listener
-            .set_read_timeout(Some(Duration::from_secs(5)))
-            .unwrap();
-        let port = listener.local_addr().unwrap().port();
-        let url: MavlinkUrl = format!("udpout:127.0.0.1:{port}").parse().unwrap();
-        let link = open(&url, 1, DEFAULT_COMPONENT_ID).unwrap();
-        let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
-        assert!(link.send(&heartbeat).unwrap() > 0);
-        let mut buffer = [0_u8; 512];
-        let n = listener.recv(&mut buffer).unwrap();
-        assert_eq!(buffer.first(), Some(&0xFD), "MAVLink 2 start byte");
-        assert!(n > 10);
-    }
-
-    #[test]
-    fn opening_a_busy_port_is_an_error_naming_it() {
-        let busy = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let port = busy.local_addr().unwrap().port();
-        let url: MavlinkUrl = format!("udpin:127.0.0.1:{port}").parse().unwrap();
-        let error = open(&url, 1, DEFAULT_COMPONENT_ID).unwrap_err().to_string();
-        assert!(
-            error.contains(&format!("udpin:127.0.0.1:{port}")),
-            "{error}"
-        );
-    }
-}
+mod tests;

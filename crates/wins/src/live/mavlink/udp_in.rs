@@ -7,15 +7,21 @@
 //! vehicle's system id; a datagram that holds no valid message at all is counted
 //! ([`UdpIn::garbage_datagrams`]) and dropped, and messages of other systems are passed on (the
 //! decoder refuses and counts them) without moving the answering address.
+//!
+//! With a signing key ([`super::signing`]) only messages whose signature holds are passed on, and
+//! only they can set the answering address; the others are counted by the signer. Replies are
+//! signed.
 
 use std::collections::VecDeque;
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use ::mavlink::dialects::common::MavMessage;
 use ::mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
+
+use super::signing::Signer;
 
 /// Largest UDP payload.
 const DATAGRAM: usize = 65_536;
@@ -34,11 +40,18 @@ pub struct UdpIn {
     buffer: Mutex<Vec<u8>>,
     sequence: AtomicU8,
     garbage: AtomicU64,
+    /// Signs the replies and checks what arrives, with a key.
+    signer: Option<Arc<Signer>>,
 }
 
 impl UdpIn {
-    /// Binds `addr`; replies will go to the vehicle `vehicle_system_id`.
-    pub fn bind(addr: &str, vehicle_system_id: u8) -> io::Result<Self> {
+    /// Binds `addr`; replies will go to the vehicle `vehicle_system_id`; with `signer`, signed
+    /// (module doc).
+    pub fn bind(
+        addr: &str,
+        vehicle_system_id: u8,
+        signer: Option<Arc<Signer>>,
+    ) -> io::Result<Self> {
         Ok(Self {
             socket: UdpSocket::bind(addr)?,
             vehicle_system_id: u32::from(vehicle_system_id),
@@ -47,6 +60,7 @@ impl UdpIn {
             buffer: Mutex::new(vec![0_u8; DATAGRAM]),
             sequence: AtomicU8::new(0),
             garbage: AtomicU64::new(0),
+            signer,
         })
     }
 
@@ -71,12 +85,8 @@ impl UdpIn {
                 .lock()
                 .map_err(|_| io::Error::other("the receive buffer's lock is poisoned"))?;
             let (n, from) = self.socket.recv_from(&mut buffer)?;
-            let mut reader = MavlinkReader::new(buffer.get(..n).unwrap_or_default());
-            let mut messages = VecDeque::new();
-            while let Ok(m) = reader.read_any_message::<MavMessage>() {
-                messages.push_back(m);
-            }
-            if messages.is_empty() {
+            let (messages, frames) = self.messages(buffer.get(..n).unwrap_or_default());
+            if frames == 0 {
                 self.garbage.fetch_add(1, Ordering::Relaxed);
                 continue;
             }
@@ -93,8 +103,30 @@ impl UdpIn {
         }
     }
 
-    /// Sends one message as MAVLink 2 with `header`'s ids (the sequence is this link's); 0 bytes
-    /// when the vehicle has not been heard yet.
+    /// The messages of a datagram to pass on, and how many CRC-valid frames it held (with a key,
+    /// those refused are counted by the signer and left out).
+    fn messages(&self, datagram: &[u8]) -> (VecDeque<(MavHeader, MavMessage)>, usize) {
+        let mut reader = MavlinkReader::new(datagram);
+        let mut messages = VecDeque::new();
+        let Some(signer) = &self.signer else {
+            while let Ok(m) = reader.read_any_message::<MavMessage>() {
+                messages.push_back(m);
+            }
+            let n = messages.len();
+            return (messages, n);
+        };
+        let mut frames = 0;
+        while let Ok(frame) = reader.read_any_raw_message::<MavMessage>() {
+            frames += 1;
+            if let Some(Ok(m)) = signer.accept(&frame) {
+                messages.push_back(m);
+            }
+        }
+        (messages, frames)
+    }
+
+    /// Sends one message as MAVLink 2 with `header`'s ids (the sequence is this link's), signed
+    /// with a key; 0 bytes when the vehicle has not been heard yet.
     pub fn send(&self, header: &MavHeader, message: &MavMessage) -> io::Result<usize> {
         let Some(peer) = self.peer() else {
             return Ok(0);
@@ -103,6 +135,11 @@ impl UdpIn {
             sequence: self.sequence.fetch_add(1, Ordering::Relaxed),
             ..*header
         };
+        if let Some(signer) = &self.signer {
+            return self
+                .socket
+                .send_to(signer.sign(header, message).raw_bytes(), peer);
+        }
         let mut bytes = Vec::with_capacity(300);
         ::mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, message)
             .map_err(|e| io::Error::other(e.to_string()))?;
@@ -133,7 +170,7 @@ mod tests {
 
     #[test]
     fn replies_go_to_the_vehicle_not_to_the_last_sender() {
-        let link = UdpIn::bind("127.0.0.1:0", 1).expect("bound");
+        let link = UdpIn::bind("127.0.0.1:0", 1, None).expect("bound");
         let to = link.socket.local_addr().expect("address");
         let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
         let ours = MavHeader {
@@ -177,7 +214,7 @@ mod tests {
 
     #[test]
     fn a_datagram_of_several_messages_gives_each() {
-        let link = UdpIn::bind("127.0.0.1:0", 1).expect("bound");
+        let link = UdpIn::bind("127.0.0.1:0", 1, None).expect("bound");
         let to = link.socket.local_addr().expect("address");
         let fc = UdpSocket::bind("127.0.0.1:0").expect("fc");
         let mut two = datagram(1);

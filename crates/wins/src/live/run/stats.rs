@@ -13,6 +13,7 @@ use super::outputs::Outputs;
 use super::{LiveError, io_err};
 use crate::live::mavlink::inbound::{InboundDecoder, InboundStats};
 use crate::live::mavlink::link::MavlinkLink;
+use crate::live::mavlink::signing::SigningCounts;
 use crate::live::session::{ClockReport, LiveStats};
 
 /// The file's name in the output folder.
@@ -35,6 +36,9 @@ pub struct LiveSummary {
     pub mavlink_in: InboundStats,
     /// Datagrams of a `udpin:` link dropped for holding no CRC-valid MAVLink message.
     pub mavlink_garbage_datagrams: u64,
+    /// With a signing key (`live.mavlink_key`): the messages signed and sent, and those received
+    /// taken or refused by reason; `null` without one.
+    pub mavlink_signing: Option<SigningCounts>,
     /// Poses sent to the flight controller.
     pub poses_sent: u64,
     /// Poses that could not be sent (the link failed, or a pose not finite).
@@ -77,6 +81,7 @@ impl StatsFile<'_> {
             live,
             mavlink_in: self.inbound.lock().map(|d| *d.stats()).unwrap_or_default(),
             mavlink_garbage_datagrams: self.link.garbage_datagrams(),
+            mavlink_signing: self.link.signing_counts(),
             poses_sent: out.sent,
             poses_not_sent: out.not_sent,
             clocks,
