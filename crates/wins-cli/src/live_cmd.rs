@@ -186,6 +186,10 @@ pub struct ReplayArgs {
     /// record's NIC time S s off), csi-garbage@AT:BYTES (random bytes in the CSI stream).
     #[arg(long, value_name = "KIND@AT:VALUE")]
     fault: Vec<String>,
+    /// The MAVLink system id to send from (1: the flight controller `wins live` expects; another
+    /// plays a stranger on the network, whose messages `wins live` counts and leaves out).
+    #[arg(long, default_value_t = 1)]
+    system_id: u8,
 }
 
 /// `wins replay`.
@@ -220,6 +224,7 @@ pub fn replay(args: ReplayArgs) -> Result<()> {
             imu: args.only.as_deref() != Some("csi"),
         },
         capture: args.capture,
+        system_id: args.system_id,
         faults: args
             .fault
             .iter()

@@ -1,5 +1,5 @@
 //! Helpers of the tests that run `wins live` over real sockets (`cli_live.rs`,
-//! `cli_live_faults.rs`, `cli_live_kill.rs`).
+//! `cli_live_faults.rs`, `cli_live_kill.rs`, `cli_live_spoof.rs`).
 
 // Tests stop at the line that failed.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]

@@ -68,6 +68,9 @@ pub struct PlayOptions {
     pub capture: Option<PathBuf>,
     /// Faults put into the streams ([`faults`]).
     pub faults: Vec<PlayFault>,
+    /// The MAVLink system id the messages are sent from (the flight controller's is 1; another
+    /// plays a second vehicle or a stranger on the network).
+    pub system_id: u8,
 }
 
 /// Why a play failed.
@@ -191,7 +194,7 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
     let mut summary = PlaySummary::default();
     let (t0, start) = (stream.imu_span.0, start_instant(options.start_at));
     let mut header = MavHeader {
-        system_id: 1,
+        system_id: options.system_id.into(),
         component_id: 1,
         sequence: 0,
     };
