@@ -30,6 +30,7 @@ use serde_json::Value;
 mod common;
 use common::live::{Running, Trajectory, read_tum, start_live};
 use common::s;
+use common::wins_ok as wins;
 
 /// When the fault comes, s into the flight.
 const FAULT_AT_S: f64 = 22.0;
@@ -45,17 +46,6 @@ const RESUME_SLACK_S: f64 = 3.0;
 const ATE_FACTOR: f64 = 2.0;
 /// `wins live` stops this long after its inputs stop, s.
 const IDLE_EXIT_S: &str = "2";
-
-fn wins(args: &[&str]) -> String {
-    let out = common::wins(args);
-    assert!(
-        out.status.success(),
-        "wins {}: {}",
-        args.join(" "),
-        common::stderr(&out)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
 
 /// The simulated flight of `seconds` in `dir/ds`.
 fn flight(dir: &Path, seconds: f64) -> PathBuf {

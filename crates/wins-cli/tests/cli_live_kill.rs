@@ -29,6 +29,7 @@ use serde_json::Value;
 mod common;
 use common::live::{Running, start_live};
 use common::s;
+use common::wins_ok as wins;
 
 /// The flight, s: long enough to converge (the chain-offset resolution decides about 20 s in)
 /// and stream poses past [`STREAMING_S`]; the kill comes before its end.
@@ -40,17 +41,6 @@ const STREAMING_S: f64 = 3.0;
 const FIRST_POSES_WITHIN_S: u64 = 40;
 /// Poses on disk before the kill, at least.
 const MIN_POSES: usize = 100;
-
-fn wins(args: &[&str]) -> String {
-    let out = common::wins(args);
-    assert!(
-        out.status.success(),
-        "wins {}: {}",
-        args.join(" "),
-        common::stderr(&out)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
 
 /// The simulated flight in `dir/ds`.
 fn flight(dir: &Path) -> PathBuf {

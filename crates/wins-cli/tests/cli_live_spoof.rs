@@ -19,7 +19,6 @@
 
 use std::fs;
 use std::path::Path;
-use std::process::Command;
 use std::thread;
 use std::time::Duration;
 
@@ -28,24 +27,12 @@ use serde_json::Value;
 mod common;
 use common::live::{Running, read_tum, start_live};
 use common::s;
+use common::wins_ok as wins;
 
 /// The flight's length, s.
 const FLIGHT_S: &str = "30";
 /// The live ATE is at most this many times `wins run`'s.
 const ATE_FACTOR: f64 = 2.0;
-
-fn wins(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_wins"))
-        .args(args)
-        .output()
-        .expect("run wins");
-    assert!(
-        out.status.success(),
-        "wins {args:?} failed:\n{}",
-        common::stderr(&out)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
 
 fn simulate(seed: &str, out: &Path) {
     wins(&[

@@ -21,6 +21,18 @@ pub fn wins_in(dir: &Path, args: &[&str]) -> Output {
         .expect("wins runs")
 }
 
+/// `wins args`, which must succeed: what it printed on stdout.
+pub fn wins_ok(args: &[&str]) -> String {
+    let out = wins(args);
+    assert!(
+        out.status.success(),
+        "wins {}: {}",
+        args.join(" "),
+        stderr(&out)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 /// What the run printed on stderr.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

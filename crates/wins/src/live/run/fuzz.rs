@@ -253,6 +253,24 @@ fn mavlink_bytes(rng: &mut ChaCha8Rng, sequence: u8, message: &MavMessage) -> Ve
     bytes
 }
 
+/// What the MAVLink reader thread hands the session for the bytes of one datagram.
+fn fc_inputs(
+    inbound: &std::sync::Mutex<InboundDecoder>,
+    bytes: &[u8],
+    arrival_ns: i64,
+) -> Vec<LiveInput> {
+    let mut reader = MavlinkReader::new(bytes);
+    let mut out = vec![];
+    while let Ok((header, message)) = reader.read_any_message::<MavMessage>() {
+        out.extend(
+            decode(inbound, &header, &message, arrival_ns)
+                .into_iter()
+                .map(LiveInput::Fc),
+        );
+    }
+    out
+}
+
 /// One seed's run; returns the poses given.
 fn fuzz_once(seed: u64, clean: &[Clean], dir: &std::path::Path) -> usize {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -294,27 +312,13 @@ fn fuzz_once(seed: u64, clean: &[Clean], dir: &std::path::Path) -> usize {
                 if on("mangle_imu") {
                     mangle(&mut rng, &mut bytes);
                 }
-                let mut reader = MavlinkReader::new(bytes.as_slice());
-                while let Ok((header, message)) = reader.read_any_message::<MavMessage>() {
-                    inputs.extend(
-                        decode(&inbound, &header, &message, now_ns)
-                            .into_iter()
-                            .map(LiveInput::Fc),
-                    );
-                }
+                inputs.extend(fc_inputs(&inbound, &bytes, now_ns));
             }
             Clean::Baro(t, altitude_m) => {
                 let t_ns = shifted_ns(&mut rng, t.as_nanos());
                 let message = highres_pressure(t_ns, broken(&mut rng, *altitude_m));
                 let bytes = mavlink_bytes(&mut rng, sequence, &message);
-                let mut reader = MavlinkReader::new(bytes.as_slice());
-                while let Ok((header, message)) = reader.read_any_message::<MavMessage>() {
-                    inputs.extend(
-                        decode(&inbound, &header, &message, now_ns)
-                            .into_iter()
-                            .map(LiveInput::Fc),
-                    );
-                }
+                inputs.extend(fc_inputs(&inbound, &bytes, now_ns));
             }
             Clean::Csi(record, _) => {
                 let mut record = record.clone();
