@@ -182,8 +182,9 @@ pub struct ReplayArgs {
     /// Put a fault into the streams, KIND@AT:VALUE with AT in s of the dataset (repeatable):
     /// imu-shift@AT:S (one IMU sample S s off), imu-silence@AT:S (no IMU for S s),
     /// fc-reboot@AT:S (silent S s, then the clock reads from 0 at AT), imu-nan@AT:S (NaN
-    /// readings for S s), imu-saturate@AT:S (39 g and 45 rad/s for S s), csi-shift@AT:S (one
-    /// record's NIC time S s off), csi-garbage@AT:BYTES (random bytes in the CSI stream).
+    /// readings for S s), imu-saturate@AT:S (39 g and 45 rad/s for S s), mav-corrupt@AT:N (each
+    /// of N IMU messages first sent after garbage with a bad CRC, then intact), csi-shift@AT:S
+    /// (one record's NIC time S s off), csi-garbage@AT:BYTES (random bytes in the CSI stream).
     #[arg(long, value_name = "KIND@AT:VALUE")]
     fault: Vec<String>,
     /// The MAVLink system id to send from (1: the flight controller `wins live` expects; another

@@ -257,6 +257,27 @@ fn garbage_in_the_csi_stream_is_skipped_and_the_nic_clock_holds() {
     assert!(drift.abs() < 50.0, "NIC drift {drift} ppm at the end");
 }
 
+#[test]
+fn corrupted_mavlink_messages_are_counted_as_garbage_and_bad_crcs_and_the_poses_go_on() {
+    // 200 IMU messages (1 s), each first sent as garbage and a bad CRC in a datagram of its own.
+    let (stats, said) = lone_fault("mav-corrupt", "mav-corrupt@22:200", "fc_clock_outliers");
+    let link = &stats["mavlink_link"];
+    let n = |key: &str| {
+        link[key]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{key} missing in {link}"))
+    };
+    // Each corrupted message fails its CRC (and a magic byte inside it may look like one more
+    // frame that fails too).
+    assert!((200..=400).contains(&n("bad_crc")), "{link}");
+    assert_eq!(n("garbage_datagrams"), 200, "{link}");
+    // Every byte of those datagrams, and no other, is garbage: the 16 bytes before each
+    // message and the corrupted message's own.
+    let garbage = n("garbage_bytes");
+    assert!(garbage % 200 == 0 && garbage > 200 * (16 + 12), "{link}");
+    assert!(said.contains("| MAVLink garbage "), "{said}");
+}
+
 /// A gap in the IMU from [`FAULT_AT_S`] for `gap_s` (a silence, or a reboot): the live poses
 /// resume no later than `wins run`'s on the flight with the gap `wins live` saw (from its
 /// recording), with an ATE within [`ATE_FACTOR`] of its; returns the stats and whether the

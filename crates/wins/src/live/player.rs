@@ -241,6 +241,10 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
                 s.t = crate::time::Timestamp(t_ns);
                 faults.imu_readings(&mut s, rel_s);
                 let message = highres_imu(&s);
+                encode_mavlink(header, &message, &mut buf)?;
+                if faults.corrupt(rel_s, &mut buf) {
+                    let _ = socket.send_to(&buf, options.mavlink_to);
+                }
                 send_mavlink(&socket, options.mavlink_to, &mut header, &message, &mut buf)?;
                 summary.imu_sent += 1;
             }
@@ -340,6 +344,20 @@ fn spawn_listener(
         .map_err(io_err("starting the MAVLink listener".into()))
 }
 
+/// `message` as MAVLink 2 with `header`, into `buf`.
+fn encode_mavlink(
+    header: MavHeader,
+    message: &MavMessage,
+    buf: &mut Vec<u8>,
+) -> Result<(), PlayError> {
+    buf.clear();
+    ::mavlink::write_v2_msg(buf, header, message).map_err(|e| PlayError::Io {
+        what: "encoding a MAVLink message".into(),
+        source: io::Error::other(e.to_string()),
+    })?;
+    Ok(())
+}
+
 fn send_mavlink(
     socket: &UdpSocket,
     to: SocketAddr,
@@ -347,11 +365,7 @@ fn send_mavlink(
     message: &MavMessage,
     buf: &mut Vec<u8>,
 ) -> Result<(), PlayError> {
-    buf.clear();
-    ::mavlink::write_v2_msg(buf, *header, message).map_err(|e| PlayError::Io {
-        what: "encoding a MAVLink message".into(),
-        source: io::Error::other(e.to_string()),
-    })?;
+    encode_mavlink(*header, message, buf)?;
     header.sequence = header.sequence.wrapping_add(1);
     // A datagram nobody listens to yet (wins live not started) is lost, as on a real link.
     let _ = socket.send_to(buf, to);

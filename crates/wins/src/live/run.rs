@@ -427,6 +427,7 @@ impl Loop<'_> {
             clocks: session.clocks(),
             latency_ms: percentiles(&mut out.window_ages_ms),
             mavlink_signing: out.link.signing_counts(),
+            mavlink_link: out.link.counts(),
             new_notices: stats
                 .notices
                 .get(last.1.notices.len()..)

@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::mavlink::link::LinkCounts;
 use super::mavlink::signing::SigningCounts;
 use super::session::{ClockReport, LiveStats};
 
@@ -27,6 +28,8 @@ pub struct LiveStatus {
     pub stats: LiveStats,
     /// The MAVLink link's signed traffic so far (with a signing key).
     pub mavlink_signing: Option<SigningCounts>,
+    /// What arrived on the MAVLink link so far.
+    pub mavlink_link: LinkCounts,
     /// The notices since the last status (faults that stopped the poses, in words), printed
     /// each on its own line above the status line.
     pub new_notices: Vec<String>,
@@ -86,6 +89,14 @@ impl std::fmt::Display for LiveStatus {
                 s.fc_clock_relocks,
                 s.nic_clock_relocks,
                 s.csi_disconnects
+            )?;
+        }
+        let l = &self.mavlink_link;
+        if l.any_fault() {
+            write!(
+                f,
+                " | MAVLink garbage {} B bad CRC {} links lost {}",
+                l.frames.garbage_bytes, l.frames.bad_crc, l.connections_lost
             )?;
         }
         if let Some(c) = self.mavlink_signing.filter(|c| c.refused() > 0) {
@@ -182,6 +193,21 @@ mod tests {
         let line = status.to_string();
         assert!(
             line.ends_with(" | MAVLink refused: unsigned 3 bad signature 2 replayed 1 stale 0"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn link_faults_are_said_and_unknown_messages_are_not() {
+        let mut status = LiveStatus::default();
+        status.mavlink_link.frames.unknown_messages = 40;
+        assert!(!status.to_string().contains("MAVLink garbage"));
+        status.mavlink_link.frames.garbage_bytes = 300;
+        status.mavlink_link.frames.bad_crc = 2;
+        status.mavlink_link.connections_lost = 1;
+        let line = status.to_string();
+        assert!(
+            line.ends_with(" | MAVLink garbage 300 B bad CRC 2 links lost 1"),
             "{line}"
         );
     }

@@ -1,27 +1,30 @@
 //! The MAVLink connection to the flight controller: its address ([`MavlinkUrl`]) and opening it
-//! ([`open`]).
+//! ([`open`]). The transports are ours ([`super::udp`], [`super::stream`]): the mavlink crate
+//! encodes and decodes, and every byte that arrives is accounted for ([`super::framer`]).
 //!
 //! Addresses are the usual connection strings:
 //!
 //! | form | meaning |
 //! |---|---|
-//! | `udpin:HOST:PORT` | listen on HOST:PORT; replies go to the address the vehicle's messages come from, so one link works both ways (what a flight controller's `udpout`/telemetry forwarding talks to); another sender never takes the replies ([`super::udp_in`]) |
-//! | `udpout:HOST:PORT` | send to HOST:PORT from an ephemeral port; read what comes back |
-//! | `tcp:HOST:PORT` (or `tcpout:`) | TCP client |
-//! | `tcpin:HOST:PORT` | TCP server, waits for one client |
-//! | `serial:DEVICE:BAUD` | serial port, e.g. `serial:/dev/ttyACM0:921600` |
+//! | `udpin:HOST:PORT` | listen on HOST:PORT; replies go to the address the vehicle's messages come from, so one link works both ways (what a flight controller's `udpout`/telemetry forwarding talks to); another sender never takes the replies ([`super::udp`]) |
+//! | `udpout:HOST:PORT` | send to HOST:PORT from an ephemeral port; read what comes back from there only |
+//! | `tcp:HOST:PORT` (or `tcpout:`) | TCP client; connects again when the connection ends |
+//! | `tcpin:HOST:PORT` | TCP server, one client at a time; the next one when it leaves |
+//! | `serial:DEVICE:BAUD` | serial port, e.g. `serial:/dev/ttyACM0:921600`; opened again when it goes away |
 
 use std::fmt;
+use std::net::TcpListener;
 use std::str::FromStr;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, Ordering};
 
+use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::{MavComponent, MavMessage};
-use ::mavlink::error::{MessageReadError, MessageWriteError};
-use ::mavlink::{MAVLinkMessageRaw, MavConnection, MavHeader, MavlinkVersion};
+use serde::Serialize;
 
+use super::framer::FrameCounts;
 use super::signing::{MavlinkKey, Signer, SigningCounts};
-use super::udp_in::UdpIn;
+use super::stream::{Endpoint, StreamLink};
+use super::udp::UdpLink;
 
 /// The component id a WiFi-inertial odometry source uses by default:
 /// `MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY` (197).
@@ -117,16 +120,6 @@ pub enum MavlinkUrlError {
         /// The address given.
         url: String,
     },
-    /// A device name with a `:` (the mavlink crate splits at the first `:`).
-    #[error(
-        "MAVLink address `{url}`: the serial device `{device}` contains `:`, which cannot be passed on"
-    )]
-    DeviceWithColon {
-        /// The address given.
-        url: String,
-        /// The device text.
-        device: String,
-    },
     /// A baud rate that is not a positive number.
     #[error("MAVLink address `{url}`: baud rate `{baud}` is not a positive number; {ACCEPTED}")]
     BadBaud {
@@ -152,12 +145,6 @@ impl FromStr for MavlinkUrl {
                 .rsplit_once(':')
                 .filter(|(device, _)| !device.is_empty())
                 .ok_or_else(|| MavlinkUrlError::BadSerial { url: owned() })?;
-            if device.contains(':') {
-                return Err(MavlinkUrlError::DeviceWithColon {
-                    url: owned(),
-                    device: device.to_string(),
-                });
-            }
             let baud = baud_text
                 .parse::<u32>()
                 .ok()
@@ -205,7 +192,7 @@ impl FromStr for MavlinkUrl {
 }
 
 impl fmt::Display for MavlinkUrl {
-    /// The mavlink crate's connection string (`tcp:` is written `tcpout:`).
+    /// The address in its canonical form (`tcp:` is written `tcpout:`).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::UdpIn { host, port } => write!(f, "udpin:{host}:{port}"),
@@ -216,9 +203,6 @@ impl fmt::Display for MavlinkUrl {
         }
     }
 }
-
-/// The mavlink crate's blocking connection, boxed, for the common dialect.
-pub type FcConnection = Box<dyn MavConnection<MavMessage> + Send + Sync>;
 
 /// Errors of the link.
 #[derive(Debug, thiserror::Error)]
@@ -231,75 +215,80 @@ pub enum LinkError {
         /// The system's reason.
         source: std::io::Error,
     },
-    /// A message could not be sent.
-    #[error("cannot send MAVLink message: {0}")]
-    Send(#[from] MessageWriteError),
-    /// A message could not be received.
-    #[error("cannot receive MAVLink message: {0}")]
-    Recv(#[from] MessageReadError),
-    /// The socket failed.
-    #[error("MAVLink socket: {0}")]
-    Io(std::io::Error),
+    /// The connection failed or ended.
+    #[error("MAVLink link: {0}")]
+    Io(#[from] std::io::Error),
 }
 
-/// An open link: the connection, the header our messages go out with, and the signing key's
+/// What arrived on a link, counted (`stats.json`'s `mavlink_link`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct LinkCounts {
+    /// Frames, garbage bytes, bad CRCs and unknown messages ([`super::framer`]).
+    #[serde(flatten)]
+    pub frames: FrameCounts,
+    /// UDP datagrams without a single CRC-valid frame, dropped whole.
+    pub garbage_datagrams: u64,
+    /// Stream connections that ended (each made again).
+    pub connections_lost: u64,
+}
+
+impl LinkCounts {
+    /// Whether anything went wrong on the link (unknown messages are a dialect's, not faults).
+    pub fn any_fault(&self) -> bool {
+        self.frames.garbage_bytes + self.frames.bad_crc + self.connections_lost > 0
+    }
+}
+
+/// An open link: the transport, the header our messages go out with, and the signing key's
 /// signer when one is given ([`super::signing`]).
 pub struct MavlinkLink {
     transport: Transport,
-    /// Our system and component ids (the sequence number is the connection's).
+    /// Our system and component ids (the sequence number is the transport's).
     pub header: MavHeader,
     signer: Option<Arc<Signer>>,
-    /// Sequence numbers of the signed messages sent on the crate's connection (its own count
-    /// covers only the messages it encodes).
-    sequence: AtomicU8,
 }
 
 /// What carries the bytes.
 enum Transport {
-    /// The mavlink crate's connection (MAVLink 2 out; MAVLink 1 or 2 accepted in).
-    Crate(FcConnection),
-    /// Our UDP server for `udpin:` (which signs and checks with the link's signer itself).
-    UdpIn(UdpIn),
+    /// `udpin:` and `udpout:`.
+    Udp(UdpLink),
+    /// `tcp:`, `tcpin:` and `serial:`.
+    Stream(StreamLink),
 }
 
 impl MavlinkLink {
     /// Sends one message with our ids, signed when the link has a key; returns the bytes written
-    /// (0 when a `udpin` link has not heard from the vehicle yet, so there is nobody to answer).
+    /// (0 when there is nobody to answer yet: a `udpin` link that has not heard from the vehicle,
+    /// a stream between connections).
     pub fn send(&self, message: &MavMessage) -> Result<usize, LinkError> {
-        match (&self.transport, &self.signer) {
-            (Transport::Crate(c), None) => Ok(c.send(&self.header, message)?),
-            (Transport::Crate(c), Some(signer)) => {
-                let header = MavHeader {
-                    sequence: self.sequence.fetch_add(1, Ordering::Relaxed),
-                    ..self.header
-                };
-                let frame = signer.sign(header, message);
-                Ok(c.send_raw(&MAVLinkMessageRaw::V2(frame))?)
-            }
-            (Transport::UdpIn(u), _) => Ok(u.send(&self.header, message).map_err(LinkError::Io)?),
-        }
+        Ok(match &self.transport {
+            Transport::Udp(u) => u.send(&self.header, message)?,
+            Transport::Stream(s) => s.send(&self.header, message)?,
+        })
     }
 
     /// Blocks until one message arrives; with a key, one whose signature holds (the others are
     /// refused and counted, [`Self::signing_counts`]).
     pub fn recv(&self) -> Result<(MavHeader, MavMessage), LinkError> {
-        match (&self.transport, &self.signer) {
-            (Transport::Crate(c), None) => Ok(c.recv()?),
-            (Transport::Crate(c), Some(signer)) => loop {
-                let frame = c.recv_raw()?;
-                if let Some(decoded) = signer.accept(&frame) {
-                    return decoded.map_err(|e| LinkError::Recv(MessageReadError::Parse(e)));
-                }
-            },
-            (Transport::UdpIn(u), _) => u.recv().map_err(LinkError::Io),
-        }
+        Ok(match &self.transport {
+            Transport::Udp(u) => u.recv()?,
+            Transport::Stream(s) => s.recv()?,
+        })
     }
 
-    /// Datagrams dropped for holding no CRC-valid message (`udpin:` only; 0 otherwise).
-    pub fn garbage_datagrams(&self) -> u64 {
+    /// What arrived on the link, counted.
+    pub fn counts(&self) -> LinkCounts {
         match &self.transport {
-            Transport::Crate(_) => 0,
-            Transport::UdpIn(u) => u.garbage_datagrams(),
+            Transport::Udp(u) => LinkCounts {
+                frames: u.frame_counts(),
+                garbage_datagrams: u.garbage_datagrams(),
+                connections_lost: 0,
+            },
+            Transport::Stream(s) => LinkCounts {
+                frames: s.frame_counts(),
+                garbage_datagrams: 0,
+                connections_lost: s.connections_lost(),
+            },
         }
     }
 
@@ -325,7 +314,7 @@ pub fn open(url: &MavlinkUrl, system_id: u8, component_id: u8) -> Result<Mavlink
 /// Opens the link: MAVLink 2 for what we send (ODOMETRY needs it), either version accepted for
 /// what we receive, our messages sent as `system_id` / `component_id` (usually the flight
 /// controller's system id and [`DEFAULT_COMPONENT_ID`]). A `udpin:` link answers the vehicle
-/// `system_id` only ([`super::udp_in`]). With `key`, every message sent is signed and only
+/// `system_id` only ([`super::udp`]). With `key`, every message sent is signed and only
 /// messages signed with it are received ([`super::signing`]).
 pub fn open_signed(
     url: &MavlinkUrl,
@@ -340,27 +329,50 @@ pub fn open_signed(
     };
     let signer = key.map(|k| Arc::new(Signer::new(k)));
     let text = url.to_string();
-    let transport = if let MavlinkUrl::UdpIn { host, port } = url {
-        let addr = if host.contains(':') && !host.starts_with('[') {
+    let open_error = |source| LinkError::Open {
+        url: text.clone(),
+        source,
+    };
+    let address = |host: &str, port: &u16| {
+        if host.contains(':') && !host.starts_with('[') {
             format!("[{host}]:{port}")
         } else {
             format!("{host}:{port}")
-        };
-        let server = UdpIn::bind(&addr, system_id, signer.clone())
-            .map_err(|source| LinkError::Open { url: text, source })?;
-        Transport::UdpIn(server)
-    } else {
-        let mut connection = ::mavlink::connect::<MavMessage>(&text)
-            .map_err(|source| LinkError::Open { url: text, source })?;
-        connection.set_protocol_version(MavlinkVersion::V2);
-        connection.set_allow_recv_any_version(true);
-        Transport::Crate(Box::new(connection))
+        }
+    };
+    let transport = match url {
+        MavlinkUrl::UdpIn { host, port } => Transport::Udp(
+            UdpLink::bind(&address(host, port), system_id, signer.clone()).map_err(open_error)?,
+        ),
+        MavlinkUrl::UdpOut { host, port } => Transport::Udp(
+            UdpLink::connect(&address(host, port), system_id, signer.clone())
+                .map_err(open_error)?,
+        ),
+        MavlinkUrl::TcpOut { host, port } => Transport::Stream(
+            StreamLink::open(Endpoint::TcpOut(address(host, port)), signer.clone())
+                .map_err(open_error)?,
+        ),
+        MavlinkUrl::TcpIn { host, port } => {
+            let listener = TcpListener::bind(address(host, port)).map_err(open_error)?;
+            Transport::Stream(
+                StreamLink::open(Endpoint::TcpIn(listener), signer.clone()).map_err(open_error)?,
+            )
+        }
+        MavlinkUrl::Serial { device, baud } => Transport::Stream(
+            StreamLink::open(
+                Endpoint::Serial {
+                    device: device.clone(),
+                    baud: *baud,
+                },
+                signer.clone(),
+            )
+            .map_err(open_error)?,
+        ),
     };
     Ok(MavlinkLink {
         transport,
         header,
         signer,
-        sequence: AtomicU8::new(0),
     })
 }
 

@@ -12,6 +12,7 @@
 //! | `csi-garbage@AT:N` | `N` bytes of seeded random garbage in the CSI stream before the first record at or after `AT` |
 //! | `imu-nan@AT:S` | the IMU samples of `S` s from `AT` with NaN readings (a failing sensor driver) |
 //! | `imu-saturate@AT:S` | the IMU samples of `S` s from `AT` reading 39 g and 45 rad/s on every axis (beyond a 16 g, 2000 °/s IMU's range) |
+//! | `mav-corrupt@AT:N` | each of the `N` IMU messages from `AT` first sent corrupted, in a datagram of its own: [`CORRUPT_PREFIX`] bytes of garbage, then the message with one payload bit flipped (its CRC fails); then sent intact |
 
 use std::str::FromStr;
 
@@ -27,6 +28,10 @@ const NS_PER_S: f64 = 1e9;
 const GARBAGE_SEED: u64 = 0x5EED;
 /// Most garbage one fault sends, bytes.
 const MAX_GARBAGE: usize = 1 << 24;
+/// Garbage bytes before each corrupted MAVLink message (`mav-corrupt`).
+pub const CORRUPT_PREFIX: usize = 16;
+/// Most messages one `mav-corrupt` fault corrupts.
+const MAX_CORRUPT: usize = 1 << 20;
 /// A saturated accelerometer's reading, m/s² (39 g).
 const SATURATED_ACCEL_M_S2: f64 = 39.0 * 9.806_65;
 /// A saturated gyroscope's reading, rad/s.
@@ -76,6 +81,13 @@ pub enum PlayFault {
         at_s: f64,
         /// For, s.
         for_s: f64,
+    },
+    /// IMU messages first sent corrupted.
+    MavCorrupt {
+        /// From, s of the dataset.
+        at_s: f64,
+        /// How many messages.
+        messages: usize,
     },
     /// Random bytes in the CSI stream.
     CsiGarbage {
@@ -131,9 +143,16 @@ impl FromStr for PlayFault {
                 }
                 Ok(Self::CsiGarbage { at_s, bytes })
             }
+            "mav-corrupt" => {
+                let messages = value.parse::<usize>().map_err(|_| bad())?;
+                if messages == 0 || messages > MAX_CORRUPT {
+                    return Err(format!("{s:?}: 1 to {MAX_CORRUPT} messages"));
+                }
+                Ok(Self::MavCorrupt { at_s, messages })
+            }
             _ => Err(format!(
                 "{s:?}: the kinds are imu-shift, imu-silence, fc-reboot, imu-nan, imu-saturate, \
-                 csi-shift, csi-garbage"
+                 mav-corrupt, csi-shift, csi-garbage"
             )),
         }
     }
@@ -143,13 +162,38 @@ impl FromStr for PlayFault {
 #[derive(Clone, Debug, Default)]
 pub(super) struct Faults {
     faults: Vec<(PlayFault, bool)>,
+    /// IMU messages corrupted so far, per fault.
+    corrupted: Vec<usize>,
 }
 
 impl Faults {
     pub(super) fn new(faults: &[PlayFault]) -> Self {
         Self {
             faults: faults.iter().map(|&f| (f, false)).collect(),
+            corrupted: vec![0; faults.len()],
         }
+    }
+
+    /// Whether the IMU message at `rel_s` s into the dataset is first sent corrupted; if so,
+    /// `frame` (its encoded bytes) becomes the corrupted datagram.
+    pub(super) fn corrupt(&mut self, rel_s: f64, frame: &mut Vec<u8>) -> bool {
+        for ((fault, _), n) in self.faults.iter().zip(&mut self.corrupted) {
+            if let PlayFault::MavCorrupt { at_s, messages } = *fault
+                && rel_s >= at_s
+                && *n < messages
+            {
+                *n += 1;
+                // A payload bit (the payload starts after the 10-byte MAVLink 2 header).
+                if let Some(b) = frame.get_mut(12) {
+                    *b ^= 0x10;
+                }
+                let mut rng = ChaCha8Rng::seed_from_u64(GARBAGE_SEED + *n as u64);
+                let garbage = (0..CORRUPT_PREFIX).map(|_| rng.random::<u8>() & 0x7F);
+                frame.splice(0..0, garbage);
+                return true;
+            }
+        }
+        false
     }
 
     /// The time to send for the IMU sample (`imu`) or barometer reading at `t_ns` (`rel_s` s

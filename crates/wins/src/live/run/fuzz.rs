@@ -17,7 +17,7 @@
 use std::path::PathBuf;
 
 use ::mavlink::dialects::common::MavMessage;
-use ::mavlink::{MavHeader, MavlinkReader, MavlinkVersion, write_versioned_msg};
+use ::mavlink::{MavHeader, MavlinkVersion, write_versioned_msg};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -26,7 +26,9 @@ use crate::Config;
 use crate::csi::intel5300::{CsiRecord, Event, StreamDecoder, encode_frame_record, encode_record};
 use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::imu::ImuSample;
+use crate::live::mavlink::framer::Framer;
 use crate::live::mavlink::inbound::InboundDecoder;
+use crate::live::mavlink::signing;
 use crate::live::player::{highres_imu, highres_pressure};
 use crate::live::{CsiEvent, LiveInput};
 use crate::sim::{Scenario, simulate, write_dataset};
@@ -259,9 +261,13 @@ fn fc_inputs(
     bytes: &[u8],
     arrival_ns: i64,
 ) -> Vec<LiveInput> {
-    let mut reader = MavlinkReader::new(bytes);
+    let mut framer = Framer::default();
+    framer.push(bytes);
     let mut out = vec![];
-    while let Ok((header, message)) = reader.read_any_message::<MavMessage>() {
+    while let Some(frame) = framer.next_frame(true) {
+        let Ok((header, message)) = signing::decode(&frame) else {
+            continue;
+        };
         out.extend(
             decode(inbound, &header, &message, arrival_ns)
                 .into_iter()

@@ -12,7 +12,7 @@ use serde::Serialize;
 use super::outputs::Outputs;
 use super::{LiveError, io_err};
 use crate::live::mavlink::inbound::{InboundDecoder, InboundStats};
-use crate::live::mavlink::link::MavlinkLink;
+use crate::live::mavlink::link::{LinkCounts, MavlinkLink};
 use crate::live::mavlink::signing::SigningCounts;
 use crate::live::session::{ClockReport, LiveStats};
 
@@ -34,8 +34,10 @@ pub struct LiveSummary {
     pub live: LiveStats,
     /// The flight controller link's counts.
     pub mavlink_in: InboundStats,
-    /// Datagrams of a `udpin:` link dropped for holding no CRC-valid MAVLink message.
-    pub mavlink_garbage_datagrams: u64,
+    /// What arrived on the flight controller link: CRC-valid frames, garbage bytes, bad CRCs,
+    /// messages the dialect does not know, UDP datagrams without a valid frame, stream
+    /// connections lost.
+    pub mavlink_link: LinkCounts,
     /// With a signing key (`live.mavlink_key`): the messages signed and sent, and those received
     /// taken or refused by reason; `null` without one.
     pub mavlink_signing: Option<SigningCounts>,
@@ -59,7 +61,7 @@ pub(super) struct StatsFile<'a> {
     pub(super) path: PathBuf,
     /// The flight controller link's decoder (its counts).
     pub(super) inbound: &'a Mutex<InboundDecoder>,
-    /// The flight controller link (its garbage count).
+    /// The flight controller link (its counts).
     pub(super) link: &'a MavlinkLink,
     /// The CSI server's address.
     pub(super) csi_listen: String,
@@ -80,7 +82,7 @@ impl StatsFile<'_> {
             complete,
             live,
             mavlink_in: self.inbound.lock().map(|d| *d.stats()).unwrap_or_default(),
-            mavlink_garbage_datagrams: self.link.garbage_datagrams(),
+            mavlink_link: self.link.counts(),
             mavlink_signing: self.link.signing_counts(),
             poses_sent: out.sent,
             poses_not_sent: out.not_sent,

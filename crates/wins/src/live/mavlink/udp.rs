@@ -1,12 +1,17 @@
-//! `udpin:HOST:PORT`: a UDP server that answers the flight controller, never whoever spoke last.
+//! `udpin:HOST:PORT` and `udpout:HOST:PORT`: UDP links that answer the flight controller,
+//! never whoever spoke last.
 //!
-//! A flight controller (or a router forwarding it) sends to our port; we answer the address its
-//! datagrams come from. The mavlink crate's own UDP server answers the last datagram's sender,
-//! whoever it is: one HEARTBEAT from another host on the network then diverts the poses. Here the
-//! answering address is learned only from a datagram that holds a CRC-valid message of the
-//! vehicle's system id; a datagram that holds no valid message at all is counted
-//! ([`UdpIn::garbage_datagrams`]) and dropped, and messages of other systems are passed on (the
-//! decoder refuses and counts them) without moving the answering address.
+//! `udpin`: a flight controller (or a router forwarding it) sends to our port; we answer the
+//! address its datagrams come from. The mavlink crate's own UDP server answers the last
+//! datagram's sender, whoever it is: one HEARTBEAT from another host on the network then diverts
+//! the poses. Here the answering address is learned only from a datagram that holds a CRC-valid
+//! message of the vehicle's system id, and messages of other systems are passed on (the decoder
+//! refuses and counts them) without moving it. `udpout`: we send to the given address from an
+//! ephemeral port, connected to it, so datagrams from anywhere else never reach us.
+//!
+//! Each datagram is framed on its own ([`super::framer`]): its garbage bytes, bad CRCs and unknown
+//! messages are counted ([`UdpLink::frame_counts`]), and a datagram with no CRC-valid frame at
+//! all is counted whole ([`UdpLink::garbage_datagrams`]) and dropped.
 //!
 //! With a signing key ([`super::signing`]) only messages whose signature holds are passed on, and
 //! only they can set the answering address; the others are counted by the signer. Replies are
@@ -14,62 +19,110 @@
 
 use std::collections::VecDeque;
 use std::io;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use ::mavlink::dialects::common::MavMessage;
-use ::mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
+use ::mavlink::{MavHeader, MavlinkVersion};
 
-use super::signing::Signer;
+use super::framer::{FrameCounts, Framer};
+use super::signing::{Signer, decode};
 
 /// Largest UDP payload.
 const DATAGRAM: usize = 65_536;
 
-/// A listening UDP link (module doc).
+/// A UDP link (module doc).
 #[derive(Debug)]
-pub struct UdpIn {
+pub struct UdpLink {
     socket: UdpSocket,
-    /// The vehicle's system id: only its datagrams set [`Self::peer`].
+    /// The vehicle's system id: only its datagrams set [`Self::peer`] (`udpin`).
     vehicle_system_id: u32,
-    /// Where replies go: the last address the vehicle's messages came from.
+    /// Where replies go: the last address the vehicle's messages came from (`udpin`), or the
+    /// address given (`udpout`).
     peer: Mutex<Option<SocketAddr>>,
+    /// `udpout`: the peer is the address given and never moves.
+    fixed_peer: bool,
     /// Messages of the last datagram not yet handed out.
     pending: Mutex<VecDeque<(MavHeader, MavMessage)>>,
-    /// The receive buffer, kept (one datagram at a time).
-    buffer: Mutex<Vec<u8>>,
+    /// The receive buffer and the framer, kept (one datagram at a time).
+    receiving: Mutex<(Vec<u8>, Framer)>,
+    /// The framer's counts, readable while a receive blocks.
+    counts: Mutex<FrameCounts>,
     sequence: AtomicU8,
     garbage: AtomicU64,
     /// Signs the replies and checks what arrives, with a key.
     signer: Option<Arc<Signer>>,
 }
 
-impl UdpIn {
-    /// Binds `addr`; replies will go to the vehicle `vehicle_system_id`; with `signer`, signed
-    /// (module doc).
+impl UdpLink {
+    /// `udpin`: binds `addr`; replies will go to the vehicle `vehicle_system_id`; with `signer`,
+    /// signed (module doc).
     pub fn bind(
         addr: &str,
         vehicle_system_id: u8,
         signer: Option<Arc<Signer>>,
     ) -> io::Result<Self> {
-        Ok(Self {
-            socket: UdpSocket::bind(addr)?,
+        Ok(Self::on(
+            UdpSocket::bind(addr)?,
+            vehicle_system_id,
+            None,
+            signer,
+        ))
+    }
+
+    /// `udpout`: sends to `addr` from an ephemeral port, and takes datagrams from there only.
+    pub fn connect(
+        addr: &str,
+        vehicle_system_id: u8,
+        signer: Option<Arc<Signer>>,
+    ) -> io::Result<Self> {
+        let peer = addr
+            .to_socket_addrs()?
+            .next()
+            .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, "the name has no address"))?;
+        let local = if peer.is_ipv4() {
+            "0.0.0.0:0"
+        } else {
+            "[::]:0"
+        };
+        let socket = UdpSocket::bind(local)?;
+        socket.connect(peer)?;
+        Ok(Self::on(socket, vehicle_system_id, Some(peer), signer))
+    }
+
+    fn on(
+        socket: UdpSocket,
+        vehicle_system_id: u8,
+        peer: Option<SocketAddr>,
+        signer: Option<Arc<Signer>>,
+    ) -> Self {
+        Self {
+            socket,
             vehicle_system_id: u32::from(vehicle_system_id),
-            peer: Mutex::new(None),
+            fixed_peer: peer.is_some(),
+            peer: Mutex::new(peer),
             pending: Mutex::new(VecDeque::new()),
-            buffer: Mutex::new(vec![0_u8; DATAGRAM]),
+            receiving: Mutex::new((vec![0_u8; DATAGRAM], Framer::default())),
+            counts: Mutex::new(FrameCounts::default()),
             sequence: AtomicU8::new(0),
             garbage: AtomicU64::new(0),
             signer,
-        })
+        }
     }
 
-    /// Datagrams that held no CRC-valid MAVLink message (dropped).
+    /// Datagrams that held no CRC-valid MAVLink frame (dropped).
     pub fn garbage_datagrams(&self) -> u64 {
         self.garbage.load(Ordering::Relaxed)
     }
 
-    /// The address replies go to, once the vehicle has been heard.
+    /// What the datagrams held, counted ([`super::framer`]).
+    pub fn frame_counts(&self) -> FrameCounts {
+        self.counts.lock().map(|c| *c).unwrap_or_default()
+    }
+
+    /// The address replies go to, once the vehicle has been heard (`udpin`) or from the start
+    /// (`udpout`).
     pub fn peer(&self) -> Option<SocketAddr> {
         self.peer.lock().ok().and_then(|p| *p)
     }
@@ -80,19 +133,27 @@ impl UdpIn {
             if let Some(m) = self.pending.lock().ok().and_then(|mut p| p.pop_front()) {
                 return Ok(m);
             }
-            let mut buffer = self
-                .buffer
+            let mut receiving = self
+                .receiving
                 .lock()
                 .map_err(|_| io::Error::other("the receive buffer's lock is poisoned"))?;
-            let (n, from) = self.socket.recv_from(&mut buffer)?;
-            let (messages, frames) = self.messages(buffer.get(..n).unwrap_or_default());
-            if frames == 0 {
+            let (buffer, framer) = &mut *receiving;
+            let (n, from) = self.socket.recv_from(buffer)?;
+            let before = framer.counts().frames;
+            framer.push(buffer.get(..n).unwrap_or_default());
+            let messages = self.messages(framer);
+            framer.finish();
+            if let Ok(mut c) = self.counts.lock() {
+                *c = framer.counts();
+            }
+            if framer.counts().frames == before {
                 self.garbage.fetch_add(1, Ordering::Relaxed);
                 continue;
             }
-            if messages
-                .iter()
-                .any(|(h, _)| h.system_id == self.vehicle_system_id)
+            if !self.fixed_peer
+                && messages
+                    .iter()
+                    .any(|(h, _)| h.system_id == self.vehicle_system_id)
                 && let Ok(mut peer) = self.peer.lock()
             {
                 *peer = Some(from);
@@ -103,26 +164,20 @@ impl UdpIn {
         }
     }
 
-    /// The messages of a datagram to pass on, and how many CRC-valid frames it held (with a key,
-    /// those refused are counted by the signer and left out).
-    fn messages(&self, datagram: &[u8]) -> (VecDeque<(MavHeader, MavMessage)>, usize) {
-        let mut reader = MavlinkReader::new(datagram);
+    /// The messages of a datagram to pass on (with a key, those refused are counted by the
+    /// signer and left out).
+    fn messages(&self, framer: &mut Framer) -> VecDeque<(MavHeader, MavMessage)> {
         let mut messages = VecDeque::new();
-        let Some(signer) = &self.signer else {
-            while let Ok(m) = reader.read_any_message::<MavMessage>() {
-                messages.push_back(m);
-            }
-            let n = messages.len();
-            return (messages, n);
-        };
-        let mut frames = 0;
-        while let Ok(frame) = reader.read_any_raw_message::<MavMessage>() {
-            frames += 1;
-            if let Some(Ok(m)) = signer.accept(&frame) {
+        while let Some(frame) = framer.next_frame(true) {
+            let decoded = match &self.signer {
+                Some(signer) => signer.accept(&frame),
+                None => Some(decode(&frame)),
+            };
+            if let Some(Ok(m)) = decoded {
                 messages.push_back(m);
             }
         }
-        (messages, frames)
+        messages
     }
 
     /// Sends one message as MAVLink 2 with `header`'s ids (the sequence is this link's), signed
@@ -135,22 +190,35 @@ impl UdpIn {
             sequence: self.sequence.fetch_add(1, Ordering::Relaxed),
             ..*header
         };
-        if let Some(signer) = &self.signer {
-            return self
-                .socket
-                .send_to(signer.sign(header, message).raw_bytes(), peer);
+        let bytes = encode(self.signer.as_deref(), header, message)?;
+        if self.fixed_peer {
+            self.socket.send(&bytes)
+        } else {
+            self.socket.send_to(&bytes, peer)
         }
-        let mut bytes = Vec::with_capacity(300);
-        ::mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, message)
-            .map_err(|e| io::Error::other(e.to_string()))?;
-        self.socket.send_to(&bytes, peer)
     }
+}
+
+/// One message as MAVLink 2 bytes, signed with `signer`.
+pub(super) fn encode(
+    signer: Option<&Signer>,
+    header: MavHeader,
+    message: &MavMessage,
+) -> io::Result<Vec<u8>> {
+    if let Some(signer) = signer {
+        return Ok(signer.sign(header, message).raw_bytes().to_vec());
+    }
+    let mut bytes = Vec::with_capacity(300);
+    ::mavlink::write_versioned_msg(&mut bytes, MavlinkVersion::V2, header, message)
+        .map_err(|e| io::Error::other(e.to_string()))?;
+    Ok(bytes)
 }
 
 #[cfg(test)]
 mod tests {
     use std::time::Duration;
 
+    use ::mavlink::MavlinkReader;
     use ::mavlink::dialects::common::HEARTBEAT_DATA;
 
     use super::*;
@@ -170,7 +238,7 @@ mod tests {
 
     #[test]
     fn replies_go_to_the_vehicle_not_to_the_last_sender() {
-        let link = UdpIn::bind("127.0.0.1:0", 1, None).expect("bound");
+        let link = UdpLink::bind("127.0.0.1:0", 1, None).expect("bound");
         let to = link.socket.local_addr().expect("address");
         let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
         let ours = MavHeader {
@@ -198,6 +266,7 @@ mod tests {
         assert_eq!(link.recv().expect("stranger's").0.system_id, 9);
         assert_eq!(link.recv().expect("fc's again").0.system_id, 1);
         assert_eq!(link.garbage_datagrams(), 1);
+        assert_eq!(link.frame_counts().garbage_bytes, 300);
         assert_eq!(link.peer(), fc.local_addr().ok());
 
         assert!(link.send(&ours, &heartbeat).expect("sent") > 0);
@@ -214,7 +283,7 @@ mod tests {
 
     #[test]
     fn a_datagram_of_several_messages_gives_each() {
-        let link = UdpIn::bind("127.0.0.1:0", 1, None).expect("bound");
+        let link = UdpLink::bind("127.0.0.1:0", 1, None).expect("bound");
         let to = link.socket.local_addr().expect("address");
         let fc = UdpSocket::bind("127.0.0.1:0").expect("fc");
         let mut two = datagram(1);
