@@ -401,3 +401,38 @@ proptest! {
         prop_assert_eq!(lost, garbage.len() as u64);
     }
 }
+
+/// A garbage length field claiming 64 KiB (a non-CSI code, or a 0xC1 frame record as the resync
+/// meets it) holds no later record back in a live stream: each record comes out once its own
+/// bytes are in, as in a clean stream, and the whole stream decodes as the whole file does.
+#[test]
+fn a_garbage_length_field_holds_no_later_record_back() {
+    for garbage in [[0xFF, 0xFF, 0x42], [0xFF, 0xF0, 0xC1]] {
+        let records: Vec<CsiRecord> = (0..6).map(|i| record(i, 3, 1)).collect();
+        let mut bytes = Vec::new();
+        encode_record(&records[0], &mut bytes);
+        bytes.extend(garbage);
+        let mut ends = Vec::new();
+        for r in &records[1..] {
+            encode_record(r, &mut bytes);
+            ends.push(bytes.len());
+        }
+        // Fed up to the end of each record in turn (no end of stream): that record is out.
+        let mut d = StreamDecoder::new();
+        let mut fed = 0;
+        let mut out = 0;
+        for (i, &end) in ends.iter().enumerate() {
+            d.push(&bytes[fed..end]);
+            fed = end;
+            while let Some(e) = d.next_event() {
+                out += usize::from(matches!(e, Event::Csi(_)));
+            }
+            // The last record is taken once a record could follow it (a CSI record needs
+            // nothing after it).
+            assert_eq!(out, i + 2, "{garbage:02X?}: record {} held back", i + 1);
+        }
+        let streamed = stream_in_chunks(&bytes, &[7, 300, 1]);
+        assert_eq!(streamed, SliceDecoder::new(&bytes).collect::<Vec<_>>());
+        assert_tiles(&bytes, &streamed);
+    }
+}

@@ -7,7 +7,9 @@
 //!
 //! Recovery from corrupt input: a CSI record is accepted only when its framing length, its header's
 //! CSI length and its chain counts all agree. Another code is accepted as a well-framed non-CSI
-//! record only when a plausible record starts right after it (or the stream ends there). Anything
+//! record only when a plausible record starts right after it (or the stream ends there) and no
+//! consistent CSI header starts inside the bytes it claims (decided as soon as such a header has
+//! come, so a garbage length field never holds a stream back until its length is filled). Anything
 //! else starts an *unframed* region that runs to the next offset where a consistent CSI header, or a
 //! 0xC1 record followed by one, begins; the region is reported with its offset, length and the first
 //! problem found, never dropped silently.
@@ -258,12 +260,16 @@ fn probe(buf: &[u8], eof: bool) -> Probe {
             },
         };
     }
+    // A consistent CSI header inside the bytes the record claims makes it garbage, whatever
+    // follows: decided on the bytes already here, so a garbage length field does not hold a
+    // live stream's records back until its 64 KiB have come.
+    let claimed = buf.get(..total).unwrap_or(buf);
+    if let Some(at) = embedded_csi_start(claimed, LEN_FIELD + 1) {
+        return Probe::Bad(FramingError::OverlapsCsi { next_at: at as u64 });
+    }
     let Some(rest) = buf.get(total..) else {
         return need(total);
     };
-    if let Some(at) = embedded_csi_start(&buf[..total], LEN_FIELD + 1) {
-        return Probe::Bad(FramingError::OverlapsCsi { next_at: at as u64 });
-    }
     match plausible_start(rest, eof) {
         Plausible::NeedMore => Probe::NeedMore,
         Plausible::Yes => Probe::Other { len: total, code },
@@ -317,7 +323,7 @@ enum Scan {
 }
 
 /// Finds the next offset after 0 where a consistent CSI header starts, or a 0xC1 record whose
-/// successor is a consistent CSI header.
+/// successor is a consistent CSI header and inside which none starts.
 fn resync(buf: &[u8], eof: bool, scan_from: &mut usize) -> Scan {
     let mut k = (*scan_from).max(1);
     while k < buf.len() {
@@ -353,6 +359,11 @@ fn resync_candidate(buf: &[u8]) -> Option<bool> {
         CODE_FRAME => {
             let flen = field_len(buf)?;
             if flen == 0 {
+                return Some(false);
+            }
+            // As in `probe`: a CSI header inside the bytes it claims refuses it at once.
+            let claimed = buf.get(..LEN_FIELD + flen).unwrap_or(buf);
+            if embedded_csi_start(claimed, LEN_FIELD + 1).is_some() {
                 return Some(false);
             }
             let next = buf.get(LEN_FIELD + flen..)?;
