@@ -35,7 +35,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, Trajectory, read_tum, start_live, start_live_with};
+use common::live::{Running, Trajectory, read_tum, start_live, start_live_with, start_replay};
 use common::s;
 
 /// The flight: long enough for the estimator to converge (the chain-offset resolution decides
@@ -472,21 +472,7 @@ fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() 
     let (ds, run, mut offline) = flight(&dir);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds, IDLE_EXIT_S);
     let capture = dir.join("odometry.bin");
-    let mut replay = Running::wins(
-        "wins replay",
-        &[
-            "replay",
-            s(&ds),
-            "--realtime",
-            "--csi-connect",
-            &format!("127.0.0.1:{csi_port}"),
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{mav_port}"),
-            "--capture",
-            s(&capture),
-        ],
-        &dir,
-    );
+    let mut replay = start_replay(&dir, &ds, csi_port, mav_port, &["--capture", s(&capture)]);
     println!("{}", replay.finish(play_timeout()).trim());
     print_summary(&live.finish(Duration::from_secs(30)));
     offline.finish(Duration::from_secs(60));

@@ -28,7 +28,7 @@ use std::time::Duration;
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, Trajectory, read_tum, start_live};
+use common::live::{Trajectory, read_tum, start_live, start_replay};
 use common::s;
 use common::wins_ok as wins;
 
@@ -127,21 +127,7 @@ fn ate(tum: &Path, ds: &Path) -> f64 {
 /// what it printed.
 fn fly_live(dir: &Path, ds: &Path, fault: &str) -> (Value, String) {
     let (mut live, csi_port, mav_port) = start_live(dir, ds, IDLE_EXIT_S);
-    let mut replay = Running::wins(
-        "wins replay",
-        &[
-            "replay",
-            s(ds),
-            "--realtime",
-            "--csi-connect",
-            &format!("127.0.0.1:{csi_port}"),
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{mav_port}"),
-            "--fault",
-            fault,
-        ],
-        dir,
-    );
+    let mut replay = start_replay(dir, ds, csi_port, mav_port, &["--fault", fault]);
     replay.finish(Duration::from_secs(120));
     let said = live.finish(Duration::from_secs(30));
     for line in said

@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, start_live};
+use common::live::{Running, start_live, start_replay};
 use common::s;
 use common::wins_ok as wins;
 
@@ -130,19 +130,7 @@ fn a_killed_live_run_leaves_whole_lines_interim_stats_and_a_recording_that_repla
     let dir = common::fresh_dir("live-kill", "sigkill");
     let ds = flight(&dir);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds, "2");
-    let mut replay = Running::wins(
-        "wins replay",
-        &[
-            "replay",
-            s(&ds),
-            "--realtime",
-            "--csi-connect",
-            &format!("127.0.0.1:{csi_port}"),
-            "--mavlink",
-            &format!("udpout:127.0.0.1:{mav_port}"),
-        ],
-        &dir,
-    );
+    let mut replay = start_replay(&dir, &ds, csi_port, mav_port, &[]);
     let out = dir.join("live");
     let seen = wait_for_streaming(&out, &live);
     live.kill();

@@ -25,7 +25,7 @@ use std::time::Duration;
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, read_tum, start_live};
+use common::live::{read_tum, start_live, start_replay};
 use common::s;
 use common::wins_ok as wins;
 
@@ -61,22 +61,6 @@ fn data_lines(path: &Path) -> usize {
         .count()
 }
 
-fn replay(dir: &Path, ds: &Path, csi_port: u16, mav_port: u16, more: &[&str]) -> Running {
-    let csi = format!("127.0.0.1:{csi_port}");
-    let mav = format!("udpout:127.0.0.1:{mav_port}");
-    let mut args = vec![
-        "replay",
-        s(ds),
-        "--realtime",
-        "--csi-connect",
-        &csi,
-        "--mavlink",
-        &mav,
-    ];
-    args.extend_from_slice(more);
-    Running::wins("wins replay", &args, dir)
-}
-
 #[test]
 fn a_stranger_on_both_ports_is_counted_and_moves_no_pose() {
     let dir = common::fresh_dir("live-spoof", "stranger");
@@ -85,10 +69,10 @@ fn a_stranger_on_both_ports_is_counted_and_moves_no_pose() {
     simulate("2", &other);
     wins(&["run", s(&ds), "--out", s(&dir.join("run")), "--no-plots"]);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds, "2");
-    let mut vehicle = replay(&dir, &ds, csi_port, mav_port, &[]);
+    let mut vehicle = start_replay(&dir, &ds, csi_port, mav_port, &[]);
     thread::sleep(Duration::from_secs(3));
     let capture = dir.join("stranger.mavlink");
-    let mut stranger = replay(
+    let mut stranger = start_replay(
         &dir,
         &other,
         csi_port,

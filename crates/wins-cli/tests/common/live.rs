@@ -152,6 +152,24 @@ pub fn start_live_with(
     (live, csi_port, mav_port)
 }
 
+/// `wins replay` of `ds` in real time into a `wins live` on these ports (CSI over TCP, MAVLink
+/// over UDP), with `more` options.
+pub fn start_replay(dir: &Path, ds: &Path, csi_port: u16, mav_port: u16, more: &[&str]) -> Running {
+    let csi = format!("127.0.0.1:{csi_port}");
+    let mav = format!("udpout:127.0.0.1:{mav_port}");
+    let mut args = vec![
+        "replay",
+        s(ds),
+        "--realtime",
+        "--csi-connect",
+        &csi,
+        "--mavlink",
+        &mav,
+    ];
+    args.extend_from_slice(more);
+    Running::wins("wins replay", &args, dir)
+}
+
 /// A TUM trajectory in time order: (time in µs, position, [w, x, y, z]).
 pub type Trajectory = Vec<(i64, [f64; 3], [f64; 4])>;
 
