@@ -98,6 +98,10 @@ pub struct NonlinearConfig {
     pub imu_noise_from_data: bool,
     /// The measured noise follows the samples with this time constant, s.
     pub imu_noise_time_constant_s: f64,
+    /// Triangulate an AP the start left out from the bearings of the keyframes in the window
+    /// too, every few solves, not only from those that have left it
+    /// ([`super::late_ap`]; off: the latter alone, 25 at a time).
+    pub late_aps_from_window: bool,
 }
 
 impl Default for NonlinearConfig {
@@ -132,6 +136,7 @@ impl Default for NonlinearConfig {
             max_dead_reckoning_s: 10.0,
             imu_noise_from_data: true,
             imu_noise_time_constant_s: 1.0,
+            late_aps_from_window: false,
         }
     }
 }

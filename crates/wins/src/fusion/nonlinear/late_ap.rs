@@ -1,21 +1,36 @@
 //! APs first seen (or first placeable) after the start: their bearings are kept against the
 //! window's own estimate of each keyframe as it leaves the window, and the AP is triangulated
-//! from them ([`crate::fusion::nonlinear::triangulate`]) and joins the window once its horizontal σ passes the same
-//! bounds as a start's APs.
+//! ([`crate::fusion::nonlinear::triangulate`]) from them every 25, and joins the window once its
+//! horizontal σ passes the same bounds as a start's APs.
+//!
+//! With `late_aps_from_window` (off by default), every fifth solve the AP is instead
+//! triangulated from those and from the bearings of the keyframes still in the window, at the
+//! window's current estimate of each. Its prior then holds only what the bearings that left say
+//! (the window's own bearings of it are its factors from then on, and would otherwise count
+//! twice). The bearings that left alone wait for the window to pass them on (2 s at first, then
+//! 25 at a time): on the room family, a start that had placed one AP of three
+//! then ran on that one alone while the others' bearings came at 30 per second, and was lost
+//! when the one was gated (docs/ESTIMATOR.md, "APs placed from the window's own bearings").
 
 use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix3};
 
 use crate::fusion::nonlinear::estimator::NonlinearEstimator;
 use crate::fusion::nonlinear::phase::Tracking;
 use crate::fusion::nonlinear::state::pose_at;
-use crate::fusion::nonlinear::triangulate::{LateSights, Sight};
+use crate::fusion::nonlinear::triangulate::{LateSights, Sight, triangulate};
 use crate::imu::STANDARD_GRAVITY_M_S2;
 
 /// At most this many sights are kept per AP (the oldest leave first).
 pub(super) const MAX_SIGHTS: usize = 3000;
-/// A placement is tried when the sights kept so far are a multiple of this.
-const TRY_EVERY: usize = 25;
+/// A placement needs at least this many sights, kept and in the window (from the kept ones
+/// alone: tried at every multiple of it).
+const MIN_SIGHTS: usize = 25;
+/// A placement is tried every this many solves (0.5 s at the default keyframe period).
+const TRY_EVERY_SOLVES: usize = 5;
+/// The information on an AP placed from the window's bearings alone, 1/m² (σ 10 m): a prior
+/// that only keeps the solve from wandering.
+const WINDOW_ONLY_INFORMATION: f64 = 1e-2;
 
 impl NonlinearEstimator {
     /// Marginalizes the window down to [`super::NonlinearConfig::max_keyframes`], keeping the
@@ -31,30 +46,83 @@ impl NonlinearEstimator {
         }
     }
 
-    /// Places every AP the window lacks whose sights allow it.
+    /// Places every AP the window lacks whose sights allow it (module doc).
     pub(super) fn place_late_aps(&mut self) {
+        let body_from_array = self.sensors.body_from_array;
         let config = &self.config;
         let Some(tracking) = self.phase.tracking_mut() else {
             return;
         };
+        let from_window = config.late_aps_from_window;
+        let in_window = if from_window {
+            tracking.window_sights(&body_from_array)
+        } else {
+            Vec::new()
+        };
+        if tracking.late_sights.len() < in_window.len() {
+            tracking
+                .late_sights
+                .resize_with(in_window.len(), LateSights::default);
+        }
         let w = &mut tracking.window;
         for (l, late) in tracking.late_sights.iter_mut().enumerate() {
-            if w.is_placed(l) || late.seen == 0 || late.seen % TRY_EVERY != 0 {
+            late.solves += 1;
+            let here = in_window.get(l).map_or(&[][..], Vec::as_slice);
+            let due = if from_window {
+                here.len() + late.sights.len() >= MIN_SIGHTS && late.solves % TRY_EVERY_SOLVES == 0
+            } else {
+                late.seen > 0 && late.seen % MIN_SIGHTS == 0
+            };
+            if w.is_placed(l) || !due {
                 continue;
             }
-            let sights = late.sights.make_contiguous();
-            let Some(t) = triangulate_within_bounds(sights, config) else {
+            let left = late.sights.make_contiguous();
+            let sights: Vec<Sight> = left.iter().chain(here).copied().collect();
+            let Some(t) = triangulate_within_bounds(&sights, config) else {
                 continue;
             };
-            if let Some(info) = t.covariance.try_inverse() {
-                w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
-                late.sights.clear();
-            }
+            let info = if from_window {
+                triangulate(left, config.cauchy_scale)
+                    .and_then(|o| o.covariance.try_inverse())
+                    .unwrap_or_else(|| Matrix3::identity() * WINDOW_ONLY_INFORMATION)
+            } else {
+                match t.covariance.try_inverse() {
+                    Some(info) => info,
+                    None => continue,
+                }
+            };
+            w.place_ap(l, t.c_in_w, &((info + info.transpose()) * 0.5));
+            late.sights.clear();
         }
     }
 }
 
 impl Tracking {
+    /// The bearings of APs the window does not hold yet, from every keyframe in it, at the
+    /// window's current estimate, by AP.
+    fn window_sights(&self, body_from_array: &Isometry3<f64>) -> Vec<Vec<Sight>> {
+        let w = &self.window;
+        let mut by_ap: Vec<Vec<Sight>> = Vec::new();
+        for kf in &w.keyframes {
+            for f in &kf.frames {
+                let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
+                if unplaced.peek().is_none() {
+                    continue;
+                }
+                let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
+                for b in unplaced {
+                    if by_ap.len() <= b.ap {
+                        by_ap.resize_with(b.ap + 1, Vec::new);
+                    }
+                    if let Some(v) = by_ap.get_mut(b.ap) {
+                        v.push(Sight::of(&pose, body_from_array, b));
+                    }
+                }
+            }
+        }
+        by_ap
+    }
+
     /// Keeps the bearings of APs the window does not hold yet from its oldest keyframe (about to
     /// leave it), at that keyframe's estimate.
     fn keep_late_sights(&mut self, body_from_array: &Isometry3<f64>) {

@@ -71,9 +71,11 @@ impl Sight {
 pub(in crate::fusion::nonlinear) struct LateSights {
     /// The newest ones (at most `late_ap::MAX_SIGHTS`).
     pub(in crate::fusion::nonlinear) sights: VecDeque<Sight>,
-    /// Sights kept since the AP was first seen (the cadence of the attempts, also once the
-    /// oldest leave).
+    /// Sights kept since the AP was first seen (the cadence of the attempts from them alone,
+    /// also once the oldest leave).
     pub(in crate::fusion::nonlinear) seen: usize,
+    /// Solves since the window met the AP (the cadence of the attempts with the window's).
+    pub(in crate::fusion::nonlinear) solves: usize,
 }
 
 /// The solution for one AP.
