@@ -17,6 +17,7 @@ use nalgebra::{Isometry3, Matrix3};
 
 use crate::fusion::nonlinear::estimator::NonlinearEstimator;
 use crate::fusion::nonlinear::phase::Tracking;
+use crate::fusion::nonlinear::solve::{Keyframe, NonlinearWindow};
 use crate::fusion::nonlinear::state::pose_at;
 use crate::fusion::nonlinear::triangulate::{LateSights, Sight, triangulate};
 use crate::imu::STANDARD_GRAVITY_M_S2;
@@ -101,22 +102,14 @@ impl Tracking {
     /// The bearings of APs the window does not hold yet, from every keyframe in it, at the
     /// window's current estimate, by AP.
     fn window_sights(&self, body_from_array: &Isometry3<f64>) -> Vec<Vec<Sight>> {
-        let w = &self.window;
         let mut by_ap: Vec<Vec<Sight>> = Vec::new();
-        for kf in &w.keyframes {
-            for f in &kf.frames {
-                let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
-                if unplaced.peek().is_none() {
-                    continue;
+        for kf in &self.window.keyframes {
+            for (ap, sight) in unplaced_sights(&self.window, kf, body_from_array) {
+                if by_ap.len() <= ap {
+                    by_ap.resize_with(ap + 1, Vec::new);
                 }
-                let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
-                for b in unplaced {
-                    if by_ap.len() <= b.ap {
-                        by_ap.resize_with(b.ap + 1, Vec::new);
-                    }
-                    if let Some(v) = by_ap.get_mut(b.ap) {
-                        v.push(Sight::of(&pose, body_from_array, b));
-                    }
+                if let Some(v) = by_ap.get_mut(ap) {
+                    v.push(sight);
                 }
             }
         }
@@ -126,27 +119,40 @@ impl Tracking {
     /// Keeps the bearings of APs the window does not hold yet from its oldest keyframe (about to
     /// leave it), at that keyframe's estimate.
     fn keep_late_sights(&mut self, body_from_array: &Isometry3<f64>) {
-        let w = &self.window;
-        let Some(kf) = w.keyframes.front() else {
+        let Some(kf) = self.window.keyframes.front() else {
             return;
         };
-        for f in &kf.frames {
-            let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
-            if unplaced.peek().is_none() {
+        for (ap, sight) in unplaced_sights(&self.window, kf, body_from_array) {
+            if self.late_sights.len() <= ap {
+                self.late_sights.resize_with(ap + 1, LateSights::default);
+            }
+            let Some(late) = self.late_sights.get_mut(ap) else {
                 continue;
+            };
+            if late.sights.len() >= MAX_SIGHTS {
+                late.sights.pop_front();
             }
-            let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
-            for b in unplaced {
-                if self.late_sights.len() <= b.ap {
-                    self.late_sights.resize_with(b.ap + 1, LateSights::default);
-                }
-                let late = &mut self.late_sights[b.ap];
-                if late.sights.len() >= MAX_SIGHTS {
-                    late.sights.pop_front();
-                }
-                late.sights.push_back(Sight::of(&pose, body_from_array, b));
-                late.seen += 1;
-            }
+            late.sights.push_back(sight);
+            late.seen += 1;
         }
     }
+}
+
+/// The bearings of keyframe `kf` of APs `w` does not hold yet, each as a sight from the frame's
+/// pose at the window's estimate: (AP, sight).
+fn unplaced_sights(
+    w: &NonlinearWindow,
+    kf: &Keyframe,
+    body_from_array: &Isometry3<f64>,
+) -> Vec<(usize, Sight)> {
+    let mut out = Vec::new();
+    for f in &kf.frames {
+        let mut unplaced = f.bearings.iter().filter(|b| !w.is_placed(b.ap)).peekable();
+        if unplaced.peek().is_none() {
+            continue;
+        }
+        let pose = pose_at(&kf.x, &f.partial, STANDARD_GRAVITY_M_S2);
+        out.extend(unplaced.map(|b| (b.ap, Sight::of(&pose, body_from_array, b))));
+    }
+    out
 }
