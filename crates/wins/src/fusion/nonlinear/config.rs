@@ -100,7 +100,8 @@ pub struct NonlinearConfig {
     pub imu_noise_time_constant_s: f64,
     /// Triangulate an AP the start left out from the bearings of the keyframes in the window
     /// too, every few solves, not only from those that have left it
-    /// ([`super::late_ap`]; off: the latter alone, 25 at a time).
+    /// (docs/ESTIMATOR.md, "APs placed from the window's own bearings"; off: the latter alone,
+    /// 25 at a time).
     pub late_aps_from_window: bool,
 }
 
