@@ -35,12 +35,15 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, Trajectory, read_tum, start_live, start_live_with, start_replay};
+use common::live::{
+    Running, Trajectory, read_tum, run_recording, simulate_circle, start_live, start_live_with,
+    start_replay,
+};
 use common::s;
 
-/// The flight: long enough for the estimator to converge (the chain-offset resolution decides
-/// about 20 s in) and send ODOMETRY for several seconds, short enough for a test.
-const SCENARIO: &str = "paper-circle";
+/// The flight (the paper's circle, seed 1), s: long enough for the estimator to converge (the
+/// chain-offset resolution decides about 20 s in) and send ODOMETRY for several seconds, short
+/// enough for a test.
 const DURATION_S: &str = "30";
 /// `wins live` stops this long after its inputs stop.
 const IDLE_EXIT_S: &str = "2";
@@ -118,7 +121,7 @@ fn script() -> PathBuf {
 /// A simulated flight, and `wins run` on it started beside (it ends long before the live
 /// session): (dataset, run output, the run).
 fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
-    let ds = simulate(dir);
+    let ds = simulate_circle(&dir.join("ds"), "1", DURATION_S);
     let run = dir.join("run");
     let running = Running::wins(
         "wins run",
@@ -126,23 +129,6 @@ fn flight(dir: &Path) -> (PathBuf, PathBuf, Running) {
         dir,
     );
     (ds, run, running)
-}
-
-/// The simulated flight, `dir/ds`.
-fn simulate(dir: &Path) -> PathBuf {
-    let ds = dir.join("ds");
-    wins(&[
-        "simulate",
-        "--scenario",
-        SCENARIO,
-        "--seed",
-        "1",
-        "--duration",
-        DURATION_S,
-        "-o",
-        s(&ds),
-    ]);
-    ds
 }
 
 /// How long a 30 s flight may take from its start to `wins live`'s end.
@@ -436,15 +422,7 @@ fn imu_samples(ds: &Path) -> u64 {
 fn check_recording_replays(dir: &Path) {
     let live = dir.join("live");
     let again = dir.join("again");
-    wins(&[
-        "run",
-        s(&live.join("recording")),
-        "--config",
-        s(&live.join("config.toml")),
-        "--out",
-        s(&again),
-        "--no-plots",
-    ]);
+    run_recording(&live, &again);
     let sent = fs::read(live.join("trajectory.tum")).unwrap();
     let replayed = fs::read(again.join("trajectory.tum")).unwrap();
     let poses = sent
@@ -531,7 +509,11 @@ fn fc_session(
         let (ds, run, offline) = flight(&dir);
         (ds, Some(run), Some(offline))
     } else {
-        (simulate(&dir), None, None)
+        (
+            simulate_circle(&dir.join("ds"), "1", DURATION_S),
+            None,
+            None,
+        )
     };
     let live_args: Vec<&str> = live_args.iter().map(String::as_str).collect();
     let (mut live, csi_port, mav_port) = start_live_with(&dir, &ds, IDLE_EXIT_S, &live_args);

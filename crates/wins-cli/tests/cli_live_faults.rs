@@ -28,7 +28,7 @@ use std::time::Duration;
 use serde_json::Value;
 
 mod common;
-use common::live::{Trajectory, read_tum, start_live, start_replay};
+use common::live::{Trajectory, read_tum, simulate_circle, start_live, start_replay};
 use common::s;
 use common::wins_ok as wins;
 
@@ -46,24 +46,6 @@ const RESUME_SLACK_S: f64 = 3.0;
 const ATE_FACTOR: f64 = 2.0;
 /// `wins live` stops this long after its inputs stop, s.
 const IDLE_EXIT_S: &str = "2";
-
-/// The simulated flight of `seconds` in `dir/ds`.
-fn flight(dir: &Path, seconds: f64) -> PathBuf {
-    let ds = dir.join("ds");
-    let duration = seconds.to_string();
-    wins(&[
-        "simulate",
-        "--scenario",
-        "paper-circle",
-        "--seed",
-        "1",
-        "--duration",
-        &duration,
-        "-o",
-        s(&ds),
-    ]);
-    ds
-}
 
 /// A copy of the dataset `ds` without its IMU samples in `(from_s, to_s)`.
 fn without_imu(ds: &Path, from_s: f64, to_s: f64) -> PathBuf {
@@ -179,7 +161,7 @@ fn refused(stats: &Value, why: &str) -> u64 {
 /// and the ATE stays within [`ATE_FACTOR`] of the clean `wins run`'s.
 fn lone_fault(name: &str, fault: &str, outliers_key: &str) -> (Value, String) {
     let dir = common::fresh_dir("live-faults", name);
-    let ds = flight(&dir, SHORT_S);
+    let ds = simulate_circle(&dir.join("ds"), "1", &SHORT_S.to_string());
     let clean = batch(&ds, &dir.join("run"));
     let (stats, said) = fly_live(&dir, &ds, fault);
     let live_tum = dir.join("live/trajectory.tum");
@@ -270,7 +252,7 @@ fn corrupted_mavlink_messages_are_counted_as_garbage_and_bad_crcs_and_the_poses_
 /// reference resumed.
 fn imu_gap(name: &str, fault: &str, gap_s: f64) -> (Value, bool) {
     let dir = common::fresh_dir("live-faults", name);
-    let ds = flight(&dir, LONG_S);
+    let ds = simulate_circle(&dir.join("ds"), "1", &LONG_S.to_string());
     let clean = batch(&ds, &dir.join("run_clean"));
     let (stats, _) = fly_live(&dir, &ds, fault);
     let (from, to) = recorded_imu_gap(&dir);

@@ -20,14 +20,14 @@
 )]
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::thread;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
 mod common;
-use common::live::{Running, start_live, start_replay};
+use common::live::{Running, run_recording, simulate_circle, start_live, start_replay};
 use common::s;
 use common::wins_ok as wins;
 
@@ -41,23 +41,6 @@ const STREAMING_S: f64 = 3.0;
 const FIRST_POSES_WITHIN_S: u64 = 40;
 /// Poses on disk before the kill, at least.
 const MIN_POSES: usize = 100;
-
-/// The simulated flight in `dir/ds`.
-fn flight(dir: &Path) -> PathBuf {
-    let ds = dir.join("ds");
-    wins(&[
-        "simulate",
-        "--scenario",
-        "paper-circle",
-        "--seed",
-        "1",
-        "--duration",
-        DURATION_S,
-        "-o",
-        s(&ds),
-    ]);
-    ds
-}
 
 /// The pose lines of a TUM file that are whole so far (those before its last line end).
 fn poses_on_disk(tum: &Path) -> usize {
@@ -128,7 +111,7 @@ fn wait_for_streaming(out: &Path, live: &Running) -> usize {
 #[test]
 fn a_killed_live_run_leaves_whole_lines_interim_stats_and_a_recording_that_replays() {
     let dir = common::fresh_dir("live-kill", "sigkill");
-    let ds = flight(&dir);
+    let ds = simulate_circle(&dir.join("ds"), "1", DURATION_S);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds, "2");
     let mut replay = start_replay(&dir, &ds, csi_port, mav_port, &[]);
     let out = dir.join("live");
@@ -155,15 +138,7 @@ fn a_killed_live_run_leaves_whole_lines_interim_stats_and_a_recording_that_repla
 
     // The recording replays to the trajectory, as far as the trajectory goes.
     let again = dir.join("again");
-    wins(&[
-        "run",
-        s(&out.join("recording")),
-        "--config",
-        s(&out.join("config.toml")),
-        "--out",
-        s(&again),
-        "--no-plots",
-    ]);
+    run_recording(&out, &again);
     let replayed = whole_pose_lines(&again.join("trajectory.tum"));
     let differ = poses
         .iter()

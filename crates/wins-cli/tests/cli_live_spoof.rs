@@ -25,7 +25,7 @@ use std::time::Duration;
 use serde_json::Value;
 
 mod common;
-use common::live::{read_tum, start_live, start_replay};
+use common::live::{read_tum, simulate_circle, start_live, start_replay};
 use common::s;
 use common::wins_ok as wins;
 
@@ -33,20 +33,6 @@ use common::wins_ok as wins;
 const FLIGHT_S: &str = "30";
 /// The live ATE is at most this many times `wins run`'s.
 const ATE_FACTOR: f64 = 2.0;
-
-fn simulate(seed: &str, out: &Path) {
-    wins(&[
-        "simulate",
-        "--scenario",
-        "paper-circle",
-        "--seed",
-        seed,
-        "--duration",
-        FLIGHT_S,
-        "-o",
-        s(out),
-    ]);
-}
 
 fn ate(tum: &Path, ds: &Path) -> f64 {
     let json: Value = serde_json::from_str(&wins(&["eval", s(tum), s(ds), "--json"])).unwrap();
@@ -65,8 +51,8 @@ fn data_lines(path: &Path) -> usize {
 fn a_stranger_on_both_ports_is_counted_and_moves_no_pose() {
     let dir = common::fresh_dir("live-spoof", "stranger");
     let (ds, other) = (dir.join("ds"), dir.join("other"));
-    simulate("1", &ds);
-    simulate("2", &other);
+    simulate_circle(&ds, "1", FLIGHT_S);
+    simulate_circle(&other, "2", FLIGHT_S);
     wins(&["run", s(&ds), "--out", s(&dir.join("run")), "--no-plots"]);
     let (mut live, csi_port, mav_port) = start_live(&dir, &ds, "2");
     let mut vehicle = start_replay(&dir, &ds, csi_port, mav_port, &[]);

@@ -11,7 +11,7 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use super::s;
+use super::{s, wins_ok};
 
 /// A free local TCP port and a free local UDP port (bound, then released).
 pub fn free_ports() -> (u16, u16) {
@@ -168,6 +168,37 @@ pub fn start_replay(dir: &Path, ds: &Path, csi_port: u16, mav_port: u16, more: &
     ];
     args.extend_from_slice(more);
     Running::wins("wins replay", &args, dir)
+}
+
+/// `wins simulate` of the paper's circle with `seed`, `seconds` long, into `out`; returns `out`.
+pub fn simulate_circle(out: &Path, seed: &str, seconds: &str) -> PathBuf {
+    wins_ok(&[
+        "simulate",
+        "--scenario",
+        "paper-circle",
+        "--seed",
+        seed,
+        "--duration",
+        seconds,
+        "-o",
+        s(out),
+    ]);
+    out.to_path_buf()
+}
+
+/// `wins run` of the recording `wins live` left in `live` with the settings it used, into
+/// `again`; returns the trajectory it wrote.
+pub fn run_recording(live: &Path, again: &Path) -> PathBuf {
+    wins_ok(&[
+        "run",
+        s(&live.join("recording")),
+        "--config",
+        s(&live.join("config.toml")),
+        "--out",
+        s(again),
+        "--no-plots",
+    ]);
+    again.join("trajectory.tum")
 }
 
 /// A TUM trajectory in time order: (time in µs, position, [w, x, y, z]).
