@@ -381,6 +381,18 @@ impl Signer {
     }
 }
 
+/// A received frame's header and message: with `signer`, only when its signature holds (the
+/// others are counted by it); `None` when refused or when its payload does not decode.
+pub fn receive(
+    signer: Option<&Signer>,
+    frame: &MAVLinkMessageRaw,
+) -> Option<(MavHeader, MavMessage)> {
+    match signer {
+        Some(signer) => signer.accept(frame)?.ok(),
+        None => decode(frame).ok(),
+    }
+}
+
 /// A raw frame's header and message.
 pub fn decode(frame: &MAVLinkMessageRaw) -> Result<(MavHeader, MavMessage), ParserError> {
     let header = MavHeader {

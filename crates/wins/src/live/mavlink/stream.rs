@@ -23,7 +23,7 @@ use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
 
 use super::framer::{FrameCounts, Framer};
-use super::signing::{Signer, decode};
+use super::signing::{Signer, receive};
 use super::udp::encode;
 
 /// A serial read returns after this long without bytes (and is tried again).
@@ -125,11 +125,7 @@ impl StreamLink {
             let r = &mut *reading;
             while let Some(frame) = r.framer.next_frame(false) {
                 self.publish(&r.framer);
-                let decoded = match &self.signer {
-                    Some(signer) => signer.accept(&frame),
-                    None => Some(decode(&frame)),
-                };
-                if let Some(Ok(m)) = decoded {
+                if let Some(m) = receive(self.signer.as_deref(), &frame) {
                     return Ok(m);
                 }
             }

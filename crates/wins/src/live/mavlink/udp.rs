@@ -27,7 +27,7 @@ use ::mavlink::dialects::common::MavMessage;
 use ::mavlink::{MavHeader, MavlinkVersion};
 
 use super::framer::{FrameCounts, Framer};
-use super::signing::{Signer, decode};
+use super::signing::{Signer, receive};
 
 /// Largest UDP payload.
 const DATAGRAM: usize = 65_536;
@@ -169,13 +169,7 @@ impl UdpLink {
     fn messages(&self, framer: &mut Framer) -> VecDeque<(MavHeader, MavMessage)> {
         let mut messages = VecDeque::new();
         while let Some(frame) = framer.next_frame(true) {
-            let decoded = match &self.signer {
-                Some(signer) => signer.accept(&frame),
-                None => Some(decode(&frame)),
-            };
-            if let Some(Ok(m)) = decoded {
-                messages.push_back(m);
-            }
+            messages.extend(receive(self.signer.as_deref(), &frame));
         }
         messages
     }
