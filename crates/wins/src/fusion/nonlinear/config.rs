@@ -100,8 +100,8 @@ pub struct NonlinearConfig {
     pub imu_noise_time_constant_s: f64,
     /// Triangulate an AP the start left out from the bearings of the keyframes in the window
     /// too, every few solves, not only from those that have left it
-    /// (docs/ESTIMATOR.md, "APs placed from the window's own bearings"; off: the latter alone,
-    /// 25 at a time).
+    /// (docs/ESTIMATOR.md, "APs placed from the window's own bearings"; on by default; off: the
+    /// latter alone, 25 at a time).
     pub late_aps_from_window: bool,
 }
 
@@ -137,7 +137,7 @@ impl Default for NonlinearConfig {
             max_dead_reckoning_s: 10.0,
             imu_noise_from_data: true,
             imu_noise_time_constant_s: 1.0,
-            late_aps_from_window: false,
+            late_aps_from_window: true,
         }
     }
 }

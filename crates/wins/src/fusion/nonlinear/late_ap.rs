@@ -1,9 +1,13 @@
 //! APs first seen (or first placeable) after the start: their bearings are kept against the
 //! window's own estimate of each keyframe as it leaves the window, and the AP is triangulated
 //! ([`crate::fusion::nonlinear::triangulate`]) from them every 25, and joins the window once its
-//! horizontal σ passes the same bounds as a start's APs.
+//! horizontal σ passes the same bounds as a start's APs. That σ counts what the bearings hold,
+//! not their number: the triangulation's covariance is widened by the long-run variance ratio of
+//! its own residuals (`Triangulated::counting_persistence`), since a reflection repeats much
+//! the same error for a second of packets, and an AP placed with the covariance of independent
+//! bearings joined metres off while claiming centimetres (docs/ESTIMATOR.md).
 //!
-//! With `late_aps_from_window` (off by default), every fifth solve the AP is instead
+//! With `late_aps_from_window` (on by default), every fifth solve the AP is instead
 //! triangulated from those and from the bearings of the keyframes still in the window, at the
 //! window's current estimate of each. Its prior then holds only what the bearings that left say
 //! (the window's own bearings of it are its factors from then on, and would otherwise count
@@ -12,7 +16,7 @@
 //! then ran on that one alone while the others' bearings came at 30 per second, and was lost
 //! when the one was gated (docs/ESTIMATOR.md, "APs placed from the window's own bearings").
 
-use crate::fusion::nonlinear::solve::aps::triangulate_within_bounds;
+use crate::fusion::nonlinear::solve::aps::within_bounds;
 use nalgebra::{Isometry3, Matrix3};
 
 use crate::fusion::nonlinear::estimator::NonlinearEstimator;
@@ -79,12 +83,16 @@ impl NonlinearEstimator {
             }
             let left = late.sights.make_contiguous();
             let sights: Vec<Sight> = left.iter().chain(here).copied().collect();
-            let Some(t) = triangulate_within_bounds(&sights, config) else {
+            let Some(t) = triangulate(&sights, config.cauchy_scale) else {
                 continue;
             };
+            let (t, _) = t.counting_persistence(&sights);
+            if !within_bounds(&t, &sights, config) {
+                continue;
+            }
             let info = if from_window {
                 triangulate(left, config.cauchy_scale)
-                    .and_then(|o| o.covariance.try_inverse())
+                    .and_then(|o| o.counting_persistence(left).0.covariance.try_inverse())
                     .unwrap_or_else(|| Matrix3::identity() * WINDOW_ONLY_INFORMATION)
             } else {
                 match t.covariance.try_inverse() {

@@ -20,6 +20,7 @@ use crate::aoa::steering::sin_aoa;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::nonlinear::factors::cone::cauchy;
 use crate::fusion::nonlinear::factors::cone::sin_sigma;
+use crate::fusion::nonlinear::solve::shares::measured_variance_ratio;
 use crate::fusion::nonlinear::state::PoseAt;
 
 /// One cone angle seen from a known array pose.
@@ -164,6 +165,35 @@ fn refine(
     })
 }
 
+/// Residuals beyond this many σ are clipped before their persistence is measured: an outlier is
+/// one packet's and would otherwise dominate the autocorrelation.
+const PERSISTENCE_CLIP_SIGMAS: f64 = 3.0;
+
+impl Triangulated {
+    /// The same solution with its covariance widened by the long-run variance ratio of the
+    /// sights' own residuals at it, in their order
+    /// ([`crate::fusion::nonlinear::solve::shares::measured_variance_ratio`]): the covariance of
+    /// [`triangulate`] counts every sight as independent, while a reflection repeats much the
+    /// same error for a second of packets (docs/ESTIMATOR.md, "The bearings' errors persist from
+    /// packet to packet"). A wrong solution leaves smooth residuals and is widened the most.
+    /// Returns the ratio too.
+    pub fn counting_persistence(self, sights: &[Sight]) -> (Self, f64) {
+        let series: Vec<f64> = sights
+            .iter()
+            .filter_map(|s| {
+                let (r, _) = s.residual(&self.c_in_w)?;
+                Some((r / s.sigma).clamp(-PERSISTENCE_CLIP_SIGMAS, PERSISTENCE_CLIP_SIGMAS))
+            })
+            .collect();
+        let ratio = measured_variance_ratio(&series);
+        let widened = Self {
+            covariance: self.covariance * ratio,
+            ..self
+        };
+        (widened, ratio)
+    }
+}
+
 /// The AP seen by `sights` (module doc); `None` with fewer than 6 sights or no finite solution.
 pub fn triangulate(sights: &[Sight], cauchy_scale: f64) -> Option<Triangulated> {
     if sights.len() < 6 {
@@ -284,6 +314,62 @@ mod tests {
         assert!(
             err < 4.0 * sigma + 0.05,
             "error {err} m against σ {sigma} m"
+        );
+    }
+
+    /// The climb and arc of the test above with an error that persists over 0.3 s (a
+    /// Gauss–Markov process, as a reflection gives) and with a white one of the same size, over
+    /// 40 seeds: counted as independent, the persistent ones claim an AP several times more
+    /// certain than it is (the horizontal NEES far above its honest 2); counted with their
+    /// measured persistence it comes back near 2 (the test fails without the widening), and the
+    /// white ones are hardly widened.
+    #[test]
+    fn persistent_bearing_errors_widen_the_aps_covariance_to_an_honest_one() {
+        let c = Vector3::new(-3.0, 4.0, 2.2);
+        let (rate_hz, tau_s): (f64, f64) = (50.0, 0.3);
+        let rho = (-1.0 / (rate_hz * tau_s)).exp();
+        let innovation = (1.0 - rho * rho).sqrt();
+        let horizontal_nees = |t: &Triangulated| {
+            let d = (t.c_in_w - c).fixed_rows::<2>(0).into_owned();
+            let cov = t.covariance.fixed_view::<2, 2>(0, 0).into_owned();
+            (d.transpose() * cov.try_inverse().unwrap_or_default() * d)[(0, 0)]
+        };
+        let (mut counted, mut widened, mut white_ratio) = (0.0, 0.0, 0.0);
+        let seeds = 40;
+        for seed in 0..seeds {
+            let mut rng = crate::sim::rng::stream(seed, "persistent sights");
+            let mut e: f64 = StandardNormal.sample(&mut rng);
+            let (mut persistent, mut white) = (Vec::new(), Vec::new());
+            for i in 0..400 {
+                let t = i as f64 / rate_hz;
+                let p = if t < 4.0 {
+                    Vector3::new(0.0, 0.0, 0.1 + 0.35 * t)
+                } else {
+                    let a = 0.3 * (t - 4.0);
+                    Vector3::new(1.0 - a.cos(), a.sin(), 1.5)
+                };
+                let yaw = 2.2 + 0.5 * (t * 1.2).sin();
+                let n: f64 = StandardNormal.sample(&mut rng);
+                e = rho * e + innovation * n;
+                let w: f64 = StandardNormal.sample(&mut rng);
+                persistent.push(sight(p, yaw, &c, e * 2f64.to_radians()));
+                white.push(sight(p, yaw, &c, w * 2f64.to_radians()));
+            }
+            let t = triangulate(&persistent, 2.0).unwrap();
+            counted += horizontal_nees(&t);
+            widened += horizontal_nees(&t.counting_persistence(&persistent).0);
+            white_ratio += triangulate(&white, 2.0)
+                .unwrap()
+                .counting_persistence(&white)
+                .1;
+        }
+        let n = seeds as f64;
+        let (counted, widened, white_ratio) = (counted / n, widened / n, white_ratio / n);
+        assert!(counted > 10.0, "counted as independent: NEES {counted}");
+        assert!((0.7..5.0).contains(&widened), "widened: NEES {widened}");
+        assert!(
+            white_ratio < 1.5,
+            "white errors widened {white_ratio} times"
         );
     }
 

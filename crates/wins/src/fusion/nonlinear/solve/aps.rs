@@ -33,13 +33,17 @@ pub fn triangulate_within_bounds(
     config: &NonlinearConfig,
 ) -> Option<Triangulated> {
     let t = triangulate(sights, config.cauchy_scale)?;
+    within_bounds(&t, sights, config).then_some(t)
+}
+
+/// Whether `t`'s horizontal σ is within `config`'s bounds at its smallest range from the
+/// `sights` it was triangulated from ([`NonlinearConfig::ap_sigma_ok`]).
+pub fn within_bounds(t: &Triangulated, sights: &[Sight], config: &NonlinearConfig) -> bool {
     let range = sights
         .iter()
         .map(|s| (t.c_in_w - s.p_a_in_w).norm())
         .fold(f64::INFINITY, f64::min);
-    config
-        .ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
-        .then_some(t)
+    config.ap_sigma_ok(horizontal_sigma_m(&t.covariance), range)
 }
 
 impl NonlinearWindow {

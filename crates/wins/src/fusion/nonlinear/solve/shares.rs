@@ -33,6 +33,43 @@ pub fn variance_ratio(rate_hz: f64, correlation_s: f64) -> f64 {
     ((1.0 + e) / (1.0 - e)).max(1.0)
 }
 
+/// The long-run variance ratio of a series measured from the series itself: `1 + 2 Σ ρ_k` over
+/// its sample autocorrelations, summed in lag pairs while a pair's sum stays positive (Geyer's
+/// initial positive sequence, the estimate behind an MCMC chain's effective sample size), so that
+/// a white error and a persistent one in sum are both counted. At least 1 and at most the series'
+/// length (its `n` samples are worth at least one); 1 below 8 samples.
+pub fn measured_variance_ratio(series: &[f64]) -> f64 {
+    let n = series.len();
+    if n < 8 {
+        return 1.0;
+    }
+    let mean = series.iter().sum::<f64>() / n as f64;
+    let centred: Vec<f64> = series.iter().map(|x| x - mean).collect();
+    let c0 = centred.iter().map(|x| x * x).sum::<f64>();
+    if !c0.is_finite() || c0 <= 0.0 {
+        return 1.0;
+    }
+    let rho = |k: usize| -> f64 {
+        centred
+            .iter()
+            .zip(&centred[k..])
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+            / c0
+    };
+    let mut sum = 0.0;
+    let mut k = 1;
+    while k + 1 < n / 2 {
+        let pair = rho(k) + rho(k + 1);
+        if pair <= 0.0 {
+            break;
+        }
+        sum += pair;
+        k += 2;
+    }
+    (1.0 + 2.0 * sum).clamp(1.0, n as f64)
+}
+
 /// Each AP's share of an independent measurement per bearing, `1 / R` (module doc), from its
 /// `counts` of bearings over a window `span_s` long.
 pub fn shares(counts: &[usize], span_s: f64, correlation_s: f64) -> Vec<f64> {
@@ -92,6 +129,43 @@ mod tests {
         assert_eq!(shares(&[10, 0], 0.0, 0.3), vec![1.0, 1.0]);
         let s = shares(&[100], 2.0, 0.3);
         assert!((s[0] - 1.0 / variance_ratio(50.0, 0.3)).abs() < 1e-12);
+    }
+
+    /// Measured from the series alone: about 1 for white errors, about `R` for an AR(1)
+    /// sequence of correlation time τ, and more for a white error plus a persistent one than
+    /// for the white one alone.
+    #[test]
+    fn the_ratio_measured_from_a_series_finds_its_persistence() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let unit = Normal::new(0.0, 1.0).unwrap();
+        let white: Vec<f64> = (0..3000).map(|_| unit.sample(&mut rng)).collect();
+        let r_white = measured_variance_ratio(&white);
+        assert!((0.7..1.4).contains(&r_white), "white: {r_white}");
+        let (rate_hz, tau_s): (f64, f64) = (50.0, 0.3);
+        let rho = (-1.0 / (rate_hz * tau_s)).exp();
+        let innovation = (1.0 - rho * rho).sqrt();
+        let mut e = 0.0;
+        let persistent: Vec<f64> = (0..3000)
+            .map(|_| {
+                e = rho * e + innovation * unit.sample(&mut rng);
+                e
+            })
+            .collect();
+        let r = measured_variance_ratio(&persistent);
+        let expected = variance_ratio(rate_hz, tau_s);
+        assert!(
+            (r / expected - 1.0).abs() < 0.5,
+            "AR(1): {r} against {expected}"
+        );
+        let mixed: Vec<f64> = white.iter().zip(&persistent).map(|(w, p)| w + p).collect();
+        let r_mixed = measured_variance_ratio(&mixed);
+        assert!(
+            r_mixed > 5.0 && r_mixed < r,
+            "white + persistent: {r_mixed}"
+        );
+        assert_eq!(measured_variance_ratio(&[1.0; 5]), 1.0);
+        assert_eq!(measured_variance_ratio(&[2.0; 100]), 1.0);
+        assert!(measured_variance_ratio(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]) <= 8.0);
     }
 
     /// The mean of an AR(1) sequence scatters as `R σ² / n` (Monte Carlo, seeded): counting the
