@@ -51,9 +51,10 @@ pub struct NonlinearConfig {
     /// puts the AP close, where its bearings pin it: a linearized σ alone then looks fine).
     pub max_ap_sigma_fraction: f64,
     /// At rest, for the static start and the stillness of the zero-velocity updates alike
-    /// ([`crate::fusion::nonlinear::start::rest::means_at_rest`]): the gyro's 0.1 s mean norm below this, rad/s …
+    /// ([`crate::fusion::nonlinear::start::rest::means_at_rest`]): the gyro's 0.1 s mean norm below this
+    /// beyond what its turn-on bias may add, rad/s …
     pub rest_max_gyro_rad_s: f64,
-    /// … and the 0.1 s mean specific force's norm within this of gravity, m/s².
+    /// … and the 0.1 s mean specific force's norm within this of gravity beyond the same, m/s².
     pub rest_max_accel_deviation_m_s2: f64,
     /// At least this long at rest (the means alone, up to [`crate::fusion::nonlinear::start::rest::ONSET_MARGIN_S`] before
     /// the first motion) gives a static initialization, s.

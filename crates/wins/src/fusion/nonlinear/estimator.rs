@@ -107,7 +107,11 @@ impl NonlinearEstimator {
         start_solver: StartSolverFactory,
     ) -> Self {
         let at_rest = AtRest {
-            detector: RestDetector::new(config.clone(), STANDARD_GRAVITY_M_S2),
+            detector: RestDetector::new(
+                config.clone(),
+                sensors.imu_noise.clone(),
+                STANDARD_GRAVITY_M_S2,
+            ),
             intervals: VecDeque::new(),
         };
         Self {

@@ -259,6 +259,17 @@ mod tests {
         }
     }
 
+    /// The array's position and yaw `t` s into a climb (4 s) then an arc, the yaw swinging.
+    fn climb_and_arc(t: f64) -> (Vector3<f64>, f64) {
+        let p = if t < 4.0 {
+            Vector3::new(0.0, 0.0, 0.1 + 0.35 * t)
+        } else {
+            let a = 0.3 * (t - 4.0);
+            Vector3::new(1.0 - a.cos(), a.sin(), 1.5)
+        };
+        (p, 2.2 + 0.5 * (t * 1.2).sin())
+    }
+
     #[test]
     fn the_residual_jacobian_matches_finite_differences() {
         let s = sight(
@@ -288,13 +299,7 @@ mod tests {
         let mut sights = Vec::new();
         for i in 0..400 {
             let t = i as f64 * 0.02;
-            let p = if t < 4.0 {
-                Vector3::new(0.0, 0.0, 0.1 + 0.35 * t)
-            } else {
-                let a = 0.3 * (t - 4.0);
-                Vector3::new(1.0 - a.cos(), a.sin(), 1.5)
-            };
-            let yaw = 2.2 + 0.5 * (t * 1.2).sin();
+            let (p, yaw) = climb_and_arc(t);
             let outlier = if i % 10 == 3 { 0.7 } else { 0.0 };
             sights.push(sight(
                 p,
@@ -342,13 +347,7 @@ mod tests {
             let (mut persistent, mut white) = (Vec::new(), Vec::new());
             for i in 0..400 {
                 let t = i as f64 / rate_hz;
-                let p = if t < 4.0 {
-                    Vector3::new(0.0, 0.0, 0.1 + 0.35 * t)
-                } else {
-                    let a = 0.3 * (t - 4.0);
-                    Vector3::new(1.0 - a.cos(), a.sin(), 1.5)
-                };
-                let yaw = 2.2 + 0.5 * (t * 1.2).sin();
+                let (p, yaw) = climb_and_arc(t);
                 let n: f64 = StandardNormal.sample(&mut rng);
                 e = rho * e + innovation * n;
                 let w: f64 = StandardNormal.sample(&mut rng);

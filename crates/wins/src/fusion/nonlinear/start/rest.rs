@@ -2,12 +2,21 @@
 //! roll, pitch and the gyro bias are known before the first motion (yaw and position are the
 //! gauge).
 //!
-//! A sample is at rest when the gyro's norm and the specific force's distance to gravity stay
-//! within [`NonlinearConfig::rest_max_gyro_rad_s`] and
-//! [`NonlinearConfig::rest_max_accel_deviation_m_s2`], averaged over [`SMOOTHING_S`] (a single
-//! noisy sample of a MEMS IMU must not end the rest). The averages exclude the last
-//! [`ONSET_MARGIN_S`] before the motion was detected: a smooth take-off starts below any
-//! threshold.
+//! A sample is at rest when, averaged over [`SMOOTHING_S`] (a single noisy sample of a MEMS IMU
+//! must not end the rest), two things hold:
+//! - **the means are those of a still sensor**: the rate's norm and the specific force's distance
+//!   to gravity within [`NonlinearConfig::rest_max_gyro_rad_s`] and
+//!   [`NonlinearConfig::rest_max_accel_deviation_m_s2`] *beyond what the sensor's own turn-on
+//!   biases may add* ([`BIAS_SIGMAS`] σ of the dataset's `gyro_turn_on_bias_rad_s` per axis,
+//!   `accel_turn_on_bias_m_s2` along gravity). A consumer accelerometer's bias is 0.2 m/s² (1σ):
+//!   without it, one flight in several read 0.3 m/s² more than gravity on the ground, its rest was
+//!   never found, and its start was left to the airborne solver;
+//! - **the means stay put**: they move by no more than the same two thresholds from the rest's own
+//!   means so far (the biases cancel), so the motion's onset is found as soon as for an ideal
+//!   sensor.
+//!
+//! The averages exclude the last [`ONSET_MARGIN_S`] before the motion was detected: a smooth
+//! take-off starts below any threshold.
 
 use std::collections::VecDeque;
 
@@ -15,24 +24,32 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::fusion::nonlinear::config::NonlinearConfig;
 use crate::imu::ImuSample;
+use crate::rig::ImuNoise;
 use crate::time::Timestamp;
 
 /// Averaging window of the rest test, s.
 pub const SMOOTHING_S: f64 = 0.1;
 /// Samples this close before the detected motion are left out of the rest's averages, s.
 pub const ONSET_MARGIN_S: f64 = 0.3;
+/// The turn-on biases a still sensor's means may show, in σ of the dataset's.
+pub const BIAS_SIGMAS: f64 = 3.0;
 
-/// Whether [`SMOOTHING_S`] means of the rate `w` and the specific force `f` look like rest: the
-/// rate's norm below [`NonlinearConfig::rest_max_gyro_rad_s`], the specific force's within
-/// [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity.
+/// Whether [`SMOOTHING_S`] means of the rate `w` and the specific force `f` can be a still
+/// sensor's: the rate's norm below [`NonlinearConfig::rest_max_gyro_rad_s`], the specific
+/// force's within [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity, each widened
+/// by [`BIAS_SIGMAS`] σ of the turn-on bias `noise` states (the gyro's over its three axes).
 pub fn means_at_rest(
     config: &NonlinearConfig,
+    noise: &ImuNoise,
     gravity_m_s2: f64,
     w: &Vector3<f64>,
     f: &Vector3<f64>,
 ) -> bool {
-    w.norm() < config.rest_max_gyro_rad_s
-        && (f.norm() - gravity_m_s2).abs() < config.rest_max_accel_deviation_m_s2
+    let gyro_bound =
+        config.rest_max_gyro_rad_s + BIAS_SIGMAS * 3f64.sqrt() * noise.gyro_turn_on_bias_rad_s;
+    let accel_bound =
+        config.rest_max_accel_deviation_m_s2 + BIAS_SIGMAS * noise.accel_turn_on_bias_m_s2;
+    w.norm() < gyro_bound && (f.norm() - gravity_m_s2).abs() < accel_bound
 }
 
 /// What a rest gave.
@@ -62,9 +79,12 @@ pub struct StaticInit {
 #[derive(Clone, Debug)]
 pub struct RestDetector {
     config: NonlinearConfig,
+    noise: ImuNoise,
     gravity_m_s2: f64,
     /// Samples of the current rest (bounded by the start window's length).
     rest: VecDeque<ImuSample>,
+    /// Their sums of the rate and the specific force.
+    rest_sums: (Vector3<f64>, Vector3<f64>),
     /// The last [`SMOOTHING_S`] of samples (the test's average).
     recent: VecDeque<ImuSample>,
     /// Motion seen without a rest before it.
@@ -72,12 +92,14 @@ pub struct RestDetector {
 }
 
 impl RestDetector {
-    /// A detector.
-    pub fn new(config: NonlinearConfig, gravity_m_s2: f64) -> Self {
+    /// A detector for a sensor of noise `noise` (its turn-on biases).
+    pub fn new(config: NonlinearConfig, noise: ImuNoise, gravity_m_s2: f64) -> Self {
         Self {
             config,
+            noise,
             gravity_m_s2,
             rest: VecDeque::new(),
+            rest_sums: (Vector3::zeros(), Vector3::zeros()),
             recent: VecDeque::new(),
             moved: false,
         }
@@ -115,15 +137,23 @@ impl RestDetector {
             .map(|r| r.accel_m_s2)
             .sum::<Vector3<f64>>()
             / n;
-        if means_at_rest(&self.config, self.gravity_m_s2, &w, &f) {
+        let stays_put = self.rest.is_empty() || {
+            let n = self.rest.len() as f64;
+            (w - self.rest_sums.0 / n).norm() < self.config.rest_max_gyro_rad_s
+                && (f - self.rest_sums.1 / n).norm() < self.config.rest_max_accel_deviation_m_s2
+        };
+        if stays_put && means_at_rest(&self.config, &self.noise, self.gravity_m_s2, &w, &f) {
             self.rest.push_back(*s);
+            self.rest_sums.0 += s.gyro_rad_s;
+            self.rest_sums.1 += s.accel_m_s2;
             let keep = self.config.max_start_window_s;
-            while self
-                .rest
-                .front()
-                .is_some_and(|f| s.t.secs_since(f.t) > keep)
-            {
+            while let Some(old) = self.rest.front().copied() {
+                if s.t.secs_since(old.t) <= keep {
+                    break;
+                }
                 self.rest.pop_front();
+                self.rest_sums.0 -= old.gyro_rad_s;
+                self.rest_sums.1 -= old.accel_m_s2;
             }
             return None;
         }
@@ -161,6 +191,81 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
 
+    /// A consumer MEMS IMU's datasheet: turn-on biases 0.5°/s and 20 mg (1σ).
+    fn consumer() -> ImuNoise {
+        ImuNoise {
+            gyro_noise_density_rad_s_sqrt_hz: 2.4e-4,
+            gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
+            gyro_turn_on_bias_rad_s: 0.0087,
+            accel_noise_density_m_s2_sqrt_hz: 1.7e-3,
+            accel_bias_random_walk_m_s3_sqrt_hz: 1e-4,
+            accel_turn_on_bias_m_s2: 0.196,
+        }
+    }
+
+    /// A rest with turn-on biases of `gyro_bias` and `accel_bias` (m/s², along gravity and
+    /// across it), then a push along x of `push_m_s2` from sample 600: the static
+    /// initialization, and the sample at which the motion was found.
+    fn rest_then_push(
+        gyro_bias: Vector3<f64>,
+        accel_bias: Vector3<f64>,
+        push_m_s2: f64,
+    ) -> (Option<StaticInit>, Option<i64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let noise = Normal::new(0.0, 0.02).unwrap();
+        let tilt = UnitQuaternion::from_euler_angles(0.05, -0.08, 1.0);
+        let g_in_b = tilt.inverse() * Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2);
+        let mut det = RestDetector::new(
+            NonlinearConfig::default(),
+            consumer(),
+            STANDARD_GRAVITY_M_S2,
+        );
+        let (mut found, mut moved_at) = (None, None);
+        for i in 0..800 {
+            let moving = i >= 600;
+            let s = ImuSample {
+                t: Timestamp(i * 5_000_000),
+                gyro_rad_s: gyro_bias + Vector3::from_fn(|_, _| noise.sample(&mut rng) * 0.1),
+                accel_m_s2: g_in_b
+                    + accel_bias
+                    + Vector3::from_fn(|_, _| noise.sample(&mut rng))
+                    + Vector3::x() * if moving { push_m_s2 } else { 0.0 },
+            };
+            if let Some(init) = det.push(&s) {
+                found = Some(init);
+            }
+            if det.moved() && moved_at.is_none() {
+                moved_at = Some(i);
+            }
+        }
+        (found, moved_at)
+    }
+
+    /// A consumer IMU whose biases read 0.35 m/s² more than gravity and 0.03 rad/s at rest (1.8
+    /// and 2 σ of its datasheet's): the rest is found (it was not when only the means' distance
+    /// to an ideal sensor's was tested), its bias along gravity measured, and a push of 0.5 m/s²
+    /// ends it within the smoothing as for a sensor without biases.
+    #[test]
+    fn a_biased_consumer_imus_rest_is_found_and_its_end_as_soon() {
+        let tilt = UnitQuaternion::from_euler_angles(0.05, -0.08, 1.0);
+        let up_in_b = tilt.inverse() * Vector3::z();
+        let (gyro_bias, accel_bias) = (Vector3::new(0.02, -0.015, 0.015), up_in_b * 0.35);
+        let (init, moved_at) = rest_then_push(gyro_bias, accel_bias, 0.5);
+        let init = init.expect("the biased rest is found");
+        assert!((init.gyro_bias_rad_s - gyro_bias).norm() < 3e-4);
+        assert!(
+            (init.accel_bias_m_s2 - accel_bias).norm() < 3e-3,
+            "{}",
+            init.accel_bias_m_s2
+        );
+        let (_, unbiased_moved_at) = rest_then_push(Vector3::zeros(), Vector3::zeros(), 0.5);
+        let (moved_at, unbiased) = (moved_at.unwrap_or(0), unbiased_moved_at.unwrap_or(0));
+        assert!(
+            (600..625).contains(&moved_at) && moved_at <= unbiased + 2,
+            "motion found at sample {moved_at} (without biases {unbiased})"
+        );
+    }
+
     #[test]
     fn a_tilted_rest_gives_roll_pitch_and_gyro_bias_then_motion_ends_it() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -169,7 +274,11 @@ mod tests {
         let bias = Vector3::new(0.004, -0.002, 0.003);
         let accel_bias = Vector3::new(0.01, 0.02, -0.03);
         let g_in_b = tilt.inverse() * Vector3::new(0.0, 0.0, STANDARD_GRAVITY_M_S2);
-        let mut det = RestDetector::new(NonlinearConfig::default(), STANDARD_GRAVITY_M_S2);
+        let mut det = RestDetector::new(
+            NonlinearConfig::default(),
+            consumer(),
+            STANDARD_GRAVITY_M_S2,
+        );
         let mut found = None;
         for i in 0..800 {
             let t = Timestamp(i * 5_000_000);
@@ -212,7 +321,11 @@ mod tests {
 
     #[test]
     fn motion_from_the_start_gives_no_static_initialization() {
-        let mut det = RestDetector::new(NonlinearConfig::default(), STANDARD_GRAVITY_M_S2);
+        let mut det = RestDetector::new(
+            NonlinearConfig::default(),
+            consumer(),
+            STANDARD_GRAVITY_M_S2,
+        );
         let mut any = false;
         for i in 0..400 {
             let s = ImuSample {

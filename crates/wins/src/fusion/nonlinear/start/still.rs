@@ -10,7 +10,8 @@
 //!   noise, so a flying (or armed) drone is never still;
 //! - **the means**, as for the static start ([`crate::fusion::nonlinear::start::rest`]): the rate's norm below
 //!   [`NonlinearConfig::rest_max_gyro_rad_s`], the specific force's within
-//!   [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity;
+//!   [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity, each beyond what the
+//!   sensor's turn-on biases may add;
 //! - **the means stay put**: no axis of a 0.1 s mean moves from the means when the stillness
 //!   began by more than [`MEAN_CHANGE_SIGMAS`] σ of the difference of two such means (floored as
 //!   above). A smooth motion starts below any fixed threshold: a hover's descent accelerates by
@@ -86,6 +87,7 @@ impl Sums {
 #[derive(Clone, Debug)]
 pub struct StillDetector {
     config: NonlinearConfig,
+    noise: ImuNoise,
     gravity_m_s2: f64,
     accel_density: f64,
     gyro_density: f64,
@@ -121,6 +123,7 @@ impl StillDetector {
         Self {
             config: config.clone(),
             gravity_m_s2,
+            noise: noise.clone(),
             accel_density: noise.accel_noise_density_m_s2_sqrt_hz,
             gyro_density: noise.gyro_noise_density_rad_s_sqrt_hz,
             recent: VecDeque::new(),
@@ -188,8 +191,13 @@ impl StillDetector {
         let ratio = self.config.still_max_noise_ratio;
         let accel_bound = (ratio * sa).max(MIN_ACCEL_SCATTER_M_S2);
         let gyro_bound = (ratio * sg).max(MIN_GYRO_SCATTER_RAD_S);
-        let still = means_at_rest(&self.config, self.gravity_m_s2, &mean_w, &mean_f)
-            && var_f <= accel_bound * accel_bound
+        let still = means_at_rest(
+            &self.config,
+            &self.noise,
+            self.gravity_m_s2,
+            &mean_w,
+            &mean_f,
+        ) && var_f <= accel_bound * accel_bound
             && var_w <= gyro_bound * gyro_bound;
         let change = |sigma: f64, floor: f64| {
             (MEAN_CHANGE_SIGMAS * std::f64::consts::SQRT_2 * sigma / (self.sums.n as f64).sqrt())
