@@ -383,10 +383,12 @@ fn bad_input_is_counted() {
 /// The default (nonlinear) estimator on the paper's flight as flown, from the ground (3 s at rest,
 /// a take-off, the circle, a landing), with the built-ins' rotor vibration, 60 s, seeds 1–5.
 /// Today (docs/ESTIMATOR.md): every seed converges (median 10.6 s; the take-off starts at 3 s);
-/// position mean 0.24–0.32 m on four seeds (median 0.28) and 1.52 m on seed 2, whose AP is
-/// placed 6.7 m off (a wrong placement, docs/ESTIMATOR.md); attitude median 2.7°, AP median
-/// 0.32 m; jumps over 0.3 m 1–5 per run (18 on seed 2); the runs' mean position NEES 1.1–1.9
-/// (27 on seed 2). Bounds: medians +20 %, the worst run +50 %, the median run's jumps +20 %, and
+/// position mean 0.27–0.32 m on four seeds (median 0.28) and 1.50 m on seed 2, whose AP is
+/// placed 5.6 m off (a wrong placement, docs/ESTIMATOR.md); attitude median 1.9°, AP median
+/// 0.39 m (0.32 m before the rest test held the means to the rest's own, which finds the
+/// motion 5 ms sooner on seed 1 and moves what the rest averages: docs/ESTIMATOR.md, "A biased
+/// IMU's rest"); jumps over 0.3 m 1–5 per run (18 on seed 2); the runs' mean position NEES
+/// 1.1–1.9 (27 on seed 2). Bounds: medians +20 %, the worst run +50 %, the median run's jumps +20 %, and
 /// the median run's NEES in [1, the upper end of one run's honest 95 % band] (honest or a little
 /// cautious on the typical run).
 #[test]
@@ -405,7 +407,7 @@ fn nonlinear_paper_circle_from_the_ground_over_five_seeds() {
     assert!(converged <= 12.7, "median convergence {converged} s");
     assert!(position <= 0.34, "median position {position} m");
     assert!(attitude <= 3.24, "median attitude {attitude}°");
-    assert!(ap <= 0.39, "median AP {ap} m");
+    assert!(ap <= 0.47, "median AP {ap} m");
     let worst_position = worst(&runs, |m| m.position_error_mean_m);
     assert!(worst_position <= 2.3, "worst position {worst_position} m");
     let jumps = median(&runs, |m| m.jumps as f64);

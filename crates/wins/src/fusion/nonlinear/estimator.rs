@@ -280,6 +280,8 @@ impl NonlinearEstimator {
         }
         if let Phase::AtRest(rest) = &mut self.phase {
             if let Some(init) = rest.detector.push(s) {
+                self.still
+                    .set_biases(init.gyro_bias_rad_s, init.accel_bias_m_s2);
                 self.static_init = Some(init);
                 self.inputs.pre.set_bias(ImuBiases {
                     gyro_rad_s: init.gyro_bias_rad_s,

@@ -34,22 +34,30 @@ pub const ONSET_MARGIN_S: f64 = 0.3;
 /// The turn-on biases a still sensor's means may show, in σ of the dataset's.
 pub const BIAS_SIGMAS: f64 = 3.0;
 
+/// What unknown turn-on biases may add to a still sensor's means: [`BIAS_SIGMAS`] σ of those
+/// `noise` states, (rate's norm over the gyro's three axes rad/s, specific force along gravity
+/// m/s²).
+pub fn bias_allowance(noise: &ImuNoise) -> (f64, f64) {
+    (
+        BIAS_SIGMAS * 3f64.sqrt() * noise.gyro_turn_on_bias_rad_s,
+        BIAS_SIGMAS * noise.accel_turn_on_bias_m_s2,
+    )
+}
+
 /// Whether [`SMOOTHING_S`] means of the rate `w` and the specific force `f` can be a still
 /// sensor's: the rate's norm below [`NonlinearConfig::rest_max_gyro_rad_s`], the specific
 /// force's within [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity, each widened
-/// by [`BIAS_SIGMAS`] σ of the turn-on bias `noise` states (the gyro's over its three axes).
+/// by `allowance` (what biases not yet known may add, [`bias_allowance`]; none when the means
+/// are corrected by measured biases).
 pub fn means_at_rest(
     config: &NonlinearConfig,
-    noise: &ImuNoise,
+    allowance: (f64, f64),
     gravity_m_s2: f64,
     w: &Vector3<f64>,
     f: &Vector3<f64>,
 ) -> bool {
-    let gyro_bound =
-        config.rest_max_gyro_rad_s + BIAS_SIGMAS * 3f64.sqrt() * noise.gyro_turn_on_bias_rad_s;
-    let accel_bound =
-        config.rest_max_accel_deviation_m_s2 + BIAS_SIGMAS * noise.accel_turn_on_bias_m_s2;
-    w.norm() < gyro_bound && (f.norm() - gravity_m_s2).abs() < accel_bound
+    w.norm() < config.rest_max_gyro_rad_s + allowance.0
+        && (f.norm() - gravity_m_s2).abs() < config.rest_max_accel_deviation_m_s2 + allowance.1
 }
 
 /// What a rest gave.
@@ -142,7 +150,8 @@ impl RestDetector {
             (w - self.rest_sums.0 / n).norm() < self.config.rest_max_gyro_rad_s
                 && (f - self.rest_sums.1 / n).norm() < self.config.rest_max_accel_deviation_m_s2
         };
-        if stays_put && means_at_rest(&self.config, &self.noise, self.gravity_m_s2, &w, &f) {
+        let allowance = bias_allowance(&self.noise);
+        if stays_put && means_at_rest(&self.config, allowance, self.gravity_m_s2, &w, &f) {
             self.rest.push_back(*s);
             self.rest_sums.0 += s.gyro_rad_s;
             self.rest_sums.1 += s.accel_m_s2;

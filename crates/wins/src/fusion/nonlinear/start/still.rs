@@ -10,8 +10,9 @@
 //!   noise, so a flying (or armed) drone is never still;
 //! - **the means**, as for the static start ([`crate::fusion::nonlinear::start::rest`]): the rate's norm below
 //!   [`NonlinearConfig::rest_max_gyro_rad_s`], the specific force's within
-//!   [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity, each beyond what the
-//!   sensor's turn-on biases may add;
+//!   [`NonlinearConfig::rest_max_accel_deviation_m_s2`] of gravity, once corrected by the biases
+//!   the rest before take-off measured (no allowance for unknown biases, unlike the static
+//!   start: a slow steady turn would pass for stillness);
 //! - **the means stay put**: no axis of a 0.1 s mean moves from the means when the stillness
 //!   began by more than [`MEAN_CHANGE_SIGMAS`] σ of the difference of two such means (floored as
 //!   above). A smooth motion starts below any fixed threshold: a hover's descent accelerates by
@@ -87,7 +88,8 @@ impl Sums {
 #[derive(Clone, Debug)]
 pub struct StillDetector {
     config: NonlinearConfig,
-    noise: ImuNoise,
+    /// The gyro bias and the accelerometer bias along gravity a rest measured, when one did.
+    biases: Option<(Vector3<f64>, Vector3<f64>)>,
     gravity_m_s2: f64,
     accel_density: f64,
     gyro_density: f64,
@@ -123,7 +125,7 @@ impl StillDetector {
         Self {
             config: config.clone(),
             gravity_m_s2,
-            noise: noise.clone(),
+            biases: None,
             accel_density: noise.accel_noise_density_m_s2_sqrt_hz,
             gyro_density: noise.gyro_noise_density_rad_s_sqrt_hz,
             recent: VecDeque::new(),
@@ -131,6 +133,12 @@ impl StillDetector {
             still_since: None,
             reference: None,
         }
+    }
+
+    /// From now on the means are corrected by the biases a rest measured (`gyro_rad_s`, and the
+    /// accelerometer's along gravity `accel_m_s2`).
+    pub fn set_biases(&mut self, gyro_rad_s: Vector3<f64>, accel_m_s2: Vector3<f64>) {
+        self.biases = Some((gyro_rad_s, accel_m_s2));
     }
 
     /// Takes one sample (in time order; a gap longer than [`SMOOTHING_S`] starts afresh).
@@ -191,12 +199,15 @@ impl StillDetector {
         let ratio = self.config.still_max_noise_ratio;
         let accel_bound = (ratio * sa).max(MIN_ACCEL_SCATTER_M_S2);
         let gyro_bound = (ratio * sg).max(MIN_GYRO_SCATTER_RAD_S);
+        // In flight the biases' allowance would let a slow, steady turn pass for stillness: the
+        // means are corrected by the biases the rest measured instead, when there was one.
+        let (bg, ba) = self.biases.unwrap_or_default();
         let still = means_at_rest(
             &self.config,
-            &self.noise,
+            (0.0, 0.0),
             self.gravity_m_s2,
-            &mean_w,
-            &mean_f,
+            &(mean_w - bg),
+            &(mean_f - ba),
         ) && var_f <= accel_bound * accel_bound
             && var_w <= gyro_bound * gyro_bound;
         let change = |sigma: f64, floor: f64| {
