@@ -87,7 +87,8 @@ pub struct StaticInit {
 #[derive(Clone, Debug)]
 pub struct RestDetector {
     config: NonlinearConfig,
-    noise: ImuNoise,
+    /// What the sensor's unknown turn-on biases may add to its means ([`bias_allowance`]).
+    allowance: (f64, f64),
     gravity_m_s2: f64,
     /// Samples of the current rest (bounded by the start window's length).
     rest: VecDeque<ImuSample>,
@@ -104,7 +105,7 @@ impl RestDetector {
     pub fn new(config: NonlinearConfig, noise: ImuNoise, gravity_m_s2: f64) -> Self {
         Self {
             config,
-            noise,
+            allowance: bias_allowance(&noise),
             gravity_m_s2,
             rest: VecDeque::new(),
             rest_sums: (Vector3::zeros(), Vector3::zeros()),
@@ -150,8 +151,7 @@ impl RestDetector {
             (w - self.rest_sums.0 / n).norm() < self.config.rest_max_gyro_rad_s
                 && (f - self.rest_sums.1 / n).norm() < self.config.rest_max_accel_deviation_m_s2
         };
-        let allowance = bias_allowance(&self.noise);
-        if stays_put && means_at_rest(&self.config, allowance, self.gravity_m_s2, &w, &f) {
+        if stays_put && means_at_rest(&self.config, self.allowance, self.gravity_m_s2, &w, &f) {
             self.rest.push_back(*s);
             self.rest_sums.0 += s.gyro_rad_s;
             self.rest_sums.1 += s.accel_m_s2;
@@ -200,16 +200,10 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
 
-    /// A consumer MEMS IMU's datasheet: turn-on biases 0.5°/s and 20 mg (1σ).
+    /// A consumer MEMS IMU's datasheet (turn-on biases 0.5°/s and 20 mg, 1σ), as the simulator
+    /// flies it.
     fn consumer() -> ImuNoise {
-        ImuNoise {
-            gyro_noise_density_rad_s_sqrt_hz: 2.4e-4,
-            gyro_bias_random_walk_rad_s2_sqrt_hz: 1e-5,
-            gyro_turn_on_bias_rad_s: 0.0087,
-            accel_noise_density_m_s2_sqrt_hz: 1.7e-3,
-            accel_bias_random_walk_m_s3_sqrt_hz: 1e-4,
-            accel_turn_on_bias_m_s2: 0.196,
-        }
+        crate::sim::imu::ImuModel::ConsumerMems.noise()
     }
 
     /// A rest with turn-on biases of `gyro_bias` and `accel_bias` (m/s², along gravity and
