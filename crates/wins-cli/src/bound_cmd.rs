@@ -22,6 +22,10 @@ pub struct BoundArgs {
     /// Score from this time on, s after the first pose (as `[eval] sent_from_s` would).
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     from_s: f64,
+    /// Bound the IMU as the datasheet in `dataset.toml` states it, without the rotors'
+    /// vibration the truth records (a sensor on a bench).
+    #[arg(long)]
+    without_vibration: bool,
     /// Also write one CSV row per dataset to this file.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -42,6 +46,7 @@ pub fn bound(args: BoundArgs) -> Result<()> {
         bearing_sigma_rad: args.bearing_sigma_deg.to_radians(),
         bearing_correlation_s: args.bearing_correlation_s,
         from_s: args.from_s,
+        imu_vibration: !args.without_vibration,
         ..BoundConfig::default()
     };
     let mut rows = String::from("dataset,ate_bound_m,last_sigma_m,worst_ap_sigma_m,bearings\n");

@@ -116,6 +116,26 @@ pub struct TruthInfo {
     pub chain_phase_offsets_rad: Vec<f64>,
     /// Gravity magnitude used, m/s².
     pub gravity_m_s2: f64,
+    /// The rotors' vibration on the IMU, as an integration sees it (`None`: none, or a dataset
+    /// written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imu_vibration: Option<VibrationTruth>,
+}
+
+/// `[imu_vibration]` of `truth/truth.toml`: the rotors' vibration the IMU's samples carry beyond
+/// the datasheet's noise, as its density near 0 Hz (what a preintegration over a keyframe
+/// integrates; the rotor lines far above it average out), while the rotors spin.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VibrationTruth {
+    /// The rotors spin from here (IMU clock), ns.
+    pub from_ns: i64,
+    /// to here, ns.
+    pub to_ns: i64,
+    /// Per axis (body x, y, z), the accelerometer's density, m/s²/√Hz.
+    pub accel_density_m_s2_sqrt_hz: [f64; 3],
+    /// Per axis, the gyro's density, rad/s/√Hz.
+    pub gyro_density_rad_s_sqrt_hz: [f64; 3],
 }
 
 /// Everything in `truth/`.

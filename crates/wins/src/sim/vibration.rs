@@ -56,7 +56,7 @@ mod generator;
 #[cfg(test)]
 mod tests;
 
-pub use generator::{VibrationGenerator, VibrationSample, aliased_hz};
+pub use generator::{VibrationGenerator, VibrationSample, aliased_hz, broadband_density};
 
 /// Most thrust per weight a scenario's flight asks for: its acceleration stays under 0.9 g
 /// ([`super::Scenario::validate`]), so `|a + g e_z| ≤ 1.9 g`.

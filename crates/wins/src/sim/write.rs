@@ -5,8 +5,9 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::lab_calibration::{CALIBRATION_FILE, lab_calibration};
-use super::run::SimOutput;
+use super::run::{SimOutput, rotors_interval_s};
 use super::scenario::Scenario;
+use super::vibration::broadband_density;
 use crate::csi::intel5300::LogWriter;
 use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
@@ -14,7 +15,8 @@ use crate::dataset::manifest::{
 };
 use crate::dataset::manifest::{DEFAULT_ACCEL_RANGE_M_S2, DEFAULT_GYRO_RANGE_RAD_S, format_mac};
 use crate::dataset::truth::{
-    self, ApRow, BaroRow, BiasRow, PacketRow, Pose, TRUTH_DIR, TruthInfo, packets_file,
+    self, ApRow, BaroRow, BiasRow, PacketRow, Pose, TRUTH_DIR, TruthInfo, VibrationTruth,
+    packets_file,
 };
 use crate::dataset::{baro_csv, imu_csv};
 
@@ -210,6 +212,7 @@ pub fn write_dataset(
         seed: scenario.seed,
         chain_phase_offsets_rad: output.chain_phase_offsets_rad.clone(),
         gravity_m_s2: scenario.gravity_m_s2,
+        imu_vibration: vibration_truth(scenario),
     };
     let info_text = toml::to_string(&info).map_err(|e| WriteError {
         path: truth_dir.join("truth.toml"),
@@ -229,6 +232,20 @@ pub fn write_dataset(
     report.packets = counts;
     report.clipped = clipped;
     Ok(report)
+}
+
+/// The vibration's density near 0 Hz while the rotors spin, for `truth.toml`.
+fn vibration_truth(scenario: &Scenario) -> Option<VibrationTruth> {
+    let model = scenario.imu.vibration_model()?;
+    let d = broadband_density(&model, scenario.imu.period_ns() as f64 * 1e-9);
+    let (from_s, to_s) = rotors_interval_s(scenario);
+    let ns = |s: f64| (s.min(scenario.duration_s) * 1e9).round() as i64;
+    Some(VibrationTruth {
+        from_ns: ns(from_s),
+        to_ns: ns(to_s),
+        accel_density_m_s2_sqrt_hz: [d[0], d[1], d[2]],
+        gyro_density_rad_s_sqrt_hz: [d[3], d[4], d[5]],
+    })
 }
 
 /// The manifest a simulated scenario gets.

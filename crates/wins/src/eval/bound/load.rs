@@ -5,13 +5,13 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::BoundInput;
+use super::{BoundInput, ImuVibration};
 use crate::dataset::truth::Truth;
 use crate::imu::STANDARD_GRAVITY_M_S2;
 use crate::time::Timestamp;
 
 /// Reads what [`super::flight_bound`] needs from `dir`: the IMU noise and the array's mounting
-/// from `dataset.toml`, the barometer's sample times, and from `truth/` the poses, the APs and
+/// from `dataset.toml`, the rotors' vibration from `truth/truth.toml` (when it records it), the barometer's sample times, and from `truth/` the poses, the APs and
 /// every AP's packets (a simulated dataset writes them all; a motion-capture truth lacks the
 /// packets and is refused with a message saying so).
 pub fn load_bound_input(dir: &Path) -> Result<BoundInput, String> {
@@ -58,9 +58,23 @@ pub fn load_bound_input(dir: &Path) -> Result<BoundInput, String> {
         }
         None => Vec::new(),
     };
+    let vibration = truth
+        .info
+        .as_ref()
+        .and_then(|i| i.imu_vibration.as_ref())
+        .map(|v| {
+            let over_axes = |d: [f64; 3]| (d.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt();
+            ImuVibration {
+                from: Timestamp(v.from_ns),
+                to: Timestamp(v.to_ns),
+                accel_density_m_s2_sqrt_hz: over_axes(v.accel_density_m_s2_sqrt_hz),
+                gyro_density_rad_s_sqrt_hz: over_axes(v.gyro_density_rad_s_sqrt_hz),
+            }
+        });
     Ok(BoundInput {
         poses: truth.poses,
         noise,
+        vibration,
         body_from_array: manifest.array.body_from_array(),
         aps,
         packets,

@@ -26,7 +26,9 @@
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3};
 
+use crate::rig::ImuNoise;
 use crate::so3;
+use crate::time::Timestamp;
 
 /// 9 × 9: one instant's error state `(δθ, δv, δp)`.
 pub(super) type Mat9 = SMatrix<f64, 9, 9>;
@@ -77,6 +79,40 @@ impl Step {
         b.fixed_view_mut::<3, 3>(POS, 3)
             .copy_from(&(-0.5 * r * dt * dt));
         (a, b)
+    }
+}
+
+/// The rotors' vibration on an IMU as the bound counts it: white near 0 Hz at its broadband's
+/// density (the quadratic mean over the axes), added to the sensor's own while the rotors spin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuVibration {
+    /// The rotors spin from here on the IMU's clock
+    pub from: Timestamp,
+    /// to here.
+    pub to: Timestamp,
+    /// Accelerometer, m/s²/√Hz.
+    pub accel_density_m_s2_sqrt_hz: f64,
+    /// Gyro, rad/s/√Hz.
+    pub gyro_density_rad_s_sqrt_hz: f64,
+}
+
+/// The IMU's white densities at `t`, (gyro, accelerometer): the sensor's `noise`, with the
+/// `vibration` added in quadrature (independent noises' powers add) while the rotors spin.
+pub(super) fn densities(
+    noise: &ImuNoise,
+    vibration: Option<&ImuVibration>,
+    t: Timestamp,
+) -> (f64, f64) {
+    let (gyro, accel) = (
+        noise.gyro_noise_density_rad_s_sqrt_hz,
+        noise.accel_noise_density_m_s2_sqrt_hz,
+    );
+    match vibration.filter(|v| t >= v.from && t <= v.to) {
+        Some(v) => (
+            gyro.hypot(v.gyro_density_rad_s_sqrt_hz),
+            accel.hypot(v.accel_density_m_s2_sqrt_hz),
+        ),
+        None => (gyro, accel),
     }
 }
 

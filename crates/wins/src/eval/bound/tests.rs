@@ -62,6 +62,7 @@ fn input(poses: Vec<Pose>, aps: &[Vector3<f64>], packet_hz: i64) -> BoundInput {
     BoundInput {
         poses,
         noise: noise(),
+        vibration: None,
         body_from_array: Isometry3::from_parts(
             Translation3::new(0.0, 0.0, 0.08),
             UnitQuaternion::identity(),
@@ -201,6 +202,45 @@ fn a_bad_flight_is_an_error_not_a_panic() {
 }
 
 #[test]
+fn the_rotors_vibration_counts_as_noise_while_they_spin() {
+    let config = BoundConfig::default();
+    let still = input(flight(20.0, 2.0), &one_ap(), 20);
+    let end = still.poses[still.poses.len() - 1].t;
+    let vibration = ImuVibration {
+        from: Timestamp(0),
+        to: end,
+        accel_density_m_s2_sqrt_hz: 0.02,
+        gyro_density_rad_s_sqrt_hz: 1e-3,
+    };
+    let mut shaken = still.clone();
+    shaken.vibration = Some(vibration);
+    // The same as a sensor that noisy, the powers added.
+    let mut noisier = still.clone();
+    let n = &mut noisier.noise;
+    n.accel_noise_density_m_s2_sqrt_hz = n.accel_noise_density_m_s2_sqrt_hz.hypot(0.02);
+    n.gyro_noise_density_rad_s_sqrt_hz = n.gyro_noise_density_rad_s_sqrt_hz.hypot(1e-3);
+    let (b_still, b_shaken) = (bound(&still, &config), bound(&shaken, &config));
+    let b_noisier = bound(&noisier, &config);
+    assert!(
+        b_shaken.ate_rmse_m > 1.5 * b_still.ate_rmse_m,
+        "{b_shaken:?} {b_still:?}"
+    );
+    assert!((b_shaken.ate_rmse_m / b_noisier.ate_rmse_m - 1.0).abs() < 1e-9);
+    // Not counted when asked, nor outside the rotors' interval.
+    let bench = BoundConfig {
+        imu_vibration: false,
+        ..config
+    };
+    assert_eq!(bound(&shaken, &bench).ate_rmse_m, b_still.ate_rmse_m);
+    shaken.vibration = Some(ImuVibration {
+        from: Timestamp(end.as_nanos() + 1),
+        to: Timestamp(end.as_nanos() + 2),
+        ..vibration
+    });
+    assert_eq!(bound(&shaken, &config).ate_rmse_m, b_still.ate_rmse_m);
+}
+
+#[test]
 fn a_simulated_dataset_gives_its_bound() {
     let mut scenario = crate::sim::Scenario::built_in("paper-circle").expect("built-in");
     scenario.duration_s = 20.0;
@@ -210,6 +250,10 @@ fn a_simulated_dataset_gives_its_bound() {
     let loaded = load_bound_input(&dir);
     let _ = std::fs::remove_dir_all(&dir);
     let loaded = loaded.expect("loaded");
+    // Its rotors shake the IMU from the take-off to the landing (`[imu.vibration]`).
+    let v = loaded.vibration.expect("the truth records the vibration");
+    assert!(v.from > Timestamp(0) && v.to > v.from, "{v:?}");
+    assert!(v.accel_density_m_s2_sqrt_hz > loaded.noise.accel_noise_density_m_s2_sqrt_hz);
     let b = bound(&loaded, &BoundConfig::default());
     let received = out.aps.iter().map(|a| a.received().count()).sum::<usize>();
     assert_eq!(b.bearings, received);

@@ -69,18 +69,14 @@ impl VibrationGenerator {
             .collect();
         let rel = &config.harmonic_amplitudes;
         let harmonics = rel.len();
-        let mut filters = [Butterworth2::new(config.accel_cutoff_hz, sensor_hz); CHANNELS];
-        for f in &mut filters[3..] {
-            *f = Butterworth2::new(config.gyro_cutoff_hz, sensor_hz);
-        }
+        let filters = channel_filters(config, sensor_hz);
         // Per channel: its power P after the filter, split between broadband and lines.
         let power = channel_powers(config);
         let beta = config.broadband_fraction;
-        let mut broadband = [0.0; CHANNELS];
+        let broadband = broadband_sigmas(config, &filters);
         let mut line_scale = [0.0; CHANNELS];
         for c in 0..CHANNELS {
             let f = &filters[c];
-            broadband[c] = (beta * power[c] / f.noise_gain()).sqrt();
             let through: f64 = (0..harmonics)
                 .map(|h| {
                     let g = f.gain_at((h + 1) as f64 * config.rotor_hover_hz, sensor_hz);
@@ -181,6 +177,40 @@ impl VibrationGenerator {
 pub fn aliased_hz(f_hz: f64, rate_hz: f64) -> f64 {
     let r = f_hz.rem_euclid(rate_hz);
     r.min(rate_hz - r)
+}
+
+/// Each channel's filters at the sensor's rate `sensor_hz`: the accelerometer's, then the gyro's.
+fn channel_filters(config: &VibrationConfig, sensor_hz: f64) -> [Butterworth2; CHANNELS] {
+    let mut filters = [Butterworth2::new(config.accel_cutoff_hz, sensor_hz); CHANNELS];
+    for f in &mut filters[3..] {
+        *f = Butterworth2::new(config.gyro_cutoff_hz, sensor_hz);
+    }
+    filters
+}
+
+/// σ of each channel's white noise at the sensor's rate: `√(β P / Σ h²)`, the broadband's share
+/// `β` of the channel's power `P` through the filter's noise gain `Σ h²`.
+fn broadband_sigmas(
+    config: &VibrationConfig,
+    filters: &[Butterworth2; CHANNELS],
+) -> [f64; CHANNELS] {
+    let power = channel_powers(config);
+    std::array::from_fn(|c| (config.broadband_fraction * power[c] / filters[c].noise_gain()).sqrt())
+}
+
+/// The broadband vibration's density at low frequencies, per channel (accelerometer x, y, z in
+/// m/s²/√Hz, then gyro x, y, z in rad/s/√Hz), for an IMU of period `imu_period_s`.
+///
+/// The broadband is white at the sensor's rate `f_s` with σ per sample, `σ/√f_s` as a density;
+/// the low-pass passes it unchanged near 0 Hz (a Butterworth's gain there is 1), and taking one
+/// sample in `k` keeps it (what folds down from above the IMU's Nyquist frequency is the filter's
+/// stop band). This is what an integration over a keyframe sees of the vibration: its lines sit
+/// far above and integrate to almost nothing. `√(β P / 2B)` with `B` the filter's equivalent
+/// noise bandwidth: 0.020 m/s²/√Hz for the default 0.3 m/s², 30 % broadband and a 30 Hz cutoff.
+pub fn broadband_density(config: &VibrationConfig, imu_period_s: f64) -> [f64; CHANNELS] {
+    let step_s = imu_period_s / config.sensor_steps(imu_period_s) as f64;
+    let filters = channel_filters(config, 1.0 / step_s);
+    broadband_sigmas(config, &filters).map(|s| s * step_s.sqrt())
 }
 
 /// Each channel's power after the filter at hover: `(rms · w_j / √(mean w²))²`.
