@@ -16,6 +16,7 @@ use wins::sim::{self, Scenario};
 
 mod aoa_cmd;
 mod bound_cmd;
+mod check_cmd;
 mod eval_cmd;
 mod live_cmd;
 mod run_cmd;
@@ -124,6 +125,9 @@ enum CsiCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Is a capture usable for AoA? Antennas, signal, clipping, chain phases, calibration,
+    /// bandwidth and channel, packet rate and gaps, each with a verdict and what to do.
+    Check(check_cmd::CheckArgs),
     /// Export the CSI records of a log as JSON lines (the reference files' schema) or CSV.
     Export {
         /// Log file.
@@ -181,6 +185,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Csi { command } => match command {
             CsiCommand::Info { files, json } => csi_info(&files, json),
+            CsiCommand::Check(args) => check_cmd::check(args),
             CsiCommand::Export { file, format, out } => csi_export(&file, format, out),
         },
         Command::Simulate(args) => simulate(args),

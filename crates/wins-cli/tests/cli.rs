@@ -348,3 +348,72 @@ fn config_prints_the_shipped_defaults_and_lists_every_problem_of_a_file() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn csi_check_gives_a_verdict_per_finding_and_fails_on_an_unusable_capture() {
+    // The CSI Tool's own sample: three chains, 51 dB of SNR, too few packets for a rate.
+    let out = wins(&["csi", "check", MIXED, "--channel", "64"]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    for topic in [
+        "antennas",
+        "signal",
+        "clipping",
+        "chain phases",
+        "calibration",
+        "packets",
+    ] {
+        assert!(text.contains(topic), "{topic}: {text}");
+    }
+    assert!(text.contains("centre 5.320 GHz as given"), "{text}");
+    assert!(
+        text.lines()
+            .last()
+            .is_some_and(|l| l.starts_with("verdict")),
+        "{text}"
+    );
+
+    // The CSIKit example's chains step by quarter turns from packet to packet.
+    let out = wins(&[
+        "csi",
+        "check",
+        "--json",
+        "data/intel5300/csikit_example.dat",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        common::stderr(&out).contains("not usable for AoA"),
+        "{}",
+        common::stderr(&out)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["verdict"], "bad");
+    let phases = v["check"]["findings"]
+        .as_array()
+        .expect("findings")
+        .iter()
+        .find(|f| f["topic"] == "chain phases")
+        .expect("chain phases");
+    assert_eq!(phases["verdict"], "bad", "{phases}");
+
+    // Not a log at all, a bad channel, a missing file: clear errors.
+    let out = wins(&[
+        "csi",
+        "check",
+        "data/intel5300/csikit_example.matlab_ref.jsonl",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("a text file"));
+    let out = wins(&["csi", "check", MIXED, "--channel", "15"]);
+    assert!(
+        common::stderr(&out).contains("--channel 15 is not a Wi-Fi channel"),
+        "{}",
+        common::stderr(&out)
+    );
+    let out = wins(&["csi", "check", "no/such/file.dat"]);
+    assert!(
+        common::stderr(&out).contains("cannot read no/such/file.dat"),
+        "{}",
+        common::stderr(&out)
+    );
+}

@@ -5,6 +5,7 @@
 //! (`crate::csi::sanitize`), smoothing (`smoothing`), signal subspace (`subspace`), spectrum
 //! and peaks ([`music`]). The steering vector is [`steering`]'s, shared with the simulator.
 
+pub mod capture_check;
 pub mod chain_curvature;
 pub(crate) mod estimator;
 pub(crate) mod group;

@@ -12,6 +12,7 @@
 mod aoa_accuracy;
 mod aoa_real;
 mod bounds;
+mod capture_check;
 mod chain_offsets;
 mod data;
 mod dataset_fuzz;
