@@ -52,7 +52,7 @@ impl Identified {
     }
 }
 
-/// Identifies the file at `path` from its first [`SAMPLE_BYTES`] (`None`: nothing recognized).
+/// Identifies the file at `path` from its first 64 KiB (`None`: nothing recognized).
 pub fn identify(path: &Path) -> io::Result<Option<Identified>> {
     let mut head = Vec::new();
     crate::io_safety::open_regular(path)?
