@@ -1,12 +1,15 @@
-//! `wins csi check`: is a capture usable for AoA, with a verdict in words per finding.
+//! `wins csi check`: is a capture usable for AoA, with a verdict in words per finding; `wins csi
+//! stats`: what the receiver adds beyond thermal noise, to set simulated CSI beside real.
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use wins::aoa::capture_check::{CheckOptions, Verdict, check_capture};
-use wins::rig::ChainCalibration;
+use wins::aoa::capture_stats::capture_stats;
+use wins::csi::intel5300::read_log;
 use wins::rig::channel::wifi_channel_hz;
+use wins::rig::{ArrayGeometry, ChainCalibration};
 
 /// `wins csi check`.
 #[derive(clap::Args)]
@@ -70,6 +73,92 @@ pub fn check(args: CheckArgs) -> Result<()> {
     }
     if !unusable.is_empty() {
         bail!("not usable for AoA as recorded: {}", unusable.join(", "));
+    }
+    Ok(())
+}
+
+/// `wins csi stats`.
+#[derive(clap::Args)]
+pub struct StatsArgs {
+    /// Intel 5300 CSI Tool logs (`.dat`), or simulated datasets' `<ap>.dat`.
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+    /// Wi-Fi channel of the captures: 1–14 (2.4 GHz) or 32–177 (5 GHz) [default: 64].
+    #[arg(long, value_name = "N", conflicts_with = "center_freq_hz")]
+    channel: Option<u32>,
+    /// The channel's centre frequency instead of --channel, Hz.
+    #[arg(long, value_name = "HZ")]
+    center_freq_hz: Option<f64>,
+    /// Antenna spacing of the 3-antenna array, m [default: half a wavelength].
+    #[arg(long, value_name = "M")]
+    spacing_m: Option<f64>,
+    /// Settings, TOML (its `[aoa]` table: the smoothing and the path count).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print one JSON object per file.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `wins csi stats`: one row per capture.
+pub fn stats(args: StatsArgs) -> Result<()> {
+    let center_freq_hz = match (args.channel, args.center_freq_hz) {
+        (Some(n), _) => wifi_channel_hz(n).with_context(|| {
+            format!("--channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)")
+        })?,
+        (None, Some(f)) if !(f.is_finite() && f > 1e9) => {
+            bail!("--center-freq-hz {f} is not a Wi-Fi carrier (Hz, e.g. 5.32e9)")
+        }
+        (None, f) => f.unwrap_or(wins::rig::array::CHANNEL_64_HZ),
+    };
+    let geometry = ArrayGeometry {
+        num_antennas: 3,
+        spacing_m: args
+            .spacing_m
+            .unwrap_or_else(|| wins::rig::array::half_wavelength_m(center_freq_hz)),
+    };
+    let config = crate::run_cmd::load_config(args.config.as_deref())?.aoa;
+    let mut out = std::io::stdout().lock();
+    if !args.json {
+        writeln!(
+            out,
+            "{:<44} {:>7} {:>9} {:>9} {:>20} {:>9} {:>9} {:>9} {:>9} {:>7}",
+            "capture",
+            "packets",
+            "phase IQR",
+            "curv. R",
+            "λ2, λ3, λ4 / λ1 (dB)",
+            "ripple",
+            "ch. ampl.",
+            "ch. phase",
+            "STO IQR",
+            "AGC/100"
+        )?;
+    }
+    for path in &args.files {
+        let log = read_log(path)?;
+        let Some(s) = capture_stats(&log.records, &config, geometry, center_freq_hz)? else {
+            bail!("{}: no record with three chains to measure", path.display());
+        };
+        if args.json {
+            writeln!(out, "{}", serde_json::json!({ "file": path, "stats": s }))?;
+            continue;
+        }
+        let [l2, l3, l4] = s.eigenvalue_db;
+        writeln!(
+            out,
+            "{:<44} {:>7} {:>8.1}° {:>9.2} {:>20} {:>7.2}dB {:>7.2}dB {:>8.1}° {:>7.1}ns {:>7.1}",
+            path.display().to_string(),
+            s.packets,
+            s.chain_phase_iqr_deg,
+            s.curvature_agreement,
+            format!("{l2:.1}, {l3:.1}, {l4:.1}"),
+            s.amplitude_ripple_db,
+            s.chain_amplitude_ripple_db,
+            s.chain_phase_ripple_deg,
+            s.timing_offset_iqr_ns,
+            s.agc_changes_per_100
+        )?;
     }
     Ok(())
 }

@@ -128,6 +128,10 @@ enum CsiCommand {
     /// Is a capture usable for AoA? Antennas, signal, clipping, chain phases, calibration,
     /// bandwidth and channel, packet rate and gaps, each with a verdict and what to do.
     Check(check_cmd::CheckArgs),
+    /// What a capture's CSI carries beyond thermal noise (eigenvalue spread, ripple across
+    /// subcarriers and between chains, timing offsets, AGC): one row per capture, to set a
+    /// simulated capture beside a real one.
+    Stats(check_cmd::StatsArgs),
     /// Export the CSI records of a log as JSON lines (the reference files' schema) or CSV.
     Export {
         /// Log file.
@@ -186,6 +190,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Csi { command } => match command {
             CsiCommand::Info { files, json } => csi_info(&files, json),
             CsiCommand::Check(args) => check_cmd::check(args),
+            CsiCommand::Stats(args) => check_cmd::stats(args),
             CsiCommand::Export { file, format, out } => csi_export(&file, format, out),
         },
         Command::Simulate(args) => simulate(args),

@@ -1,4 +1,5 @@
-//! One packet from record to peaks: select a transmit stream, remove the chain offsets
+//! One packet from record to peaks: select a transmit stream, divide out the receiver's response
+//! over the band ([`crate::csi::intel5300::receiver_response`]), remove the chain offsets
 //! ([`ChainCalibration`]), sanitize the ToF ([`crate::csi::sanitize`]), then MUSIC with the
 //! layout of the record's bandwidth.
 
@@ -10,7 +11,7 @@ use super::peak::Peak;
 use super::spotfi::SpotfiConfig;
 use super::subspace::Subspace;
 use crate::check::{Problems, join};
-use crate::csi::intel5300::{CsiRecord, Perm};
+use crate::csi::intel5300::{CsiRecord, Perm, receiver_response};
 use crate::csi::sanitize::{SanitizeError, sanitize};
 use crate::csi::{Bandwidth, NUM_SUBCARRIERS};
 use crate::rig::ArrayGeometry;
@@ -28,6 +29,12 @@ pub struct AoaConfig {
     pub spotfi: SpotfiConfig,
     /// Transmit stream whose CSI is used (0-based).
     pub tx: usize,
+    /// Divide each chain's CSI by the Intel 5300's measured response over the band
+    /// ([`crate::csi::intel5300::receiver_response`]) before anything else: its bow in phase
+    /// bends every path's phase over the subcarriers, which the smoothing takes for paths.
+    /// Default false: on two of the eight real lgtm captures it makes the per-packet angle jump
+    /// between peaks (docs/VALIDATION.md, "Simulated CSI against real").
+    pub remove_receiver_response: bool,
 }
 
 impl AoaConfig {
@@ -59,6 +66,7 @@ impl Default for AoaConfig {
             paoa_half_width_deg: 20.0,
             spotfi: SpotfiConfig::default(),
             tx: 0,
+            remove_receiver_response: false,
         }
     }
 }
@@ -191,7 +199,7 @@ impl AoaEstimator {
     /// The record's CSI of the configured stream, calibrated and sanitized, row-major
     /// (antenna `m`'s subcarrier `k` at `m·30 + k`).
     pub fn prepare(&self, record: &CsiRecord) -> Result<Vec<Complex64>, AoaError> {
-        let mut csi = raw_csi(record, self.config.tx, self.geometry.num_antennas)?;
+        let mut csi = self.received_csi(record)?;
         self.calibration
             .check_bandwidth(record.header.rate.bandwidth())?;
         self.calibration
@@ -202,6 +210,18 @@ impl AoaEstimator {
             &record.header.rate.bandwidth().subcarrier_offsets_hz(),
         )?;
         Ok(csi)
+    }
+
+    /// The record's CSI of the configured stream as the antennas received it: the raw CSI with
+    /// the receiver's response divided out ([`AoaConfig::remove_receiver_response`]), before the
+    /// chain offsets and the timing offset are removed.
+    pub fn received_csi(&self, record: &CsiRecord) -> Result<Vec<Complex64>, AoaError> {
+        received_csi(
+            record,
+            self.config.tx,
+            self.geometry.num_antennas,
+            self.config.remove_receiver_response,
+        )
     }
 
     /// The signal subspace of a record, with the MUSIC that fits its bandwidth.
@@ -222,6 +242,27 @@ impl AoaEstimator {
     pub fn direct_path(&self, record: &CsiRecord) -> Result<Option<Peak>, AoaError> {
         Ok(self.peaks(record, AoaWindow::FULL)?.first().copied())
     }
+}
+
+/// [`raw_csi`] with, when `remove_response`, each chain divided by the Intel 5300's measured
+/// response over the band ([`receiver_response`]; a fourth antenna and beyond, which no 5300
+/// has, are left as they are).
+pub fn received_csi(
+    record: &CsiRecord,
+    tx: usize,
+    num_antennas: usize,
+    remove_response: bool,
+) -> Result<Vec<Complex64>, AoaError> {
+    let mut csi = raw_csi(record, tx, num_antennas)?;
+    if remove_response {
+        let response = receiver_response();
+        for (row, factors) in csi.chunks_exact_mut(NUM_SUBCARRIERS).zip(&response) {
+            for (v, f) in row.iter_mut().zip(factors) {
+                *v /= f;
+            }
+        }
+    }
+    Ok(csi)
 }
 
 /// A calibration fits when it has one offset per antenna and was made for this carrier and

@@ -16,7 +16,7 @@
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 
-use super::estimator::{AoaConfig, AoaError, raw_csi};
+use super::estimator::{AoaConfig, AoaError, received_csi};
 use super::music::{Music, MusicConfig};
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::sanitize;
@@ -110,7 +110,7 @@ pub fn calibrate_with<'a>(
             crate::csi::Bandwidth::Ht20 => &ht20,
             crate::csi::Bandwidth::Ht40 => &ht40,
         };
-        match direct_response(record, music, config.tx, m) {
+        match direct_response(record, music, config, m) {
             Ok(v) => {
                 let expected = geometry.steering(center_freq_hz, aoa.sin());
                 let reference = v[0] * expected[0].conj();
@@ -161,10 +161,11 @@ pub fn calibrate_with<'a>(
 fn direct_response(
     record: &CsiRecord,
     music: &Music,
-    tx: usize,
+    config: &AoaConfig,
     m: usize,
 ) -> Result<Vec<Complex64>, String> {
-    let mut csi = raw_csi(record, tx, m).map_err(|e| e.to_string())?;
+    let mut csi = received_csi(record, config.tx, m, config.remove_receiver_response)
+        .map_err(|e| e.to_string())?;
     sanitize(
         &mut csi,
         m,

@@ -6,6 +6,7 @@
 //! and peaks ([`music`]). The steering vector is [`steering`]'s, shared with the simulator.
 
 pub mod capture_check;
+pub mod capture_stats;
 pub mod chain_curvature;
 pub(crate) mod estimator;
 pub(crate) mod group;
@@ -21,7 +22,7 @@ pub(crate) mod subspace;
 mod top_eigen;
 
 pub use chain_curvature::{ChainCurvature, Correction, curvature_of, restart_step_rad};
-pub use estimator::{AoaConfig, AoaError, AoaEstimator, raw_csi};
+pub use estimator::{AoaConfig, AoaError, AoaEstimator, raw_csi, received_csi};
 pub use group::GroupResult;
 pub use measure_chains::{CalibrateError, CalibrateReport, calibrate, calibrate_with};
 pub use music::{AoaWindow, Music, MusicConfig, MusicError, Spectrum};

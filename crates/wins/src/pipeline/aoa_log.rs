@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::stats::PacketStatus;
-use crate::aoa::estimator::{AoaError, AoaEstimator, raw_csi};
+use crate::aoa::estimator::{AoaError, AoaEstimator};
 use crate::aoa::music::AoaWindow;
 use crate::aoa::peak::Peak;
 use crate::aoa::spotfi::MIN_GROUP_SIZE;
@@ -67,7 +67,7 @@ pub fn match_chain_curvature<'a>(
     let mut curvature = ChainCurvature::default();
     let antennas = estimator.geometry().num_antennas;
     for record in records {
-        if let Ok(csi) = raw_csi(record, estimator.config().tx, antennas) {
+        if let Ok(csi) = estimator.received_csi(record) {
             curvature.push(&csi, antennas);
         }
     }

@@ -49,7 +49,7 @@ use self::second_pass::History;
 
 pub use self::settings::{ChainReport, FRESH_NS, Finished, Released, resolves};
 use super::{Pipeline, PipelineError, StageTiming};
-use crate::aoa::{AoaEstimator, ChainCurvature, raw_csi};
+use crate::aoa::{AoaEstimator, ChainCurvature, received_csi};
 #[cfg(doc)]
 use crate::config::ChainOffsetsConfig;
 use crate::config::Config;
@@ -213,7 +213,12 @@ impl ChainResolver {
         let measuring = matches!(self.stage, Stage::Measuring { .. });
         if self.report.resolved
             && (measuring || !self.report.had_calibration)
-            && let Ok(csi) = raw_csi(record, self.config.aoa.tx, 3)
+            && let Ok(csi) = received_csi(
+                record,
+                self.config.aoa.tx,
+                3,
+                self.config.aoa.remove_receiver_response,
+            )
             && self.curvature.push(&csi, 3)
             && !measuring
             && self

@@ -12,6 +12,8 @@
 //! with `n ~ CN(0, N₀B + P_m/SNR_impl)`, a per-packet common phase `φ_pkt`, a fixed per-chain
 //! offset `φ_m`, a per-packet sampling-time offset `τ_sto` (linear phase in `Δf_k` only), the AGC
 //! gain `s_agc` set in whole dB from the strongest chain, and `Q` rounding to 8 bits with clipping.
+//! Before the phase impairments the receiver's own response over the band multiplies signal and
+//! noise alike, per chain and subcarrier (`R_m[k]`, measured on real captures: `response`).
 
 use nalgebra::{UnitQuaternion, Vector3};
 use num_complex::{Complex, Complex64};
@@ -82,6 +84,7 @@ pub struct CsiSynth {
     noise_floor_dbm: f64,
     impl_snr: f64,
     sto_max_s: f64,
+    response: Option<[[Complex64; NUM_SUBCARRIERS]; MAX_ANTENNAS]>,
     agc_target_rssi_db: f64,
     quantization_rms: f64,
     rate: RateFlags,
@@ -120,11 +123,22 @@ impl CsiSynth {
             noise_floor_dbm: radio.noise_floor_dbm(),
             impl_snr: db_to_power(radio.implementation_snr_db),
             sto_max_s: radio.sto_max_s,
+            response: None,
             agc_target_rssi_db: radio.agc_target_rssi_db,
             quantization_rms: radio.quantization_rms,
             rate: RateFlags(rate),
             nic_clock_at_imu_zero_us: radio.nic_clock_at_imu_zero_us,
         }
+    }
+
+    /// The same synthesizer with the receiver's response per chain and subcarrier (one card's,
+    /// [`ReceiverResponse::factors`]; `None`: flat).
+    pub fn with_response(
+        mut self,
+        response: Option<[[Complex64; NUM_SUBCARRIERS]; MAX_ANTENNAS]>,
+    ) -> Self {
+        self.response = response;
+        self
     }
 
     /// The noise-free channel `H[m][k]` (√mW) seen by an array whose orientation is
@@ -186,6 +200,15 @@ impl CsiSynth {
             for v in row.iter_mut() {
                 let (re, im): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
                 *v += Complex64::new(re * sd, im * sd);
+            }
+        }
+
+        // The receiver's response over the band (response.rs), on the signal and the noise.
+        if let Some(response) = &self.response {
+            for (row, factors) in h.iter_mut().zip(response).take(m_count) {
+                for (v, f) in row.iter_mut().zip(factors) {
+                    *v *= f;
+                }
             }
         }
 
@@ -289,5 +312,8 @@ fn quantize(x: f64) -> (i8, bool) {
     }
 }
 
+mod response;
 #[cfg(test)]
 mod tests;
+
+pub use response::ReceiverResponse;

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
+use super::csi::ReceiverResponse;
 use crate::csi::Bandwidth;
 use crate::rig::array::{CHANNEL_64_HZ, SPEED_OF_LIGHT_M_S};
 
@@ -31,8 +32,15 @@ pub struct RadioConfig {
     /// the AP. Default 30.
     pub implementation_snr_db: f64,
     /// Per-packet sampling-time offset (packet detection delay) is uniform in
-    /// [0, `sto_max_s`]; it adds a linear phase across subcarriers. Default 100 ns.
+    /// [0, `sto_max_s`]; it adds a linear phase across subcarriers. Default 25.5 ns, twice the
+    /// interquartile range of the real static captures' offsets (the slope of each packet's
+    /// phase over the subcarriers: 12.6–12.9 ns; docs/VALIDATION.md, "Simulated CSI against
+    /// real").
     pub sto_max_s: f64,
+    /// The receiver's response over the band, per chain and subcarrier: `intel5300` (measured on
+    /// real captures: a 10 dB roll-off to the band's edge and a ±35° bow in phase,
+    /// [`super::csi::ReceiverResponse`]) or `flat`. Default `intel5300`.
+    pub receiver_response: ReceiverResponse,
     /// Fixed phase offset of each receive chain (A, B, C), degrees. Empty = drawn uniformly in
     /// [−180°, 180°) from the scenario seed (then written to `truth/`). Default empty.
     pub chain_phase_offsets_deg: Vec<f64>,
@@ -72,7 +80,8 @@ impl Default for RadioConfig {
             rx_antenna_gain_dbi: 2.0,
             noise_figure_db: 7.0,
             implementation_snr_db: 30.0,
-            sto_max_s: 100e-9,
+            sto_max_s: 25.5e-9,
+            receiver_response: ReceiverResponse::Intel5300,
             chain_phase_offsets_deg: Vec::new(),
             nic_restart: false,
             lab_calibration: true,

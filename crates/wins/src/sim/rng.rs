@@ -18,6 +18,8 @@ pub const BARO_STREAM: &str = "baro";
 pub const CHAIN_OFFSET_STREAM: &str = "nic/chain-phase";
 /// The stream that draws the steps each chain's offset moves by when the NIC restarts.
 pub const NIC_RESTART_STREAM: &str = "nic/restart";
+/// Stream of the card's own deviation from the measured receiver response.
+pub const RECEIVER_STREAM: &str = "nic/receiver-response";
 
 /// Seed of stream `name` under scenario seed `seed` (FNV-1a of the name, mixed by SplitMix64).
 pub fn stream_seed(seed: u64, name: &str) -> u64 {

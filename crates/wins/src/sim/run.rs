@@ -124,6 +124,11 @@ pub fn simulate(
     progress(0.0);
 
     let chain_phase_offsets_rad = chain_phase_offsets(scenario);
+    // One card's receiver response for every AP, from its own stream.
+    let response = scenario
+        .radio
+        .receiver_response
+        .factors(&mut rng::stream(seed, rng::RECEIVER_STREAM));
     let body_from_array = scenario.body_from_array();
     let mut aps = Vec::with_capacity(scenario.aps.len());
     let mut paths: Vec<Path> = Vec::with_capacity(32);
@@ -134,7 +139,8 @@ pub fn simulate(
             scenario.array.geometry,
             &chain_phase_offsets_rad,
             ap.tx_power_dbm.unwrap_or(radio.tx_power_dbm),
-        );
+        )
+        .with_response(response);
         let mut timing_rng = rng::stream(seed, &rng::packet_stream_name(&ap.name));
         let mut csi_rng = rng::stream(seed, &rng::csi_stream_name(&ap.name));
         let slots = packets::schedule(

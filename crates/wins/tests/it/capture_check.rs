@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use wins::aoa::capture_check::{
     CaptureCheck, CheckOptions, Finding, Identified, Verdict, check_capture,
 };
+use wins::aoa::capture_stats::{CaptureStats, capture_stats};
 use wins::rig::ChainCalibration;
 
 use super::data::shared_data;
@@ -268,4 +269,91 @@ fn a_missing_file_is_an_error_and_a_damaged_one_a_finding() {
     assert_eq!(file.verdict, Verdict::Warning, "{c}");
     assert!(file.measured.contains("do not frame"), "{c}");
     assert!(c.summary.csi_records > 1000, "{c}");
+}
+
+/// `wins csi stats` of `records` on the lgtm rig (0.1 m, channel 64), default settings.
+fn lgtm_stats(records: &[wins::csi::intel5300::CsiRecord]) -> CaptureStats {
+    let geometry = wins::rig::ArrayGeometry {
+        num_antennas: 3,
+        spacing_m: 0.1,
+    };
+    capture_stats(
+        records,
+        &wins::aoa::AoaConfig::default(),
+        geometry,
+        wins::rig::array::CHANNEL_64_HZ,
+    )
+    .expect("measured")
+    .expect("three-chain records")
+}
+
+#[test]
+fn the_simulated_static_capture_is_within_the_real_captures_range() {
+    let Some(dir) = shared_data() else { return };
+    let lgtm = dir.join("intel5300/lgtm");
+    let mut real = Vec::new();
+    for entry in std::fs::read_dir(&lgtm).expect("lgtm") {
+        let path = entry.expect("entry").path();
+        let name = path.display().to_string();
+        if name.ends_with(".dat") && !name.contains("test-5") {
+            real.push(lgtm_stats(
+                &wins::csi::intel5300::read_log(&path).expect("log").records,
+            ));
+        }
+    }
+    assert_eq!(real.len(), 7);
+    let scenario = wins::sim::Scenario::built_in("static-capture").expect("built-in");
+    let out = wins::sim::simulate(&scenario, &mut |_| {}).expect("simulated");
+    let sim = lgtm_stats(
+        &out.aps[0]
+            .received()
+            .map(|(_, r)| r.clone())
+            .collect::<Vec<_>>(),
+    );
+    let fields: [(&str, fn(&CaptureStats) -> f64, f64); 10] = [
+        ("phase IQR", |s| s.chain_phase_iqr_deg, 0.0),
+        ("curvature agreement", |s| s.curvature_agreement, 0.0),
+        ("λ2/λ1", |s| s.eigenvalue_db[0], 0.0),
+        ("λ3/λ1", |s| s.eigenvalue_db[1], 0.0),
+        ("λ4/λ1", |s| s.eigenvalue_db[2], 0.0),
+        ("amplitude ripple", |s| s.amplitude_ripple_db, 0.0),
+        (
+            "chains' amplitude ripple",
+            |s| s.chain_amplitude_ripple_db,
+            0.0,
+        ),
+        ("chains' phase ripple", |s| s.chain_phase_ripple_deg, 0.0),
+        // A uniform draw's IQR over ~1000 packets scatters by about ±0.4 ns.
+        ("timing offset IQR", |s| s.timing_offset_iqr_ns, 0.5),
+        ("AGC changes", |s| s.agc_changes_per_100, 0.0),
+    ];
+    let mut outside = Vec::new();
+    for (name, get, tolerance) in fields {
+        let (lo, hi) = real
+            .iter()
+            .map(get)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            });
+        let v = get(&sim);
+        if !(lo - tolerance..=hi + tolerance).contains(&v) {
+            outside.push(format!("{name}: simulated {v:.2}, real {lo:.2} – {hi:.2}"));
+        }
+    }
+    assert!(outside.is_empty(), "{outside:#?}");
+    // Without the measured receiver response the smoothed covariance has no floor.
+    let mut flat = scenario.clone();
+    flat.radio.receiver_response = wins::sim::ReceiverResponse::Flat;
+    let out = wins::sim::simulate(&flat, &mut |_| {}).expect("simulated");
+    let flat = lgtm_stats(
+        &out.aps[0]
+            .received()
+            .map(|(_, r)| r.clone())
+            .collect::<Vec<_>>(),
+    );
+    let lowest = real
+        .iter()
+        .map(|s| s.eigenvalue_db[1])
+        .fold(f64::INFINITY, f64::min);
+    assert!(flat.eigenvalue_db[1] < lowest - 10.0, "{flat:?}");
 }

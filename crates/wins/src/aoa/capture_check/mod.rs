@@ -25,6 +25,12 @@ use crate::rig::ChainCalibration;
 
 pub use identify::{Identified, identify, identify_bytes};
 
+/// Interquartile range of the phases between two chains about the value most packets share, on
+/// the quarter-turn grid the 5300's steps fall on, rad (0 when empty).
+pub(crate) fn phase_iqr_rad(angles: &[f64]) -> f64 {
+    measure::spread(angles).map_or(0.0, |s| s.iqr_rad)
+}
+
 /// How a finding bears on AoA.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]

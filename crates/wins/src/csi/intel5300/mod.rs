@@ -35,6 +35,7 @@ mod layout;
 mod rate;
 mod reader;
 mod record;
+mod response;
 mod summary;
 mod writer;
 
@@ -50,5 +51,6 @@ pub use record::{
     BfeeHeader, CsiRecord, DEFAULT_NOISE_DBM, MAX_CHAINS, MAX_ENTRIES, NOISE_UNKNOWN_DBM, Perm,
     RSSI_TO_DBM_OFFSET, ScaleError, ShapeError,
 };
+pub use response::{RESPONSE_CHAINS, receiver_response};
 pub use summary::{LogSummary, Stats};
 pub use writer::{LogWriter, encode_frame_record, encode_record};

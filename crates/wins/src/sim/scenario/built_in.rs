@@ -68,6 +68,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "near-walls",
         include_str!("../../../../../configs/scenarios/near-walls.toml"),
     ),
+    (
+        "static-capture",
+        include_str!("../../../../../configs/scenarios/static-capture.toml"),
+    ),
 ];
 
 /// Built-in scenario `name` as a TOML document to edit: the file's own comment header, then every
