@@ -28,10 +28,11 @@ const DEVIATION_TERMS: usize = 3;
 #[serde(rename_all = "kebab-case")]
 pub enum ReceiverResponse {
     /// The Intel 5300's, measured on real captures, each card off it by its own smooth
-    /// deviation drawn from the scenario's seed. The default.
-    #[default]
+    /// deviation drawn from the scenario's seed.
     Intel5300,
-    /// None: every subcarrier and chain alike (the simulator before the measurement).
+    /// None: every subcarrier and chain alike. The default, until the shipped AoA settings are
+    /// tuned on the measured response.
+    #[default]
     Flat,
 }
 
