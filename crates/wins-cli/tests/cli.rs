@@ -417,3 +417,44 @@ fn csi_check_gives_a_verdict_per_finding_and_fails_on_an_unusable_capture() {
         common::stderr(&out)
     );
 }
+
+#[test]
+fn csi_stats_prints_a_row_per_capture_and_refuses_a_log_without_three_chains() {
+    let out = wins(&[
+        "csi",
+        "stats",
+        "--json",
+        "data/intel5300/csikit_example.dat",
+        MIXED,
+    ]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let rows: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("json"))
+        .collect();
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        let s = &r["stats"];
+        assert!(s["packets"].as_u64().is_some_and(|n| n > 0), "{r}");
+        // The second and third eigenvalues under the first, the ripple a few dB.
+        let l = s["eigenvalue_db"].as_array().expect("eigenvalues");
+        assert!(l.iter().all(|x| x.as_f64().is_some_and(|x| x < 0.0)), "{r}");
+        assert!(
+            s["amplitude_ripple_db"]
+                .as_f64()
+                .is_some_and(|x| x > 0.0 && x < 20.0),
+            "{r}"
+        );
+    }
+    let out = wins(&[
+        "csi",
+        "stats",
+        "data/intel5300/csikit_example.matlab_ref.jsonl",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        common::stderr(&out).contains("no record with three chains"),
+        "{}",
+        common::stderr(&out)
+    );
+}
