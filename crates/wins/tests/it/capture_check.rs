@@ -287,6 +287,10 @@ fn lgtm_stats(records: &[wins::csi::intel5300::CsiRecord]) -> CaptureStats {
     .expect("three-chain records")
 }
 
+/// A statistic of [`CaptureStats`]: its name, how to read it, and the sampling error allowed
+/// outside the real range.
+type Statistic = (&'static str, fn(&CaptureStats) -> f64, f64);
+
 #[test]
 fn the_simulated_static_capture_is_within_the_real_captures_range() {
     let Some(dir) = shared_data() else { return };
@@ -310,7 +314,7 @@ fn the_simulated_static_capture_is_within_the_real_captures_range() {
             .map(|(_, r)| r.clone())
             .collect::<Vec<_>>(),
     );
-    let fields: [(&str, fn(&CaptureStats) -> f64, f64); 10] = [
+    let fields: [Statistic; 10] = [
         ("phase IQR", |s| s.chain_phase_iqr_deg, 0.0),
         ("curvature agreement", |s| s.curvature_agreement, 0.0),
         ("λ2/λ1", |s| s.eigenvalue_db[0], 0.0),
