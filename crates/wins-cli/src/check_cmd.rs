@@ -11,19 +11,42 @@ use wins::csi::intel5300::read_log;
 use wins::rig::channel::wifi_channel_hz;
 use wins::rig::{ArrayGeometry, ChainCalibration};
 
+/// The channel a capture was made on, as a Wi-Fi channel number or a centre frequency.
+#[derive(clap::Args)]
+struct ChannelArgs {
+    /// Wi-Fi channel: 1–14 (2.4 GHz) or 32–177 (5 GHz).
+    #[arg(long, value_name = "N", conflicts_with = "center_freq_hz")]
+    channel: Option<u32>,
+    /// The channel's centre frequency instead of --channel, Hz.
+    #[arg(long, value_name = "HZ")]
+    center_freq_hz: Option<f64>,
+}
+
+impl ChannelArgs {
+    /// The centre frequency, Hz, when given. Errors: not a Wi-Fi channel or carrier.
+    fn center_freq_hz(&self) -> Result<Option<f64>> {
+        match (self.channel, self.center_freq_hz) {
+            (Some(n), _) => Ok(Some(wifi_channel_hz(n).with_context(|| {
+                format!("--channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)")
+            })?)),
+            (None, Some(f)) if !(f.is_finite() && f > 1e9) => {
+                bail!("--center-freq-hz {f} is not a Wi-Fi carrier (Hz, e.g. 5.32e9)")
+            }
+            (None, f) => Ok(f),
+        }
+    }
+}
+
 /// `wins csi check`.
 #[derive(clap::Args)]
 pub struct CheckArgs {
     /// Intel 5300 CSI Tool logs (`.dat`).
     #[arg(required = true)]
     files: Vec<PathBuf>,
-    /// Wi-Fi channel the capture was made on: 1–14 (2.4 GHz) or 32–177 (5 GHz). A CSI Tool log
-    /// does not record it; it sets the chains' restart step (π at 5 GHz, π/2 at 2.4 GHz).
-    #[arg(long, value_name = "N", conflicts_with = "center_freq_hz")]
-    channel: Option<u32>,
-    /// The channel's centre frequency instead of --channel, Hz.
-    #[arg(long, value_name = "HZ")]
-    center_freq_hz: Option<f64>,
+    /// The capture's channel (a CSI Tool log does not record it; it sets the chains' restart
+    /// step, π at 5 GHz and π/2 at 2.4 GHz).
+    #[command(flatten)]
+    channel: ChannelArgs,
     /// A receive-chain calibration (`wins calibrate`) to check the chains against.
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
@@ -35,15 +58,7 @@ pub struct CheckArgs {
 /// Runs `wins csi check`; fails when a capture is not usable for AoA (a finding is bad), after
 /// every file's findings are printed.
 pub fn check(args: CheckArgs) -> Result<()> {
-    let center_freq_hz = match (args.channel, args.center_freq_hz) {
-        (Some(n), _) => Some(wifi_channel_hz(n).with_context(|| {
-            format!("--channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)")
-        })?),
-        (None, Some(f)) if !(f.is_finite() && f > 1e9) => {
-            bail!("--center-freq-hz {f} is not a Wi-Fi carrier (Hz, e.g. 5.32e9)")
-        }
-        (None, f) => f,
-    };
+    let center_freq_hz = args.channel.center_freq_hz()?;
     let calibration = match &args.calibration {
         Some(path) => Some(ChainCalibration::load(path)?),
         None => None,
@@ -83,12 +98,9 @@ pub struct StatsArgs {
     /// Intel 5300 CSI Tool logs (`.dat`), or simulated datasets' `<ap>.dat`.
     #[arg(required = true)]
     files: Vec<PathBuf>,
-    /// Wi-Fi channel of the captures: 1–14 (2.4 GHz) or 32–177 (5 GHz) [default: 64].
-    #[arg(long, value_name = "N", conflicts_with = "center_freq_hz")]
-    channel: Option<u32>,
-    /// The channel's centre frequency instead of --channel, Hz.
-    #[arg(long, value_name = "HZ")]
-    center_freq_hz: Option<f64>,
+    /// The captures' channel [default: 64].
+    #[command(flatten)]
+    channel: ChannelArgs,
     /// Antenna spacing of the 3-antenna array, m [default: half a wavelength].
     #[arg(long, value_name = "M")]
     spacing_m: Option<f64>,
@@ -102,15 +114,10 @@ pub struct StatsArgs {
 
 /// Runs `wins csi stats`: one row per capture.
 pub fn stats(args: StatsArgs) -> Result<()> {
-    let center_freq_hz = match (args.channel, args.center_freq_hz) {
-        (Some(n), _) => wifi_channel_hz(n).with_context(|| {
-            format!("--channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)")
-        })?,
-        (None, Some(f)) if !(f.is_finite() && f > 1e9) => {
-            bail!("--center-freq-hz {f} is not a Wi-Fi carrier (Hz, e.g. 5.32e9)")
-        }
-        (None, f) => f.unwrap_or(wins::rig::array::CHANNEL_64_HZ),
-    };
+    let center_freq_hz = args
+        .channel
+        .center_freq_hz()?
+        .unwrap_or(wins::rig::array::CHANNEL_64_HZ);
     let geometry = ArrayGeometry {
         num_antennas: 3,
         spacing_m: args
