@@ -132,7 +132,7 @@ impl CsiSynth {
     }
 
     /// The same synthesizer with the receiver's response per chain and subcarrier (one card's,
-    /// [`ReceiverResponse::factors`]; `None`: flat).
+    /// [`crate::sim::ReceiverResponse::factors`]; `None`: flat).
     pub fn with_response(
         mut self,
         response: Option<[[Complex64; NUM_SUBCARRIERS]; MAX_ANTENNAS]>,
@@ -315,5 +315,3 @@ fn quantize(x: f64) -> (i8, bool) {
 mod response;
 #[cfg(test)]
 mod tests;
-
-pub use response::ReceiverResponse;

@@ -32,7 +32,7 @@ pub mod waypoints;
 pub mod write;
 pub mod yaw;
 
-pub use csi::ReceiverResponse;
+pub use radio::ReceiverResponse;
 pub use run::{SimOutput, simulate};
 pub use scenario::Scenario;
 pub use write::write_dataset;

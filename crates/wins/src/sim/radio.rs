@@ -3,7 +3,6 @@
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
-use super::csi::ReceiverResponse;
 use crate::csi::Bandwidth;
 use crate::rig::array::{CHANNEL_64_HZ, SPEED_OF_LIGHT_M_S};
 
@@ -39,7 +38,7 @@ pub struct RadioConfig {
     pub sto_max_s: f64,
     /// The receiver's response over the band, per chain and subcarrier: `intel5300` (measured on
     /// real captures: a 10 dB roll-off to the band's edge and a ±35° bow in phase,
-    /// [`super::csi::ReceiverResponse`]) or `flat`. Default `flat` (the flights' figures and
+    /// [`ReceiverResponse`]) or `flat`. Default `flat` (the flights' figures and
     /// the shipped AoA settings are still on it; `static-capture` flies `intel5300`).
     pub receiver_response: ReceiverResponse,
     /// Fixed phase offset of each receive chain (A, B, C), degrees. Empty = drawn uniformly in
@@ -238,4 +237,18 @@ mod tests {
             "radio.chain_phase_offsets_deg"
         );
     }
+}
+
+/// The receiver response a simulated NIC applies (TOML `[radio] receiver_response`); its factors:
+/// `sim::csi`'s `ReceiverResponse::factors`.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReceiverResponse {
+    /// The Intel 5300's, measured on real captures, each card off it by its own smooth
+    /// deviation drawn from the scenario's seed.
+    Intel5300,
+    /// None: every subcarrier and chain alike. The default, until the shipped AoA settings are
+    /// tuned on the measured response.
+    #[default]
+    Flat,
 }

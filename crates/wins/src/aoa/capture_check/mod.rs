@@ -142,3 +142,23 @@ pub fn check_capture(path: &Path, options: &CheckOptions) -> Result<CaptureCheck
     let findings = verdicts::findings(&summary, &measured, identified.as_ref(), options);
     Ok(CaptureCheck { findings, summary })
 }
+
+/// A finding.
+fn finding(
+    topic: &'static str,
+    verdict: Verdict,
+    measured: String,
+    advice: Option<String>,
+) -> Finding {
+    Finding {
+        topic,
+        verdict,
+        measured,
+        advice,
+    }
+}
+
+/// A share as a percentage with one decimal.
+fn pct(share: f64) -> String {
+    format!("{:.1} %", 100.0 * share)
+}

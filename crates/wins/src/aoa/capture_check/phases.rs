@@ -2,8 +2,7 @@
 //! within the capture, and the chains' curvature against a stored calibration.
 
 use super::measure::{Measurements, spread};
-use super::verdicts::{finding, pct};
-use super::{CheckOptions, Finding, Verdict};
+use super::{CheckOptions, Finding, Verdict, finding, pct};
 use crate::aoa::{curvature_of, restart_step_rad};
 use crate::csi::sanitize::wrap;
 

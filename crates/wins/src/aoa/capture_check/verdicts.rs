@@ -4,7 +4,7 @@
 use super::identify::Identified;
 use super::measure::{CHAINS, GAP_S, Measurements};
 use super::phases;
-use super::{CheckOptions, Finding, Verdict};
+use super::{CheckOptions, Finding, Verdict, finding, pct};
 use crate::csi::intel5300::{DEFAULT_NOISE_DBM, LogSummary};
 
 /// A chain this far under the strongest, in CSI power over the band, is suspect: antennas a few
@@ -50,20 +50,6 @@ pub(super) fn findings(
     out.push(bandwidth(summary, options));
     out.push(packets(summary, m));
     out
-}
-
-pub(super) fn finding(
-    topic: &'static str,
-    verdict: Verdict,
-    measured: String,
-    advice: Option<String>,
-) -> Finding {
-    Finding {
-        topic,
-        verdict,
-        measured,
-        advice,
-    }
 }
 
 fn file(s: &LogSummary, identified: Option<&Identified>) -> Finding {
@@ -307,9 +293,4 @@ fn packets(s: &LogSummary, m: &Measurements) -> Finding {
         advice = Some("packets were lost or the capture paused: a busy channel, or the logger falling behind (log to a local file, not over a slow link)".into());
     }
     finding("packets", verdict, measured, advice)
-}
-
-/// A share as a percentage with one decimal.
-pub(super) fn pct(share: f64) -> String {
-    format!("{:.1} %", 100.0 * share)
 }

@@ -7,10 +7,10 @@ use num_complex::Complex64;
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use serde::{Deserialize, Serialize};
 
 use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::intel5300::{RESPONSE_CHAINS, receiver_response};
+use crate::sim::radio::ReceiverResponse;
 
 /// RMS of a card's deviation from the measured mean response over the subcarriers: amplitude,
 /// dB, and phase, degrees. The real captures' own profiles scatter about their mean by 0.2–0.9 dB
@@ -22,19 +22,6 @@ const DEVIATION_DEG: f64 = 1.6;
 /// Cosine terms of a card's smooth deviation over the band (the response is a filter's: it
 /// changes over a few subcarriers, not from one to the next).
 const DEVIATION_TERMS: usize = 3;
-
-/// The receiver response a simulated NIC applies (TOML `[radio] receiver_response`).
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ReceiverResponse {
-    /// The Intel 5300's, measured on real captures, each card off it by its own smooth
-    /// deviation drawn from the scenario's seed.
-    Intel5300,
-    /// None: every subcarrier and chain alike. The default, until the shipped AoA settings are
-    /// tuned on the measured response.
-    #[default]
-    Flat,
-}
 
 impl ReceiverResponse {
     /// The complex factor per chain and subcarrier for one card, its deviation drawn from `rng`;
