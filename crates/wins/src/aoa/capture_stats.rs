@@ -71,22 +71,21 @@ pub fn capture_stats(
         ..config.clone()
     };
     let mut estimator = AoaEstimator::new(&config, geometry, center_freq_hz, None)?;
-    let estimator = &mut estimator;
-    let antennas = estimator.geometry().num_antennas;
-    let tx = estimator.config().tx;
-    let usable: Vec<&CsiRecord> = records
+    let (antennas, tx) = (geometry.num_antennas, config.tx);
+    let usable: Vec<(&CsiRecord, Vec<Complex64>)> = records
         .iter()
-        .filter(|r| raw_csi(r, tx, antennas).is_ok())
+        .filter_map(|r| raw_csi(r, tx, antennas).ok().map(|csi| (r, csi)))
         .collect();
+    if usable.is_empty() {
+        return Ok(None);
+    }
     let mut curvature = ChainCurvature::default();
-    for r in &usable {
-        if let Ok(csi) = raw_csi(r, tx, antennas) {
-            curvature.push(&csi, antennas);
-        }
+    for (_, csi) in &usable {
+        curvature.push(csi, antennas);
     }
     let corrected = curvature.corrected(
         estimator.calibration(),
-        super::restart_step_rad(estimator.center_freq_hz()),
+        super::restart_step_rad(center_freq_hz),
         false,
     );
     estimator.set_calibration(corrected.calibration)?;
@@ -96,11 +95,10 @@ pub fn capture_stats(
         (Vec::new(), Vec::new(), Vec::new());
     let (mut pair_phase, mut timing) = (Vec::new(), Vec::new());
     let mut agc_changes = 0usize;
-    for (i, r) in usable.iter().enumerate() {
-        if i > 0 && usable[i - 1].header.agc != r.header.agc {
+    for (i, (r, csi)) in usable.iter().enumerate() {
+        if i > 0 && usable[i - 1].0.header.agc != r.header.agc {
             agc_changes += 1;
         }
-        let csi = raw_csi(r, tx, antennas)?;
         let chain = |m: usize| &csi[m * NUM_SUBCARRIERS..(m + 1) * NUM_SUBCARRIERS];
         if let Ok((_, subspace)) = estimator.subspace(r) {
             let top = subspace.eigenvalues.first().copied().unwrap_or(0.0);
@@ -131,9 +129,6 @@ pub fn capture_stats(
             timing.push(-slope / TAU * 1e9);
         }
     }
-    if usable.is_empty() {
-        return Ok(None);
-    }
     Ok(Some(CaptureStats {
         packets: usable.len(),
         chain_phase_iqr_deg: super::capture_check::phase_iqr_rad(&pair_phase).to_degrees(),
@@ -151,8 +146,6 @@ pub fn capture_stats(
 fn ripple_db(values: impl Iterator<Item = f64>) -> Option<f64> {
     let db: Vec<f64> = values
         .map(|x| 20.0 * x.log10())
-        .collect::<Vec<_>>()
-        .into_iter()
         .filter(|x| x.is_finite())
         .collect();
     if db.len() < 2 {

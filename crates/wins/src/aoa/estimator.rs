@@ -255,8 +255,10 @@ pub fn received_csi(
 ) -> Result<Vec<Complex64>, AoaError> {
     let mut csi = raw_csi(record, tx, num_antennas)?;
     if remove_response {
-        let response = receiver_response();
-        for (row, factors) in csi.chunks_exact_mut(NUM_SUBCARRIERS).zip(&response) {
+        for (row, factors) in csi
+            .chunks_exact_mut(NUM_SUBCARRIERS)
+            .zip(receiver_response())
+        {
             for (v, f) in row.iter_mut().zip(factors) {
                 *v /= f;
             }

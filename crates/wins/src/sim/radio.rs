@@ -211,6 +211,20 @@ pub fn power_to_db(p: f64) -> f64 {
     10.0 * p.log10()
 }
 
+/// The receiver response a simulated NIC applies (TOML `[radio] receiver_response`); its factors:
+/// `sim::csi`'s `ReceiverResponse::factors`.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReceiverResponse {
+    /// The Intel 5300's, measured on real captures, each card off it by its own smooth
+    /// deviation drawn from the scenario's seed.
+    Intel5300,
+    /// None: every subcarrier and chain alike. The default, until the shipped AoA settings are
+    /// tuned on the measured response.
+    #[default]
+    Flat,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,18 +251,4 @@ mod tests {
             "radio.chain_phase_offsets_deg"
         );
     }
-}
-
-/// The receiver response a simulated NIC applies (TOML `[radio] receiver_response`); its factors:
-/// `sim::csi`'s `ReceiverResponse::factors`.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ReceiverResponse {
-    /// The Intel 5300's, measured on real captures, each card off it by its own smooth
-    /// deviation drawn from the scenario's seed.
-    Intel5300,
-    /// None: every subcarrier and chain alike. The default, until the shipped AoA settings are
-    /// tuned on the measured response.
-    #[default]
-    Flat,
 }

@@ -73,13 +73,18 @@ const PHASE_DEG: [[f64; NUM_SUBCARRIERS]; RESPONSE_CHAINS] = [
 ];
 
 /// The measured response per chain A, B, C and reported subcarrier (lowest frequency first), unit
-/// mean power per chain (module docs).
-pub fn receiver_response() -> [[Complex64; NUM_SUBCARRIERS]; RESPONSE_CHAINS] {
-    std::array::from_fn(|m| {
-        let linear: [f64; NUM_SUBCARRIERS] = AMPLITUDE_DB[m].map(|db| 10f64.powf(db / 20.0));
-        let power = linear.iter().map(|a| a * a).sum::<f64>() / NUM_SUBCARRIERS as f64;
-        std::array::from_fn(|k| {
-            Complex64::from_polar(linear[k] / power.sqrt(), PHASE_DEG[m][k].to_radians())
-        })
-    })
+/// mean power per chain (module docs); computed once.
+pub fn receiver_response() -> &'static [[Complex64; NUM_SUBCARRIERS]; RESPONSE_CHAINS] {
+    static RESPONSE: std::sync::LazyLock<[[Complex64; NUM_SUBCARRIERS]; RESPONSE_CHAINS]> =
+        std::sync::LazyLock::new(|| {
+            std::array::from_fn(|m| {
+                let linear: [f64; NUM_SUBCARRIERS] =
+                    AMPLITUDE_DB[m].map(|db| 10f64.powf(db / 20.0));
+                let power = linear.iter().map(|a| a * a).sum::<f64>() / NUM_SUBCARRIERS as f64;
+                std::array::from_fn(|k| {
+                    Complex64::from_polar(linear[k] / power.sqrt(), PHASE_DEG[m][k].to_radians())
+                })
+            })
+        });
+    &RESPONSE
 }

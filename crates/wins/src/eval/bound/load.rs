@@ -11,8 +11,8 @@ use crate::imu::STANDARD_GRAVITY_M_S2;
 use crate::time::Timestamp;
 
 /// Reads what [`super::flight_bound`] needs from `dir`: the IMU noise and the array's mounting
-/// from `dataset.toml`, the rotors' vibration from `truth/truth.toml` (when it records it), the barometer's sample times, and from `truth/` the poses, the APs and
-/// every AP's packets (a simulated dataset writes them all; a motion-capture truth lacks the
+/// from `dataset.toml`, the barometer's sample times, and from `truth/` the poses, the APs, the
+/// rotors' vibration (when `truth.toml` records it) and every AP's packets (a simulated dataset writes them all; a motion-capture truth lacks the
 /// packets and is refused with a message saying so).
 pub fn load_bound_input(dir: &Path) -> Result<BoundInput, String> {
     let manifest = crate::dataset::load::read_manifest(dir).map_err(|e| e.to_string())?;

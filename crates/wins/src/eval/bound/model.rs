@@ -86,9 +86,9 @@ impl Step {
 /// density (the quadratic mean over the axes), added to the sensor's own while the rotors spin.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImuVibration {
-    /// The rotors spin from here on the IMU's clock
+    /// When the rotors start spinning, on the IMU's clock.
     pub from: Timestamp,
-    /// to here.
+    /// When they stop.
     pub to: Timestamp,
     /// Accelerometer, m/s²/√Hz.
     pub accel_density_m_s2_sqrt_hz: f64,
