@@ -37,8 +37,8 @@ pub struct PathCount {
     /// model error (subcarrier ripple, residual sampling offsets) about 20 dB below the strongest
     /// path, well above the thermal floor: counted as paths, those eigenvectors add spurious
     /// peaks that change from packet to packet (docs/VALIDATION.md, "Per-packet AoA on real
-    /// captures"); `configs/intel5300-real.toml` sets 20. The default (300, no limit) suits the
-    /// simulator, whose impairments are white.
+    /// captures"). The simulator's CSI carries the same floor (the 5300's measured response
+    /// over the band, [`crate::csi::intel5300::receiver_response`]). Default 20.
     pub max_below_largest_db: f64,
 }
 
@@ -47,7 +47,7 @@ impl Default for PathCount {
         Self {
             max_paths: 5,
             floor_margin_db: 15.0,
-            max_below_largest_db: 300.0,
+            max_below_largest_db: 20.0,
         }
     }
 }

@@ -31,15 +31,14 @@ pub struct RadioConfig {
     /// the AP. Default 30.
     pub implementation_snr_db: f64,
     /// Per-packet sampling-time offset (packet detection delay) is uniform in
-    /// [0, `sto_max_s`]; it adds a linear phase across subcarriers. Default 100 ns; the real
+    /// [0, `sto_max_s`]; it adds a linear phase across subcarriers. Default 25.5 ns: the real
     /// static captures' offsets (the slope of each packet's phase over the subcarriers) have an
-    /// interquartile range of 12.6–12.9 ns, which 25.5 ns gives (`static-capture` flies it;
-    /// docs/VALIDATION.md, "Simulated CSI against real").
+    /// interquartile range of 12.6–12.9 ns, which 25.5 ns gives (docs/VALIDATION.md, "Simulated
+    /// CSI against real").
     pub sto_max_s: f64,
     /// The receiver's response over the band, per chain and subcarrier: `intel5300` (measured on
     /// real captures: a 10 dB roll-off to the band's edge and a ±35° bow in phase,
-    /// [`ReceiverResponse`]) or `flat`. Default `flat` (the flights' figures and
-    /// the shipped AoA settings are still on it; `static-capture` flies `intel5300`).
+    /// [`ReceiverResponse`]) or `flat`. Default `intel5300`.
     pub receiver_response: ReceiverResponse,
     /// Fixed phase offset of each receive chain (A, B, C), degrees. Empty = drawn uniformly in
     /// [−180°, 180°) from the scenario seed (then written to `truth/`). Default empty.
@@ -80,8 +79,8 @@ impl Default for RadioConfig {
             rx_antenna_gain_dbi: 2.0,
             noise_figure_db: 7.0,
             implementation_snr_db: 30.0,
-            sto_max_s: 100e-9,
-            receiver_response: ReceiverResponse::Flat,
+            sto_max_s: 25.5e-9,
+            receiver_response: ReceiverResponse::Intel5300,
             chain_phase_offsets_deg: Vec::new(),
             nic_restart: false,
             lab_calibration: true,
@@ -217,11 +216,10 @@ pub fn power_to_db(p: f64) -> f64 {
 #[serde(rename_all = "kebab-case")]
 pub enum ReceiverResponse {
     /// The Intel 5300's, measured on real captures, each card off it by its own smooth
-    /// deviation drawn from the scenario's seed.
-    Intel5300,
-    /// None: every subcarrier and chain alike. The default, until the shipped AoA settings are
-    /// tuned on the measured response.
+    /// deviation drawn from the scenario's seed. The default.
     #[default]
+    Intel5300,
+    /// None: every subcarrier and chain alike (an ideal receiver).
     Flat,
 }
 

@@ -56,7 +56,8 @@ fn without_the_barometer_the_run_says_so_and_converges() {
 /// on the one alone while the others were fed at 30 bearings per second, and were lost when its
 /// bearings were gated: 0 poses sent on both. The default triangulates them from the window's
 /// own bearings too (docs/ESTIMATOR.md, "APs placed from the window's own bearings").
-/// Bounds: at least 1000 poses on 36 at most 0.35 m, and poses sent on 40.
+/// Bounds: at least 1000 poses on 36 at most 0.47 m (0.39 m today, +20 %; the bound was 0.35 m
+/// before the simulator carried the Intel 5300's measured response), and poses sent on 40.
 #[test]
 fn aps_the_start_left_out_are_placed_from_the_windows_bearings() {
     let sent = |seed: u64| {
@@ -75,7 +76,7 @@ fn aps_the_start_left_out_are_placed_from_the_windows_bearings() {
     };
     let (poses, ate) = sent(36);
     assert!(
-        poses >= 1000 && ate.is_some_and(|a| a <= 0.35),
+        poses >= 1000 && ate.is_some_and(|a| a <= 0.47),
         "seed 36: {poses} poses, {ate:?}"
     );
     let (poses, _) = sent(40);

@@ -285,9 +285,11 @@ pub(crate) fn worst(runs: &[Metrics], f: impl Fn(&Metrics) -> f64) -> f64 {
 }
 
 /// The paper's estimator on the paper's flight, airborne, 40 s, seeds 1–5, with the built-ins'
-/// rotor vibration. Today: converged 14.5–15.0 s, position mean 0.32–0.98 m (median 0.62),
-/// attitude 1.5–9.5° (median 5.5°), AP 0.17–1.38 m (median 0.75), AoA median 1.5°. Bounds:
-/// medians +20 %, the worst run +50 %.
+/// rotor vibration and the Intel 5300's measured response. Today: converged 14.1–14.6 s,
+/// position mean 0.39–1.43 m on four seeds (median of the five 0.78) and 4.95 m on seed 1,
+/// whose AP is placed 5.6 m off; attitude median 6.5°, AP median 1.15 m, AoA median 1.7°. (On
+/// an ideal receiver: position median 0.62 m, worst 0.98 m, AP median 0.75 m.) Bounds: medians
+/// +20 %, the worst run +50 %.
 #[test]
 fn paper_circle_accuracy_over_five_seeds() {
     let runs = metrics_over_seeds("paper-circle", 40.0, &[1, 2, 3, 4, 5], true, &paper());
@@ -297,12 +299,12 @@ fn paper_circle_accuracy_over_five_seeds() {
     let ap = median(&runs, |m| m.ap_position_error_m["ap0"]);
     let aoa = median(&runs, |m| m.aoa_error_median_deg.unwrap_or(f64::INFINITY));
     assert!(converged <= 17.6, "median convergence {converged} s");
-    assert!(position <= 0.75, "median position {position} m");
-    assert!(attitude <= 6.6, "median attitude {attitude}°");
-    assert!(ap <= 0.91, "median AP {ap} m");
-    assert!(aoa <= 1.85, "median AoA {aoa}°");
+    assert!(position <= 0.93, "median position {position} m");
+    assert!(attitude <= 7.8, "median attitude {attitude}°");
+    assert!(ap <= 1.38, "median AP {ap} m");
+    assert!(aoa <= 2.06, "median AoA {aoa}°");
     let worst_position = worst(&runs, |m| m.position_error_mean_m);
-    assert!(worst_position <= 1.47, "worst position {worst_position} m");
+    assert!(worst_position <= 7.4, "worst position {worst_position} m");
 }
 
 /// The paper's estimator, three APs on one wall at three heights, airborne, 30 s, seeds 1–3.
@@ -323,14 +325,16 @@ fn three_aps_accuracy_over_three_seeds() {
 /// The paper's estimator, a board in front of the AP, airborne, 30 s, seeds 1–3: the AoA stage and the convergence time are bounded
 /// (AoA median 2.1–2.4°, converged 16.3–17.6 s today); the position is not, because on 30 s the
 /// estimate diverges after convergence on some seeds (docs/RESULTS.md): what is asserted is that
-/// the run finishes, finite, with every packet accounted for.
+/// the run finishes, finite, with every packet accounted for. With the Intel 5300's measured
+/// response the AoA median is 2.9–4.4° (median 3.1°; 2.1–2.4° on an ideal receiver); the bound is
+/// +20 %.
 #[test]
 fn obstacle_flight_finishes_accounted_over_three_seeds() {
     let runs = metrics_over_seeds("paper-circle-obstacle", 30.0, &[1, 2, 3], true, &paper());
     let converged = median(&runs, |m| m.convergence_time_s);
     let aoa = median(&runs, |m| m.aoa_error_median_deg.unwrap_or(f64::INFINITY));
     assert!(converged <= 20.0, "median convergence {converged} s");
-    assert!(aoa <= 2.7, "median AoA {aoa}°");
+    assert!(aoa <= 3.8, "median AoA {aoa}°");
     assert!(runs.iter().all(|m| m.position_error_mean_m.is_finite()));
 }
 
@@ -388,7 +392,10 @@ fn bad_input_is_counted() {
 /// 0.39 m (0.32 m before the rest test held the means to the rest's own, which finds the
 /// motion 5 ms sooner on seed 1 and moves what the rest averages: docs/ESTIMATOR.md, "A biased
 /// IMU's rest"); jumps over 0.3 m 1–5 per run (18 on seed 2); the runs' mean position NEES
-/// 1.1–1.9 (27 on seed 2). Bounds: medians +20 %, the worst run +50 %, the median run's jumps +20 %, and
+/// 1.1–1.9 (27 on seed 2). With the Intel 5300's measured response (the simulator's default since):
+/// position mean 0.30–0.43 m (median 0.35), AP 0.19–0.99 m (median 0.54), attitude median 2.5°,
+/// every seed converged by 10.7 s, median jumps 4. Bounds: medians +20 %, the worst run +50 %, the median run's
+/// jumps +20 %, and
 /// the median run's NEES in [1, the upper end of one run's honest 95 % band] (honest or a little
 /// cautious on the typical run).
 #[test]
@@ -405,13 +412,13 @@ fn nonlinear_paper_circle_from_the_ground_over_five_seeds() {
     let attitude = median(&runs, |m| m.attitude_error_mean_deg);
     let ap = median(&runs, |m| m.ap_position_error_m["ap0"]);
     assert!(converged <= 12.7, "median convergence {converged} s");
-    assert!(position <= 0.34, "median position {position} m");
+    assert!(position <= 0.42, "median position {position} m");
     assert!(attitude <= 3.24, "median attitude {attitude}°");
-    assert!(ap <= 0.47, "median AP {ap} m");
+    assert!(ap <= 0.65, "median AP {ap} m");
     let worst_position = worst(&runs, |m| m.position_error_mean_m);
-    assert!(worst_position <= 2.3, "worst position {worst_position} m");
+    assert!(worst_position <= 0.65, "worst position {worst_position} m");
     let jumps = median(&runs, |m| m.jumps as f64);
-    assert!(jumps <= 3.6, "median jumps {jumps}");
+    assert!(jumps <= 4.8, "median jumps {jumps}");
     let nees: Vec<f64> = runs.iter().filter_map(|m| m.position_nees_mean).collect();
     assert_eq!(nees.len(), runs.len(), "every run reports a covariance");
     let typical = median(&runs, |m| m.position_nees_mean.unwrap_or(f64::INFINITY));
@@ -423,22 +430,37 @@ fn nonlinear_paper_circle_from_the_ground_over_five_seeds() {
 }
 
 /// The default estimator, three APs at three heights, from the ground, 40 s, seeds 1–3, with the
-/// built-ins' rotor vibration: every seed converges with the first AP placed. Today: position
-/// mean 0.41–1.94 m (median 0.61), the first AP 1.0–1.7 m off; the AP at 2.2 m is placed metres
-/// off on some seeds (docs/ESTIMATOR.md). Bounds: the median +20 %, the first AP +20 %.
+/// built-ins' rotor vibration and the Intel 5300's measured response. On an ideal receiver every
+/// seed converged (position mean 0.41–1.94 m, median 0.61); with the response seed 1 does not
+/// converge within 60 s (docs/ESTIMATOR.md, "What does not work yet"). Bounds: at least two of
+/// the three converge with the first AP within 2 m, and their median position +20 %.
 #[test]
 fn nonlinear_three_aps_from_the_ground_over_three_seeds() {
-    let runs = metrics_over_seeds(
-        "paper-circle-3ap",
-        40.0,
-        &[1, 2, 3],
-        false,
-        &Config::default(),
-    );
-    let position = median(&runs, |m| m.position_error_mean_m);
+    let mut converged = Vec::new();
+    for seed in [1, 2, 3] {
+        let dir = temp_dir(&format!("paper-circle-3ap-{seed}"));
+        let mut s = Scenario::built_in("paper-circle-3ap").unwrap();
+        s.duration_s = 40.0;
+        s.seed = seed;
+        let out = simulate(&s, &mut |_| {}).unwrap();
+        write_dataset(&dir, &s, &out).unwrap();
+        let run = wins::run_dataset(&dir, &Config::default()).unwrap();
+        check_accounting(&run);
+        let _ = std::fs::remove_dir_all(&dir);
+        match &run.metrics {
+            Some(m) => {
+                print(&format!("paper-circle-3ap 40 s seed {seed}"), &run, m);
+                converged.push(m.clone());
+            }
+            None => println!("paper-circle-3ap 40 s seed {seed}: {:?}", run.warnings),
+        }
+    }
+    assert!(converged.len() >= 2, "{} of 3 converged", converged.len());
+    let position = median(&converged, |m| m.position_error_mean_m);
     assert!(position <= 0.73, "median position {position} m");
     assert!(
-        runs.iter()
+        converged
+            .iter()
             .all(|m| m.ap_position_error_m.get("ap0").is_some_and(|e| *e < 2.0))
     );
 }
