@@ -35,6 +35,8 @@ ROWS = [
     ("ripple of the phase between neighbouring chains (deg)", "chain_phase_ripple_deg", 1),
     ("timing offset: IQR over packets (ns)", "timing_offset_iqr_ns", 1),
     ("AGC changes per 100 packets", "agc_changes_per_100", 1),
+    ("credible MUSIC peaks per packet", "peaks_per_packet", 2),
+    ("packets with a credible peak in another direction (%)", "other_direction_pct", 1),
 ]
 
 

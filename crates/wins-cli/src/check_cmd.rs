@@ -129,7 +129,7 @@ pub fn stats(args: StatsArgs) -> Result<()> {
     if !args.json {
         writeln!(
             out,
-            "{:<44} {:>7} {:>9} {:>9} {:>20} {:>9} {:>9} {:>9} {:>9} {:>7}",
+            "{:<44} {:>7} {:>9} {:>9} {:>20} {:>9} {:>9} {:>9} {:>9} {:>7} {:>5} {:>10}",
             "capture",
             "packets",
             "phase IQR",
@@ -139,7 +139,9 @@ pub fn stats(args: StatsArgs) -> Result<()> {
             "ch. ampl.",
             "ch. phase",
             "STO IQR",
-            "AGC/100"
+            "AGC/100",
+            "peaks",
+            "other dir."
         )?;
     }
     for path in &args.files {
@@ -154,7 +156,7 @@ pub fn stats(args: StatsArgs) -> Result<()> {
         let [l2, l3, l4] = s.eigenvalue_db;
         writeln!(
             out,
-            "{:<44} {:>7} {:>8.1}° {:>9.2} {:>20} {:>7.2}dB {:>7.2}dB {:>8.1}° {:>7.1}ns {:>7.1}",
+            "{:<44} {:>7} {:>8.1}° {:>9.2} {:>20} {:>7.2}dB {:>7.2}dB {:>8.1}° {:>7.1}ns {:>7.1} {:>5.2} {:>9.1}%",
             path.display().to_string(),
             s.packets,
             s.chain_phase_iqr_deg,
@@ -164,7 +166,9 @@ pub fn stats(args: StatsArgs) -> Result<()> {
             s.chain_amplitude_ripple_db,
             s.chain_phase_ripple_deg,
             s.timing_offset_iqr_ns,
-            s.agc_changes_per_100
+            s.agc_changes_per_100,
+            s.peaks_per_packet,
+            s.other_direction_pct
         )?;
     }
     Ok(())

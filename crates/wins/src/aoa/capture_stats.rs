@@ -14,7 +14,11 @@
 //! - the **phase ripple between chains**, the standard deviation over the subcarriers of
 //!   `arg(H[m+1, k] H̄[m, k])` about its circular mean (one path gives a constant);
 //! - the **timing offset**, from the slope of the unwrapped `arg H[0, k]` over the subcarriers'
-//!   frequencies, `τ = −slope/2π`.
+//!   frequencies, `τ = −slope/2π`;
+//! - the **credible MUSIC peaks** over the whole field of view (as `wins aoa` finds them, one per
+//!   alias family), and whether one of them is **another direction**: its phase step between
+//!   neighbouring antennas more than [`OTHER_DIRECTION_DEG`] from the strongest peak's, so that
+//!   a rule that picks one peak per packet can jump to it.
 //!
 //! Over the capture: the median of each per-packet figure; the timing offsets' interquartile
 //! range; the phase between chains 0 and 1 (its IQR, [`super::capture_check`]'s measure); the
@@ -25,11 +29,16 @@ use std::f64::consts::TAU;
 use num_complex::Complex64;
 use serde::Serialize;
 
-use super::{AoaConfig, AoaError, AoaEstimator, ChainCurvature, raw_csi};
+use super::{AoaConfig, AoaError, AoaEstimator, AoaWindow, ChainCurvature, raw_csi};
 use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::intel5300::CsiRecord;
 use crate::csi::sanitize::wrap;
 use crate::rig::ArrayGeometry;
+
+/// A credible peak whose phase step between neighbouring antennas is further than this from the
+/// strongest peak's is another direction, deg (the phase steps of one direction's peaks agree
+/// within a few degrees on a static capture).
+pub const OTHER_DIRECTION_DEG: f64 = 30.0;
 
 /// The statistics of one capture (module docs).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -52,6 +61,11 @@ pub struct CaptureStats {
     pub timing_offset_iqr_ns: f64,
     /// AGC changes per 100 packets.
     pub agc_changes_per_100: f64,
+    /// Mean over packets of the credible MUSIC peaks over the whole field of view.
+    pub peaks_per_packet: f64,
+    /// Share of the packets with a credible peak in another direction than the strongest's
+    /// ([`OTHER_DIRECTION_DEG`]), %.
+    pub other_direction_pct: f64,
 }
 
 /// The statistics of `records` (those with the array's antenna count and the configured stream;
@@ -95,17 +109,32 @@ pub fn capture_stats(
         (Vec::new(), Vec::new(), Vec::new());
     let (mut pair_phase, mut timing) = (Vec::new(), Vec::new());
     let mut agc_changes = 0usize;
+    let (mut peaks, mut other_direction) = (0usize, 0usize);
+    let kappa = TAU * geometry.spacing_m * center_freq_hz / crate::rig::array::SPEED_OF_LIGHT_M_S;
     for (i, (r, csi)) in usable.iter().enumerate() {
         if i > 0 && usable[i - 1].0.header.agc != r.header.agc {
             agc_changes += 1;
         }
         let chain = |m: usize| &csi[m * NUM_SUBCARRIERS..(m + 1) * NUM_SUBCARRIERS];
-        if let Ok((_, subspace)) = estimator.subspace(r) {
+        if let Ok((music, subspace)) = estimator.subspace(r) {
             let top = subspace.eigenvalues.first().copied().unwrap_or(0.0);
             for (j, list) in eigen.iter_mut().enumerate() {
                 if let Some(&l) = subspace.eigenvalues.get(j + 1).filter(|_| top > 0.0) {
                     list.push(10.0 * (l.max(top * 1e-12) / top).log10());
                 }
+            }
+            let found = music.peaks(&subspace, AoaWindow::FULL);
+            peaks += found.len();
+            let step = |aoa_rad: f64| kappa * aoa_rad.sin();
+            if let Some(strongest) = found
+                .iter()
+                .min_by(|a, b| a.residual.total_cmp(&b.residual))
+                && found.iter().any(|p| {
+                    wrap(step(p.aoa_rad) - step(strongest.aoa_rad)).abs()
+                        > OTHER_DIRECTION_DEG.to_radians()
+                })
+            {
+                other_direction += 1;
             }
         }
         if let Some(a) = ripple_db(chain(0).iter().map(|h| h.norm())) {
@@ -139,6 +168,8 @@ pub fn capture_stats(
         chain_phase_ripple_deg: median(&mut chain_phase),
         timing_offset_iqr_ns: iqr(&mut timing),
         agc_changes_per_100: 100.0 * agc_changes as f64 / usable.len() as f64,
+        peaks_per_packet: peaks as f64 / usable.len() as f64,
+        other_direction_pct: 100.0 * other_direction as f64 / usable.len() as f64,
     }))
 }
 

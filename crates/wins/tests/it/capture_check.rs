@@ -331,6 +331,36 @@ fn the_simulated_static_capture_is_within_the_real_captures_range() {
         ("timing offset IQR", |s| s.timing_offset_iqr_ns, 0.5),
         ("AGC changes", |s| s.agc_changes_per_100, 0.0),
     ];
+    // Not asserted: the credible peaks per packet and the share of packets with a peak in another
+    // direction, on which the simulated capture is richer than the real ones (its room's
+    // reflections, as the simulator draws them, against the lab's: docs/VALIDATION.md,
+    // "Simulated CSI against real"); printed for the record.
+    println!(
+        "peaks per packet: simulated {:.2}, real {:?}; another direction: simulated {:.1} %, real {:?}",
+        sim.peaks_per_packet,
+        real.iter().map(|s| s.peaks_per_packet).collect::<Vec<_>>(),
+        sim.other_direction_pct,
+        real.iter()
+            .map(|s| s.other_direction_pct)
+            .collect::<Vec<_>>()
+    );
+    // What those two measure: a real static capture holds one direction per packet, and so does
+    // the simulated one with the direct path alone.
+    assert!(
+        real.iter()
+            .all(|s| s.other_direction_pct < 5.0 && s.peaks_per_packet < 1.6),
+        "{real:?}"
+    );
+    let mut direct = scenario.clone();
+    direct.room.max_order = 0;
+    let out = wins::sim::simulate(&direct, &mut |_| {}).expect("simulated");
+    let direct = lgtm_stats(
+        &out.aps[0]
+            .received()
+            .map(|(_, r)| r.clone())
+            .collect::<Vec<_>>(),
+    );
+    assert!(direct.other_direction_pct < 1.0, "{direct:?}");
     let mut outside = Vec::new();
     for (name, get, tolerance) in fields {
         let (lo, hi) = real
