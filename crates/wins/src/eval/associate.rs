@@ -3,7 +3,8 @@
 
 use std::io;
 
-use super::{Alignment, EvalError, EvalOptions, align};
+use super::align::align_poses;
+use super::{Alignment, EvalError, EvalOptions};
 use crate::dataset::truth::Pose;
 use crate::time::Timestamp;
 
@@ -109,9 +110,9 @@ pub(super) fn associate_and_align(
     let (est_p, truth_p): (Vec<_>, Vec<_>) = association
         .pairs
         .iter()
-        .map(|&(i, j)| (est[i].p_b_in_w, truth[j].p_b_in_w))
+        .map(|&(i, j)| (&est[i], &truth[j]))
         .unzip();
-    let alignment = align(&est_p, &truth_p, options.align)?;
+    let alignment = align_poses(&est_p, &truth_p, options.align)?;
     Ok((association, alignment))
 }
 

@@ -18,6 +18,7 @@
 pub(crate) mod align;
 pub(crate) mod aps;
 pub(crate) mod associate;
+mod attitude_alignment;
 pub mod bound;
 pub(crate) mod drift;
 mod evaluate;
@@ -30,7 +31,7 @@ pub(crate) mod stream;
 
 use serde::{Deserialize, Serialize};
 
-pub use align::{AlignMode, Alignment, align, umeyama};
+pub use align::{AlignMode, Alignment, align, align_poses, umeyama};
 pub use aps::{EstimatedAp, read_estimated_aps, write_estimated_aps};
 pub use associate::{Association, associate};
 pub use drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
@@ -239,17 +240,21 @@ mod tests {
     #[test]
     fn degenerate_inputs_are_errors() {
         let (line, helix) = (flight(false), flight(true));
-        assert!(eval(&helix, &helix).is_ok());
-        // A level line fixes a heading, not a rotation about itself.
-        assert!(eval(&line, &line).is_ok());
+        assert!(eval(&helix, &helix).is_ok_and(|m| !m.alignment.rotation_from_attitudes));
+        // A level line fixes a heading, not a rotation about itself: SE(3) takes the rotation
+        // from the attitudes.
+        assert!(eval(&line, &line).is_ok_and(|m| !m.alignment.rotation_from_attitudes));
         let se3 = EvalOptions {
             align: AlignMode::Se3,
             ..EvalOptions::default()
         };
-        assert!(matches!(
-            evaluate(&line, &line, &[], &[], &se3),
-            Err(EvalError::Degenerate { .. })
-        ));
+        let m = evaluate(&line, &line, &[], &[], &se3).unwrap();
+        assert!(
+            m.alignment.rotation_from_attitudes && m.ate_rmse_m < 1e-9,
+            "{m:?}"
+        );
+        // A climb straight up fixes no heading: the attitudes do. The estimate's world is the
+        // truth's turned 30° about the vertical, its positions (on the axis) unchanged.
         let column: Vec<Pose> = line
             .iter()
             .map(|p| Pose {
@@ -257,8 +262,36 @@ mod tests {
                 ..*p
             })
             .collect();
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 30f64.to_radians());
+        let turned: Vec<Pose> = column
+            .iter()
+            .map(|p| Pose {
+                world_from_body: turn.inverse() * p.world_from_body,
+                ..*p
+            })
+            .collect();
+        let m = eval(&turned, &column).unwrap();
+        let yaw = m.alignment.isometry().rotation.euler_angles().2;
+        assert!(m.alignment.rotation_from_attitudes, "{m:?}");
+        assert!((yaw.to_degrees() - 30.0).abs() < 1e-6, "{yaw}");
+        assert!(
+            m.ate_rmse_m < 1e-9 && m.attitude_error_rmse_deg < 1e-6,
+            "{m:?}"
+        );
+        // ... unless the attitudes disagree as well (every other one a half turn off).
+        let torn: Vec<Pose> = column
+            .iter()
+            .enumerate()
+            .map(|(k, p)| Pose {
+                world_from_body: UnitQuaternion::from_axis_angle(
+                    &Vector3::z_axis(),
+                    std::f64::consts::PI * (k % 2) as f64,
+                ) * p.world_from_body,
+                ..*p
+            })
+            .collect();
         assert!(matches!(
-            eval(&column, &column),
+            eval(&torn, &column),
             Err(EvalError::Degenerate { .. })
         ));
         let too_few = eval(&helix[..2], &helix);

@@ -177,11 +177,11 @@ impl<'a> StreamedEval<'a> {
         let mut global = global.cross()?;
         let mut first_minute: Option<UmeyamaCross> = first_minute.cross().ok();
         self.for_each_pair(|p| {
-            global.push(&p.est.pose.p_b_in_w, &p.truth.p_b_in_w);
+            global.push_pose(&p.est.pose, &p.truth);
             if let Some(c) = &mut first_minute
                 && p.est.pose.t.0 <= first.0 + window_ns
             {
-                c.push(&p.est.pose.p_b_in_w, &p.truth.p_b_in_w);
+                c.push_pose(&p.est.pose, &p.truth);
             }
         })?;
         let alignment = global.alignment(self.options.align)?;
