@@ -213,26 +213,42 @@ fn eval_of_a_moved_noisy_estimate() {
 #[test]
 fn eval_errors_are_reported() {
     let dir = temp_dir("bad");
-    // A straight level line: the rotation about it is undefined (any rotation allowed), its
-    // heading is not; a climb straight up fixes no heading.
-    let line = |p: fn(f64) -> [f64; 3]| -> Vec<Row> {
+    // A straight level line: the rotation about it is undefined by the positions (any rotation
+    // allowed), its heading is not; a climb straight up fixes no heading. Both take what the
+    // positions leave from the attitudes, unless those disagree too (every other one a half turn
+    // about the vertical off).
+    let line = |p: fn(f64) -> [f64; 3], torn: bool| -> Vec<Row> {
         (0..100)
             .map(|k| Row {
                 t: k as f64 * 0.01,
                 p: p(k as f64 * 0.1),
-                q: [0.0, 0.0, 0.0, 1.0],
+                q: if torn && k % 2 == 1 {
+                    [0.0, 0.0, 1.0, 0.0]
+                } else {
+                    [0.0, 0.0, 0.0, 1.0]
+                },
             })
             .collect()
     };
     let path = dir.join("line.tum");
-    std::fs::write(&path, tum(&line(|x| [x, 0.0, 1.0]))).expect("write");
-    let out = wins(&["eval", s(&path), s(&path), "--align", "se3"]);
+    std::fs::write(&path, tum(&line(|x| [x, 0.0, 1.0], false))).expect("write");
+    assert!(
+        wins(&["eval", s(&path), s(&path), "--align", "se3"])
+            .status
+            .success()
+    );
+    assert!(wins(&["eval", s(&path), s(&path)]).status.success());
+    let torn = dir.join("line-torn.tum");
+    std::fs::write(&torn, tum(&line(|x| [x, 0.0, 1.0], true))).expect("write");
+    let out = wins(&["eval", s(&torn), s(&path), "--align", "se3"]);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("collinear"), "{}", stderr(&out));
-    assert!(wins(&["eval", s(&path), s(&path)]).status.success());
     let climb = dir.join("climb.tum");
-    std::fs::write(&climb, tum(&line(|z| [1.0, 2.0, z]))).expect("write");
-    let out = wins(&["eval", s(&climb), s(&climb)]);
+    std::fs::write(&climb, tum(&line(|z| [1.0, 2.0, z], false))).expect("write");
+    assert!(wins(&["eval", s(&climb), s(&climb)]).status.success());
+    let torn_climb = dir.join("climb-torn.tum");
+    std::fs::write(&torn_climb, tum(&line(|z| [1.0, 2.0, z], true))).expect("write");
+    let out = wins(&["eval", s(&torn_climb), s(&climb)]);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("horizontally"), "{}", stderr(&out));
 

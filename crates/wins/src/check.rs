@@ -104,7 +104,11 @@ impl fmt::Display for Problems {
             if i > 0 {
                 writeln!(f)?;
             }
-            write!(f, "{}: {}", p.key, p.message)?;
+            if p.key.is_empty() {
+                write!(f, "{}", p.message)?;
+            } else {
+                write!(f, "{}: {}", p.key, p.message)?;
+            }
         }
         Ok(())
     }
@@ -146,9 +150,11 @@ pub fn overlay(
     for (key, value) in user {
         let path = join(prefix, key);
         let Some(default) = defaults.get(key) else {
-            let hint = similar_key(defaults, key)
-                .map(|k| format!(" (did you mean `{k}`? units are part of the names)"))
-                .unwrap_or_default();
+            let hint = match (similar_key(defaults, key), nearest_key(defaults, key)) {
+                (Some(k), _) => format!(" (did you mean `{k}`? units are part of the names)"),
+                (None, Some(k)) => format!(" (did you mean `{k}`?)"),
+                (None, None) => String::new(),
+            };
             problems.push(prefix, key, format!("unknown key{hint}"));
             continue;
         };
@@ -181,9 +187,85 @@ fn similar_key<'a>(known: &'a toml::Table, key: &str) -> Option<&'a str> {
     known.keys().map(String::as_str).find(|k| stem(k) == wanted)
 }
 
+/// The known key nearest to `key` when it is a slip of the keyboard: at most one edit in four
+/// characters (two in `estimater` → `estimator`'s nine: insertions, deletions, substitutions).
+fn nearest_key<'a>(known: &'a toml::Table, key: &str) -> Option<&'a str> {
+    let allowed = key.chars().count().div_ceil(4).clamp(1, 3);
+    known
+        .keys()
+        .map(|k| (edit_distance(k, key), k.as_str()))
+        .filter(|(d, _)| *d <= allowed)
+        .min()
+        .map(|(_, k)| k)
+}
+
+/// Levenshtein distance between two strings, in characters.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let substitute = diagonal + usize::from(ca != *cb);
+            diagonal = row[j + 1];
+            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
+        }
+    }
+    row[b.len()]
+}
+
+/// A deserializer's message split into the key it names (`… in `eval.align``, as `toml`
+/// reports it) and the rest; the key is empty when the message names none.
+pub fn located(error: &str) -> (String, String) {
+    let error = error.trim();
+    match error.rsplit_once("\nin `") {
+        Some((message, key)) => (
+            key.trim_end_matches('`').to_string(),
+            message.trim().to_string(),
+        ),
+        None => (String::new(), error.to_string()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_slip_of_the_keyboard_gets_the_key_it_meant() {
+        let known: toml::Table = toml::from_str(
+            "estimator = 1
+window = 2
+[eval]
+align = 3
+",
+        )
+        .unwrap();
+        assert_eq!(nearest_key(&known, "estimater"), Some("estimator"));
+        assert_eq!(nearest_key(&known, "windw"), Some("window"));
+        assert_eq!(nearest_key(&known, "speed"), None);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        let mut p = Problems::new();
+        overlay(
+            &known,
+            &toml::from_str("estimater = 1").unwrap(),
+            "",
+            &mut p,
+        );
+        assert_eq!(
+            p.to_string(),
+            "estimater: unknown key (did you mean `estimator`?)"
+        );
+        assert_eq!(
+            located("unknown variant `foo`, expected `posyaw` or `se3`\nin `eval.align`\n"),
+            (
+                "eval.align".to_string(),
+                "unknown variant `foo`, expected `posyaw` or `se3`".to_string()
+            )
+        );
+        assert_eq!(located("no key here").0, "");
+    }
 
     #[test]
     fn every_problem_is_kept_under_its_path() {

@@ -121,7 +121,8 @@ impl Config {
         let config = match toml::Value::Table(merged).try_into::<Config>() {
             Ok(c) => c,
             Err(e) => {
-                problems.push("", "", e.to_string().trim().to_string());
+                let (key, message) = crate::check::located(&e.to_string());
+                problems.push("", &key, message);
                 Config::default()
             }
         };

@@ -71,7 +71,33 @@ fn the_estimator_is_chosen_by_name_and_an_unknown_one_is_refused() {
     assert_eq!(c.estimator, EstimatorKind::Paper);
     let c = Config::from_toml_str("estimator = \"nonlinear\"\n", "t").unwrap();
     assert_eq!(c.estimator, EstimatorKind::Nonlinear);
-    assert!(Config::from_toml_str("estimator = \"kalman\"\n", "t").is_err());
+    // An unknown name is a problem of its key, with the names it could be.
+    let Err(ConfigError::Invalid { problems, .. }) =
+        Config::from_toml_str("estimator = \"kalman\"\n", "t")
+    else {
+        panic!("accepted");
+    };
+    assert_eq!(problems.0[0].key, "estimator", "{problems}");
+    assert!(problems.0[0].message.contains("`paper`"), "{problems}");
+    let Err(ConfigError::Invalid { problems, .. }) =
+        Config::from_toml_str("[eval]\nalign = \"foo\"\n", "t")
+    else {
+        panic!("accepted");
+    };
+    assert_eq!(
+        problems.to_string(),
+        "eval.align: unknown variant `foo`, expected `posyaw` or `se3`"
+    );
+    // A slip of the keyboard gets the key it meant.
+    let Err(ConfigError::Invalid { problems, .. }) =
+        Config::from_toml_str("estimater = \"paper\"\n", "t")
+    else {
+        panic!("accepted");
+    };
+    assert!(
+        problems.to_string().contains("did you mean `estimator`?"),
+        "{problems}"
+    );
     let Err(ConfigError::Invalid { problems, .. }) =
         Config::from_toml_str("[nonlinear]\nmax_keyframes = 1\n", "t")
     else {

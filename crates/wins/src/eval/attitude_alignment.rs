@@ -6,7 +6,9 @@
 //! pair's rotation); with [`AlignMode::Se3`] the whole rotation (the normalized sum of the pairs'
 //! quaternions, each on the first one's side: the chordal mean, Hartley et al., IJCV 2013,
 //! §5.3). The translation then takes the estimate's mean position onto the truth's. Pairs that
-//! disagree (the mean's resultant length under [`MIN_AGREEMENT`] of the pairs') fix nothing.
+//! disagree fix nothing: two rotations [`MAX_SPREAD_RAD`] apart have a mean resultant length of
+//! `cos(spread/2)` as yaw phasors and `cos(spread/4)` as quaternions, and a mean shorter than
+//! that is refused.
 
 use nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3};
 
@@ -14,10 +16,9 @@ use super::EvalError;
 use super::align::{AlignMode, Alignment};
 use crate::dataset::truth::Pose;
 
-/// Least resultant length of the pairs' mean rotation, as a share of the pairs: below it the
-/// pairs' rotations disagree too much to have a mean (half of them a half turn from the other
-/// half gives 0).
-pub const MIN_AGREEMENT: f64 = 0.5;
+/// Widest spread of the pairs' rotations that still has a mean, rad: a third of a turn (half of
+/// them a half turn from the other half has none).
+pub const MAX_SPREAD_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
 
 /// The running sums of the pairs' relative rotations.
 #[derive(Clone, Debug, Default)]
@@ -46,7 +47,7 @@ impl AttitudeMean {
 
     /// The alignment of `mode` whose rotation is the pairs' mean and whose translation takes
     /// `mean_est` onto `mean_truth`. Errors: no pair, or rotations that disagree
-    /// ([`MIN_AGREEMENT`]), as [`EvalError::Degenerate`] with the positions' `singular_values`.
+    /// ([`MAX_SPREAD_RAD`]), as [`EvalError::Degenerate`] with the positions' `singular_values`.
     pub(crate) fn alignment(
         &self,
         mode: AlignMode,
@@ -58,7 +59,8 @@ impl AttitudeMean {
         let rotation = match mode {
             AlignMode::PosYaw => {
                 if self.pairs == 0
-                    || self.yaw_cos.hypot(self.yaw_sin) < MIN_AGREEMENT * self.pairs as f64
+                    || self.yaw_cos.hypot(self.yaw_sin)
+                        < (MAX_SPREAD_RAD / 2.0).cos() * self.pairs as f64
                 {
                     return Err(degenerate);
                 }
@@ -71,7 +73,7 @@ impl AttitudeMean {
                 let Some((_, sum)) = self.quaternion else {
                     return Err(degenerate);
                 };
-                if sum.norm() < MIN_AGREEMENT * self.pairs as f64 {
+                if sum.norm() < (MAX_SPREAD_RAD / 4.0).cos() * self.pairs as f64 {
                     return Err(degenerate);
                 }
                 UnitQuaternion::from_quaternion(sum)

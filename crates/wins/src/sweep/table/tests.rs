@@ -105,6 +105,7 @@ fn every_cell_reads_back_to_the_bits_of_its_metric() {
                 assert_eq!(back.to_bits(), n.as_f64().unwrap().to_bits(), "{key}");
             }
             Value::Number(n) => assert_eq!(cell, n.to_string(), "{key}"),
+            Value::Bool(b) => assert_eq!(cell, b.to_string(), "{key}"),
             other => panic!("{key}: unexpected leaf {other}"),
         }
     }
