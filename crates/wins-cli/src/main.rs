@@ -280,16 +280,24 @@ fn warn_lost<'a>(lost: impl IntoIterator<Item = &'a intel5300::Skip>) {
 fn simulate(args: SimulateArgs) -> Result<()> {
     let stdout = io::stdout();
     let mut out = stdout.lock();
+    // Names padded to the longest, and two spaces, so that none runs into its description.
+    let width = sim::scenario::BUILT_IN
+        .iter()
+        .map(|(name, _)| name.len())
+        .chain(FAMILIES.iter().map(|f| f.name().len()))
+        .max()
+        .unwrap_or(0)
+        + 2;
     if args.list {
         for (name, text) in sim::scenario::BUILT_IN {
             let scenario = Scenario::from_toml(text, name)?;
-            writeln!(out, "{name:<24}{}", scenario.description)?;
+            writeln!(out, "{name:<width$}{}", scenario.description)?;
         }
         writeln!(out, "\nflight families (--family NAME --seed S):")?;
     }
     if args.list || args.list_families {
         for family in FAMILIES {
-            writeln!(out, "{:<24}{}", family.name(), family.description())?;
+            writeln!(out, "{:<width$}{}", family.name(), family.description())?;
         }
         return Ok(());
     }

@@ -54,8 +54,8 @@ pub struct DemoArgs {
     /// Override the flight duration, s.
     #[arg(long, value_name = "SECONDS", visible_alias = "duration-s")]
     duration: Option<f64>,
-    /// Start the flight in the air (no rest on the ground, take-off or landing), as the
-    /// estimator needs today.
+    /// Start the flight in the air (no rest on the ground, take-off or landing): the start
+    /// the paper's estimator needs; the default one starts from either.
     #[arg(long)]
     airborne: bool,
     /// Where the dataset and the run go.

@@ -106,6 +106,21 @@ fn simulate_lists_prints_and_runs_scenarios() {
     ] {
         assert!(text.contains(name), "{text}");
     }
+    // Every name stands apart from its description (the longest one included).
+    for line in text.lines().filter(|l| l.starts_with("paper-circle")) {
+        let name = line.split_whitespace().next().unwrap_or_default();
+        assert!(
+            [
+                "paper-circle",
+                "paper-circle-restart",
+                "paper-circle-uncalibrated",
+                "paper-circle-3ap",
+                "paper-circle-obstacle"
+            ]
+            .contains(&name),
+            "{line}"
+        );
+    }
 
     let printed = wins(&["simulate", "--print-scenario", "hover"]);
     assert!(printed.status.success());
@@ -157,6 +172,113 @@ fn simulate_lists_prints_and_runs_scenarios() {
     let info = wins(&["csi", "info", out_dir.join("ap0.dat").to_str().unwrap()]);
     assert!(info.status.success());
     assert!(String::from_utf8_lossy(&info.stdout).contains("3x1:"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A calibration the dataset names but does not hold is a warning, and the run goes on without
+/// one; `--no-calibration` does not read the file at all (a broken one included).
+#[test]
+fn a_missing_calibration_is_a_warning_and_no_calibration_reads_none() {
+    let dir = std::env::temp_dir().join(format!("wins-cli-nocal-{}", std::process::id()));
+    let data = dir.join("d");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let out = wins(&[
+        "simulate",
+        "--scenario",
+        "paper-circle",
+        "--airborne",
+        "--duration",
+        "8",
+        "--out",
+        &s(&data),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_file(data.join("calibration.toml")).unwrap();
+    let out = wins(&["run", &s(&data), "--out", &s(&dir.join("r1"))]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr
+            .contains("names the chain calibration calibration.toml, which is not in the dataset"),
+        "{stderr}"
+    );
+    std::fs::write(data.join("calibration.toml"), "not a calibration").unwrap();
+    let out = wins(&["run", &s(&data), "--out", &s(&dir.join("r2"))]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("calibration.toml"));
+    let out = wins(&[
+        "run",
+        &s(&data),
+        "--out",
+        &s(&dir.join("r3")),
+        "--no-calibration",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("which is not in the dataset"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A clock offset that puts no packet inside the IMU's span is refused with the offset that
+/// makes the recordings start together, and that offset runs.
+#[test]
+fn a_wrong_clock_offset_gets_the_one_that_fits() {
+    let dir = std::env::temp_dir().join(format!("wins-cli-clock-{}", std::process::id()));
+    let data = dir.join("d");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let out = wins(&[
+        "simulate",
+        "--scenario",
+        "paper-circle",
+        "--airborne",
+        "--duration",
+        "8",
+        "--out",
+        &s(&data),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let manifest = data.join("dataset.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("imu_minus_nic_ns"))
+        .unwrap()
+        .to_string();
+    let truth: i64 = line.rsplit(' ').next().unwrap().parse().unwrap();
+    std::fs::write(&manifest, text.replace(&line, "imu_minus_nic_ns = 0")).unwrap();
+    let out = wins(&["run", &s(&data), "--out", &s(&dir.join("r1"))]);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success());
+    let proposed: i64 = stderr
+        .split("ap0: imu_minus_nic_ns = ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{stderr}"));
+    // The first packet comes a few milliseconds after the first IMU sample.
+    assert!(
+        (proposed - truth).abs() < 50_000_000,
+        "{proposed} against {truth}"
+    );
+    std::fs::write(
+        &manifest,
+        text.replace(&line, &format!("imu_minus_nic_ns = {proposed}")),
+    )
+    .unwrap();
+    let out = wins(&["run", &s(&data), "--out", &s(&dir.join("r2"))]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

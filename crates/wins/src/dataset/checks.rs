@@ -76,7 +76,7 @@ pub enum InputError {
     #[error(
         "no packet of any AP falls inside the IMU's time span ({imu_from_s:.3}–{imu_to_s:.3} s); \
          the packets span {csi_from_s:.3}–{csi_to_s:.3} s on the IMU clock: check \
-         imu_minus_nic_ns and the IMU's time unit"
+         imu_minus_nic_ns and the IMU's time unit. {suggestion}"
     )]
     NoOverlap {
         /// IMU span, s.
@@ -87,6 +87,8 @@ pub enum InputError {
         csi_from_s: f64,
         /// Packets' span, s.
         csi_to_s: f64,
+        /// The offsets that would make the recordings start together, in words.
+        suggestion: String,
     },
 }
 
@@ -217,10 +219,39 @@ pub struct ImuLimits {
 /// The IMU's span against every AP's, from what the reader counted: the IMU's span, the packets
 /// inside it (every AP's `before_imu` and `after_imu` set) and the packets' span. No overlap is
 /// an error, ends far apart a warning.
+/// The offsets that would make the packets' first time on the IMU clock the IMU's first (each
+/// AP's `imu_minus_nic_ns` in `offsets` shifted alike), and how sure that is: if the recordings
+/// also ended together, their lengths' difference bounds how far off it is.
+fn suggest_offsets(
+    (from, to): (Timestamp, Timestamp),
+    (csi_from, csi_to): (Timestamp, Timestamp),
+    offsets: &[(&str, i64)],
+) -> String {
+    let shift = from.0 - csi_from.0;
+    let proposed: Vec<String> = offsets
+        .iter()
+        .map(|(name, offset)| {
+            format!(
+                "{name}: imu_minus_nic_ns = {}",
+                offset.saturating_add(shift)
+            )
+        })
+        .collect();
+    let lengths = ((to.0 - from.0) - (csi_to.0 - csi_from.0)).abs() as f64 * 1e-9;
+    format!(
+        "If the two recordings started together: {} (the packets moved by {:+.3} s; the \
+         recordings' lengths differ by {lengths:.3} s, which bounds how far off that is if they \
+         also ended together)",
+        proposed.join(", "),
+        shift as f64 * 1e-9
+    )
+}
+
 pub(crate) fn judge_spans(
     (from, to): (Timestamp, Timestamp),
     inside: u64,
     csi_span: Option<(Timestamp, Timestamp)>,
+    offsets: &[(&str, i64)],
     report: &mut InputReport,
 ) -> Result<(), InputError> {
     report.imu.span_s = Some((from.as_secs_f64(), to.as_secs_f64()));
@@ -236,6 +267,7 @@ pub(crate) fn judge_spans(
             imu_to_s: to.as_secs_f64(),
             csi_from_s: csi_from.as_secs_f64(),
             csi_to_s: csi_to.as_secs_f64(),
+            suggestion: suggest_offsets((from, to), (csi_from, csi_to), offsets),
         });
     }
     let mut warnings = Vec::new();

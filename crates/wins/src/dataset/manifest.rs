@@ -78,7 +78,8 @@ pub struct ArrayEntry {
     /// Rotation `body_from_array` as a Hamilton quaternion `[x, y, z, w]`.
     pub rotation_xyzw: [f64; 4],
     /// The NIC's receive-chain calibration ([`crate::rig::ChainCalibration`] TOML), relative to
-    /// the dataset directory. Absent: uncalibrated chains (AoA wrong by tens of degrees).
+    /// the dataset directory: a prior. Absent (or named but not there): the chains' offsets are
+    /// resolved from the flight alone, where the estimator can (`wins run` warns).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<String>,
 }

@@ -65,6 +65,13 @@ impl DatasetStream {
     /// Reads `dir/dataset.toml` and checks everything it names (module docs); the same errors,
     /// in the same order, as [`super::Dataset::load`].
     pub fn open(dir: impl AsRef<Path>) -> Result<Self, DatasetError> {
+        Self::open_with(dir, true)
+    }
+
+    /// [`Self::open`]; without `read_calibration` the chain calibration the manifest names is
+    /// not read at all (a run told to fly without one). A calibration the manifest names but
+    /// that is not there is no calibration, with a warning saying so.
+    pub fn open_with(dir: impl AsRef<Path>, read_calibration: bool) -> Result<Self, DatasetError> {
         let dir = dir.as_ref();
         let manifest = read_manifest(dir)?;
         let inputs_error = |source| DatasetError::Inputs {
@@ -110,11 +117,29 @@ impl DatasetStream {
             }
             inside += kept - before - after;
         }
-        checks::judge_spans((from, to), inside, csi_span, &mut inputs).map_err(inputs_error)?;
+        let offsets: Vec<(&str, i64)> = manifest
+            .aps
+            .iter()
+            .map(|a| (a.name.as_str(), a.imu_minus_nic_ns))
+            .collect();
+        checks::judge_spans((from, to), inside, csi_span, &offsets, &mut inputs)
+            .map_err(inputs_error)?;
         checks::summarize(&mut inputs);
         let calibration = match &manifest.array.calibration {
-            Some(file) => Some(ChainCalibration::load(&dir.join(file))?),
-            None => None,
+            Some(file) if read_calibration => {
+                let path = dir.join(file);
+                if path.exists() {
+                    Some(ChainCalibration::load(&path)?)
+                } else {
+                    inputs.warnings.push(format!(
+                        "dataset.toml names the chain calibration {file}, which is not in the \
+                         dataset: running without one (remove the line, or add the file: wins \
+                         calibrate)"
+                    ));
+                    None
+                }
+            }
+            _ => None,
         };
         let baro = match &manifest.baro {
             Some(entry) => {

@@ -142,9 +142,11 @@ fn run_into_sink(
     sink: &mut dyn RunSink,
 ) -> Result<RunOutput, RunError> {
     config.validate()?;
-    let data = DatasetStream::open(path).map_err(|source| RunError::Dataset {
-        path: path.display().to_string(),
-        source: Box::new(source),
+    let data = DatasetStream::open_with(path, !options.no_calibration).map_err(|source| {
+        RunError::Dataset {
+            path: path.display().to_string(),
+            source: Box::new(source),
+        }
     })?;
     let mut rig = rig_of_manifest(
         &data.manifest,
