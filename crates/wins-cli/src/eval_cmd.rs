@@ -8,7 +8,8 @@ use anyhow::{Context, Result, bail};
 use wins::dataset::truth::{ApRow, Pose, Truth, read_tum};
 use wins::eval::{
     AlignMode, DEFAULT_MAX_TIME_DIFF_S, DEFAULT_RPE_DELTA_FRAMES, EstimatedAp, EvalOptions,
-    evaluate, position_error_rms_from, read_estimated_aps,
+    covariance_of_each_pose, evaluate, position_error_rms_from, position_nees, read_estimated_aps,
+    read_position_covariance,
 };
 use wins::time::Timestamp;
 
@@ -17,12 +18,17 @@ use wins::time::Timestamp;
 pub struct EvalArgs {
     /// Estimated trajectory, TUM format (t[s] x y z qx qy qz qw, world_from_body).
     est: PathBuf,
-    /// Truth: a TUM file, or a dataset directory (its truth/poses.tum and truth/aps.csv).
+    /// Truth: a TUM file, a dataset directory (its truth/poses.tum and truth/aps.csv), or a
+    /// truth folder itself (poses.tum, aps.csv).
     truth: PathBuf,
     /// Estimated AP positions in the estimate's world frame, CSV `name,x_m,y_m,z_m` (needs a
-    /// dataset directory as TRUTH).
+    /// dataset directory or truth folder as TRUTH; a run writes its own as `aps.csv`).
     #[arg(long, value_name = "FILE")]
     aps: Option<PathBuf>,
+    /// The covariance reported with each pose, as `wins run` writes it: for the position NEES.
+    /// Default: `covariance.csv` beside EST, when there.
+    #[arg(long, value_name = "FILE")]
+    covariance: Option<PathBuf>,
     /// Largest time difference of an associated pose pair, s (evo's --t_max_diff).
     #[arg(long, value_name = "S", default_value_t = DEFAULT_MAX_TIME_DIFF_S)]
     max_time_diff: f64,
@@ -58,6 +64,10 @@ fn parse_align(s: &str) -> Result<AlignMode, String> {
 pub fn eval(args: EvalArgs) -> Result<()> {
     let est = read_tum_file(&args.est)?;
     let (truth, truth_aps) = read_truth(&args.truth)?;
+    let beside = |name: &str| {
+        let path = args.est.with_file_name(name);
+        path.is_file().then_some(path)
+    };
     let aps: Vec<EstimatedAp> = match &args.aps {
         Some(path) => {
             if truth_aps.is_empty() {
@@ -78,13 +88,25 @@ pub fn eval(args: EvalArgs) -> Result<()> {
         rpe_delta_frames: args.rpe_delta,
         align: args.align,
     };
-    let metrics = evaluate(&est, &truth, &aps, &truth_aps, &options).with_context(|| {
+    let mut metrics = evaluate(&est, &truth, &aps, &truth_aps, &options).with_context(|| {
         format!(
             "evaluating {} against {}",
             args.est.display(),
             args.truth.display()
         )
     })?;
+    if let Some(path) = args.covariance.clone().or_else(|| beside("covariance.csv")) {
+        let file = File::open(&path).with_context(|| format!("cannot open {}", path.display()))?;
+        let rows = read_position_covariance(BufReader::new(file))
+            .with_context(|| format!("reading {}", path.display()))?;
+        let cov = covariance_of_each_pose(&est, &rows);
+        if let Some(nees) = position_nees(&est, &cov, &truth, &options)
+            .with_context(|| format!("the NEES with {}", path.display()))?
+        {
+            metrics.position_nees_mean = Some(nees.mean);
+            metrics.position_nees_within_95 = Some(nees.within_95);
+        }
+    }
     let from = match args.from {
         Some(t_s) => Some((t_s, error_from(&est, &truth, &options, t_s)?)),
         None => None,
@@ -142,11 +164,17 @@ fn read_tum_file(path: &Path) -> Result<Vec<Pose>> {
     read_tum(BufReader::new(file)).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
-/// Truth poses and AP positions: from a dataset directory, or poses only from a TUM file.
+/// Truth poses and AP positions: from a dataset directory or a truth folder, or poses only from
+/// a TUM file.
 fn read_truth(path: &Path) -> Result<(Vec<Pose>, Vec<ApRow>)> {
     if path.is_dir() {
-        let truth = Truth::load(path)
-            .with_context(|| format!("loading the truth of dataset {}", path.display()))?;
+        let truth = if path.join("poses.tum").is_file() {
+            Truth::load_dir(path)
+                .with_context(|| format!("loading the truth folder {}", path.display()))?
+        } else {
+            Truth::load(path)
+                .with_context(|| format!("loading the truth of dataset {}", path.display()))?
+        };
         Ok((truth.poses, truth.aps))
     } else {
         Ok((read_tum_file(path)?, Vec::new()))

@@ -328,6 +328,98 @@ fn eval_against_a_dataset_with_ap_estimates() {
     // paper-circle flies at 1.27 m/s.
     let v = m["max_speed_m_s"].as_f64().expect("speed");
     assert!((v - 1.27).abs() < 0.05, "{v}");
+    // The truth folder itself scores the same.
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&ds.join("truth")),
+        "--aps",
+        s(&aps_path),
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(folder["ap_position_error_m"], m["ap_position_error_m"]);
+    assert_eq!(folder["ate_rmse_m"], m["ate_rmse_m"]);
+}
+
+/// With the covariance reported beside the estimate (`covariance.csv`, as `wins run` writes it)
+/// the position NEES is scored: noise uniform in ±a reported as a²/3 per axis gives about 3.
+#[test]
+fn eval_scores_the_nees_of_the_covariance_beside_the_estimate() {
+    let dir = temp_dir("nees");
+    let truth = truth_rows(60);
+    let truth_path = dir.join("truth.tum");
+    std::fs::write(&truth_path, tum(&truth)).expect("write truth");
+    let mut state = 7;
+    let a = 0.3;
+    let est: Vec<Row> = truth
+        .iter()
+        .step_by(4)
+        .map(|r| moved(r, noise(&mut state, a)))
+        .collect();
+    let est_path = dir.join("trajectory.tum");
+    std::fs::write(&est_path, tum(&est)).expect("write est");
+    let var = a * a / 3.0;
+    let mut cov = String::from(
+        "t_s,c_x_x,c_x_y,c_x_z,c_x_rx,c_x_ry,c_x_rz,c_y_y,c_y_z,c_y_rx,c_y_ry,c_y_rz,c_z_z,\
+         c_z_rx,c_z_ry,c_z_rz,c_rx_rx,c_rx_ry,c_rx_rz,c_ry_ry,c_ry_rz,c_rz_rz\n",
+    );
+    for r in &est {
+        cov += &format!(
+            "{:.9},{var:e},0,0,0,0,0,{var:e},0,0,0,0,{var:e},0,0,0,1e-4,0,0,1e-4,0,1e-4\n",
+            r.t
+        );
+    }
+    std::fs::write(dir.join("covariance.csv"), &cov).expect("write covariance");
+    let out = wins(&["eval", s(&est_path), s(&truth_path), "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let nees = m["position_nees_mean"].as_f64().expect("NEES");
+    assert!((2.6..3.4).contains(&nees), "{nees}");
+    // Four times the variance reported: a quarter of the NEES.
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&truth_path),
+        "--json",
+        "--covariance",
+        s(&dir.join("wide.csv")),
+    ]);
+    assert!(
+        !out.status.success(),
+        "a missing --covariance file is an error"
+    );
+    let wide = cov.replace(&format!("{var:e}"), &format!("{:e}", 4.0 * var));
+    std::fs::write(dir.join("wide.csv"), wide).expect("write");
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&truth_path),
+        "--json",
+        "--covariance",
+        s(&dir.join("wide.csv")),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let quarter = m["position_nees_mean"].as_f64().expect("NEES");
+    assert!(
+        (quarter * 4.0 - nees).abs() < 1e-6 * nees,
+        "{quarter} {nees}"
+    );
+    // A cell that is not a number is named.
+    std::fs::write(
+        dir.join("covariance.csv"),
+        cov.replacen(&format!("{var:e}"), "x", 1),
+    )
+    .expect("write");
+    let out = wins(&["eval", s(&est_path), s(&truth_path)]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("covariance, row 1"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 /// The default alignment turns the estimate about the vertical only: an estimate in a tilted

@@ -270,7 +270,13 @@ impl Truth {
     /// Loads `dataset_dir/truth/`: `poses.tum` is required, every other file is optional (a
     /// motion-capture truth has only poses); a file that is there must parse.
     pub fn load(dataset_dir: impl AsRef<Path>) -> Result<Self, TruthError> {
-        let dir = dataset_dir.as_ref().join(TRUTH_DIR);
+        Self::load_dir(dataset_dir.as_ref().join(TRUTH_DIR))
+    }
+
+    /// Loads a truth folder itself (a dataset's `truth/`, or a copy of it elsewhere), as
+    /// [`Truth::load`].
+    pub fn load_dir(dir: impl AsRef<Path>) -> Result<Self, TruthError> {
+        let dir = dir.as_ref().to_path_buf();
         let open = |name: &str| {
             let path = dir.join(name);
             crate::io_safety::open_regular(&path)

@@ -37,7 +37,10 @@ pub use associate::{Association, associate};
 pub use drift::{DRIFT_WINDOW_S, JUMP_THRESHOLD_M};
 pub use evaluate::{evaluate, position_error_rms_from, position_error_series};
 pub use metrics::{Metrics, SentMetrics};
-pub use nees::{NEES_95_3DOF, NeesSummary, mean_nees_band, position_nees};
+pub use nees::{
+    CovarianceRow, NEES_95_3DOF, NeesSummary, covariance_of_each_pose, mean_nees_band,
+    position_nees, read_position_covariance,
+};
 pub use rpe::{RelativePoseError, relative_pose_errors};
 
 use crate::check::Problems;
@@ -180,6 +183,14 @@ pub enum EvalError {
     /// A malformed row of an estimated-AP CSV.
     #[error("AP positions, row {row}: {reason}")]
     ApCsv {
+        /// 1-based data row (0: the header).
+        row: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A malformed row of a `covariance.csv`.
+    #[error("covariance, row {row}: {reason}")]
+    CovarianceCsv {
         /// 1-based data row (0: the header).
         row: usize,
         /// What is wrong.

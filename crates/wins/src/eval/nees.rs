@@ -22,6 +22,7 @@ use super::associate::associate_and_align;
 use super::{EvalError, EvalOptions};
 use crate::chi2::chi2_upper;
 use crate::dataset::truth::Pose;
+use crate::time::Timestamp;
 
 /// χ²(3) exceeded with probability 5 %.
 pub const NEES_95_3DOF: f64 = 7.814_727_903_251_178;
@@ -66,6 +67,80 @@ pub fn position_nees(
         })
         .collect();
     Ok(summarize(&values))
+}
+
+/// One row of a `covariance.csv`: the pose's time and its position covariance, m² (`None`:
+/// none reported).
+pub type CovarianceRow = (Timestamp, Option<Matrix3<f64>>);
+
+/// The position covariance of each row of a run's `covariance.csv` (`t_s` and the upper
+/// triangle of the 6 × 6 covariance over x, y, z, rx, ry, rz, as `wins run` writes it: the
+/// position block is `c_x_x` … `c_z_z`), `None` for a row whose cells are empty (a pose sent
+/// without one). Errors: a missing column, or a cell that is not a number.
+pub fn read_position_covariance(
+    input: impl std::io::Read,
+) -> Result<Vec<CovarianceRow>, EvalError> {
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(input));
+    let bad = |row: usize, reason: String| EvalError::CovarianceCsv { row, reason };
+    let header = lines
+        .next()
+        .transpose()
+        .map_err(|e| bad(0, e.to_string()))?
+        .ok_or_else(|| bad(0, "no header".into()))?;
+    let columns: Vec<&str> = header.trim().split(',').collect();
+    let at = |name: &str| {
+        columns
+            .iter()
+            .position(|c| *c == name)
+            .ok_or_else(|| bad(0, format!("no column {name}")))
+    };
+    let t = at("t_s")?;
+    let names = ["c_x_x", "c_x_y", "c_x_z", "c_y_y", "c_y_z", "c_z_z"];
+    let cells: Vec<usize> = names.iter().map(|n| at(n)).collect::<Result<_, _>>()?;
+    let mut out = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let row = k + 1;
+        let line = line.map_err(|e| bad(row, e.to_string()))?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.trim().split(',').collect();
+        let field = |i: usize| fields.get(i).copied().unwrap_or("").trim();
+        let time = field(t)
+            .parse::<f64>()
+            .ok()
+            .map(|s| Timestamp((s * 1e9).round() as i64))
+            .filter(|t| t.is_in_range())
+            .ok_or_else(|| bad(row, format!("time {:?} is not seconds", field(t))))?;
+        if cells.iter().all(|&i| field(i).is_empty()) {
+            out.push((time, None));
+            continue;
+        }
+        let mut v = [0.0; 6];
+        for (x, &i) in v.iter_mut().zip(&cells) {
+            *x = field(i)
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| bad(row, format!("{:?} is not a number", field(i))))?;
+        }
+        let [xx, xy, xz, yy, yz, zz] = v;
+        out.push((time, Some(Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))));
+    }
+    Ok(out)
+}
+
+/// The covariance of each pose of `est` from `rows` ([`read_position_covariance`]): the row at
+/// the pose's time (within a microsecond, the files' rounding), `None` when there is none.
+pub fn covariance_of_each_pose(est: &[Pose], rows: &[CovarianceRow]) -> Vec<Option<Matrix3<f64>>> {
+    est.iter()
+        .map(|p| {
+            let i = rows.partition_point(|(t, _)| t.0 < p.t.0 - 1_000);
+            rows.get(i)
+                .filter(|(t, _)| (t.0 - p.t.0).abs() <= 1_000)
+                .and_then(|(_, c)| *c)
+        })
+        .collect()
 }
 
 /// `eᵀ (R Σ Rᵀ)⁻¹ e` for the alignment's rotation `r`, `None` when `Σ` is not positive definite.
