@@ -176,6 +176,20 @@ impl ChainResolver {
         }
     }
 
+    /// AP `l`'s position in the world and its σ, m, as the kept pipeline has it now (`None`
+    /// before the decision, or while it has not placed the AP).
+    pub fn decided_ap_in_w(&self, l: usize) -> Option<(nalgebra::Vector3<f64>, f64)> {
+        match &self.stage {
+            Stage::Decided(p) => p.wins().ap_in_w(l),
+            _ => None,
+        }
+    }
+
+    /// APs of the rig.
+    pub fn ap_count(&self) -> usize {
+        self.rig.ap_names.len()
+    }
+
     /// Integrates one IMU sample ([`Pipeline::push_imu`]).
     pub fn push_imu(&mut self, s: &ImuSample) -> Result<Released, PipelineError> {
         self.first_imu.get_or_insert(s.t);

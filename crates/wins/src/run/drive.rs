@@ -4,6 +4,8 @@
 use std::io;
 use std::time::Instant;
 
+use nalgebra::Vector3;
+
 use super::coverage::CoverageCheck;
 use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
 use crate::config::Config;
@@ -46,6 +48,9 @@ impl RunSink for Collected {
     }
 }
 
+/// An AP's position in the world and its σ, m, when placed.
+type ApFix = Option<(Vector3<f64>, f64)>;
+
 /// What a replay knows of its flight before it starts.
 pub(crate) struct Flight<'a> {
     /// First to last IMU sample, s.
@@ -58,7 +63,8 @@ pub(crate) struct Flight<'a> {
 
 /// Runs a pipeline for `rig` over the inputs `push` pushes (one per call, `None` after the
 /// last), handing what is released to `sink`, each frame marked sent or not as `wins live`
-/// marks it. The output's `frames`, `sent` and `packets` are empty, its `warnings` too.
+/// marks it. The output's `frames`, `sent` and `packets` are empty; its `warnings` say only
+/// whether the APs are those of before a loss.
 pub(crate) fn drive(
     config: &Config,
     rig: Rig,
@@ -71,11 +77,16 @@ pub(crate) fn drive(
     let mut imu_refused = 0;
     let mut coverage = CoverageCheck::default();
     let mut first_sent = None;
-    let mut keep = |r: Released| -> io::Result<()> {
+    // The APs as the last converged frame had them, and its time: what `aps.csv` keeps when the
+    // run ends lost.
+    let (mut held_aps, mut held_at): (Vec<ApFix>, Option<Timestamp>) = (Vec::new(), None);
+    let mut keep = |r: Released| -> io::Result<Option<Timestamp>> {
         let sent: Vec<bool> = r.frames.iter().map(|f| r.is_sent(f)).collect();
+        let mut last_converged = None;
         for (f, sent) in r.frames.into_iter().zip(sent) {
             if f.converged {
                 coverage.push(f.t);
+                last_converged = Some(f.t);
             }
             if sent {
                 first_sent.get_or_insert(f.t);
@@ -86,26 +97,49 @@ pub(crate) fn drive(
             sink.packet(p)?;
         }
         imu_refused += r.imu_refused;
-        Ok(())
+        Ok(last_converged)
     };
     while let Some(released) = push(&mut pipeline)? {
-        keep(released)?;
+        if let Some(t) = keep(released)? {
+            held_aps = (0..pipeline.ap_count())
+                .map(|l| pipeline.decided_ap_in_w(l))
+                .collect();
+            held_at = Some(t);
+        }
     }
     let done = pipeline.finish()?;
-    keep(done.released)?;
+    if let Some(t) = keep(done.released)? {
+        let wins = done.pipeline.wins();
+        held_aps = (0..done.pipeline.rig().ap_names.len())
+            .map(|l| wins.ap_in_w(l))
+            .collect();
+        held_at = Some(t);
+    }
     let end = flight.inputs.imu.span_s.map_or(Timestamp(0), |(_, to)| {
         Timestamp((to * NANOS_PER_SEC as f64).round() as i64)
     });
     let coverage = coverage.finish(end);
     let wins = done.pipeline.wins();
-    let aps = done
-        .pipeline
-        .rig()
-        .ap_names
+    let names = &done.pipeline.rig().ap_names;
+    // A run that ends lost has no AP left: it keeps those of its last converged frame (in that
+    // frame's world, the one of the poses before the loss).
+    let mut warnings = Vec::new();
+    let lost = (0..names.len()).all(|l| wins.ap_in_w(l).is_none());
+    let final_aps: Vec<ApFix> = match (held_aps, held_at) {
+        (held, Some(t)) if lost && held.iter().any(Option::is_some) => {
+            warnings.push(format!(
+                "the run ends lost: aps.csv holds the APs of the last converged pose, at {:.3} s",
+                t.as_secs_f64()
+            ));
+            held
+        }
+        _ => (0..names.len()).map(|l| wins.ap_in_w(l)).collect(),
+    };
+    let aps = names
         .iter()
-        .enumerate()
-        .filter_map(|(l, name)| {
-            let (p_in_w, sigma_m) = wins.ap_in_w(l)?;
+        .zip(final_aps)
+        .filter_map(|(name, ap)| {
+            let (p_in_w, sigma_m) = ap?;
             Some(ApEstimate {
                 name: name.clone(),
                 p_in_w,
@@ -133,7 +167,7 @@ pub(crate) fn drive(
         figures: None,
         inputs: flight.inputs.clone(),
         coverage,
-        warnings: Vec::new(),
+        warnings,
         spooled: None,
     })
 }

@@ -282,3 +282,34 @@ fn after_a_five_second_imu_gap_the_barometer_places_the_height() {
 fn after_a_csi_outage_the_error_comes_back_to_within_twice_the_undamaged() {
     comes_back_to_within_twice_the_undamaged(Damage::CsiOutage, &[1, 4]);
 }
+
+/// A run that ends lost (an IMU gap 7 s before the end leaves no time to be accepted again)
+/// keeps the APs of its last converged pose, and says so: before, it kept none.
+#[test]
+fn a_run_that_ends_lost_keeps_the_aps_of_its_last_converged_pose() {
+    let dir = temp_dir("ends-lost");
+    let mut s = Scenario::built_in("paper-circle").unwrap().airborne();
+    s.duration_s = 45.0;
+    let out = simulate(&s, &mut |_| {}).unwrap();
+    write_dataset(&dir, &s, &out).unwrap();
+    cut_imu(&dir, 38_000_000_000, 44_000_000_000);
+    let run = wins::run_dataset(&dir, &Config::default()).unwrap();
+    let truth_text = std::fs::read_to_string(dir.join("truth/poses.tum")).unwrap();
+    let truth = read_tum(truth_text.as_bytes()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let warnings = run.warnings.join("\n");
+    assert!(
+        warnings.contains("the run ends lost: aps.csv holds the APs of the last converged pose"),
+        "{warnings}"
+    );
+    assert_eq!(run.aps.len(), 1, "{:?}", run.aps);
+    // The AP is about as far from the last converged pose as the truth's AP from the truth there.
+    let last = run.converged_poses().last().copied().unwrap();
+    let at = truth.partition_point(|p| p.t < last.t).min(truth.len() - 1);
+    let truth_range = (Vector3::from(s.aps[0].position_m) - truth[at].p_b_in_w).norm();
+    let range = (run.aps[0].p_in_w - last.p_b_in_w).norm();
+    assert!(
+        (range - truth_range).abs() < 1.0,
+        "{range} m against {truth_range} m"
+    );
+}
