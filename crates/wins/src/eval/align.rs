@@ -235,8 +235,15 @@ impl UmeyamaCross {
         };
         match by_position {
             Err(EvalError::Degenerate { singular_values }) => {
-                self.attitudes
-                    .alignment(mode, &self.mean_est, &self.mean_truth, singular_values)
+                let rotation = self
+                    .attitudes
+                    .rotation(mode == AlignMode::PosYaw)
+                    .ok_or(EvalError::Degenerate { singular_values })?;
+                let t = self.mean_truth - rotation * self.mean_est;
+                let mut alignment =
+                    Alignment::from_isometry(&Isometry3::from_parts(t.into(), rotation));
+                alignment.rotation_from_attitudes = true;
+                Ok(alignment)
             }
             other => other,
         }
