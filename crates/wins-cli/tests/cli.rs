@@ -175,13 +175,9 @@ fn simulate_lists_prints_and_runs_scenarios() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// A calibration the dataset names but does not hold is a warning, and the run goes on without
-/// one; `--no-calibration` does not read the file at all (a broken one included).
-#[test]
-fn a_missing_calibration_is_a_warning_and_no_calibration_reads_none() {
-    let dir = std::env::temp_dir().join(format!("wins-cli-nocal-{}", std::process::id()));
+/// 8 s of `paper-circle`, airborne, simulated into `dir/d`.
+fn simulated_8_s(dir: &std::path::Path) -> PathBuf {
     let data = dir.join("d");
-    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
     let out = wins(&[
         "simulate",
         "--scenario",
@@ -190,13 +186,23 @@ fn a_missing_calibration_is_a_warning_and_no_calibration_reads_none() {
         "--duration",
         "8",
         "--out",
-        &s(&data),
+        data.to_str().unwrap(),
     ]);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    data
+}
+
+/// A calibration the dataset names but does not hold is a warning, and the run goes on without
+/// one; `--no-calibration` does not read the file at all (a broken one included).
+#[test]
+fn a_missing_calibration_is_a_warning_and_no_calibration_reads_none() {
+    let dir = std::env::temp_dir().join(format!("wins-cli-nocal-{}", std::process::id()));
+    let data = simulated_8_s(&dir);
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
     std::fs::remove_file(data.join("calibration.toml")).unwrap();
     let out = wins(&["run", &s(&data), "--out", &s(&dir.join("r1"))]);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -228,23 +234,8 @@ fn a_missing_calibration_is_a_warning_and_no_calibration_reads_none() {
 #[test]
 fn a_wrong_clock_offset_gets_the_one_that_fits() {
     let dir = std::env::temp_dir().join(format!("wins-cli-clock-{}", std::process::id()));
-    let data = dir.join("d");
+    let data = simulated_8_s(&dir);
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    let out = wins(&[
-        "simulate",
-        "--scenario",
-        "paper-circle",
-        "--airborne",
-        "--duration",
-        "8",
-        "--out",
-        &s(&data),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let manifest = data.join("dataset.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
     let line = text

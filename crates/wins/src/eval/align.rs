@@ -130,17 +130,7 @@ pub fn align(
     truth: &[Vector3<f64>],
     mode: AlignMode,
 ) -> Result<Alignment, EvalError> {
-    if est.len() != truth.len() {
-        return Err(EvalError::LengthMismatch {
-            est: est.len(),
-            truth: truth.len(),
-        });
-    }
-    let mut means = UmeyamaMeans::default();
-    est.iter().zip(truth).for_each(|(x, y)| means.push(x, y));
-    let mut cross = means.cross()?;
-    est.iter().zip(truth).for_each(|(x, y)| cross.push(x, y));
-    cross.alignment(mode)
+    align_pairs(est, truth, mode, |p| p, |c, x, y| c.push(x, y))
 }
 
 /// [`align`] of the poses' positions; when they cannot fix the rotation, the rotation of the
@@ -149,6 +139,24 @@ pub fn align_poses(
     est: &[&Pose],
     truth: &[&Pose],
     mode: AlignMode,
+) -> Result<Alignment, EvalError> {
+    align_pairs(
+        est,
+        truth,
+        mode,
+        |p| &p.p_b_in_w,
+        |c, x, y| c.push_pose(x, y),
+    )
+}
+
+/// The two passes of an alignment over pairs of `T`: the means of their `position`s, then
+/// `second` over each pair.
+fn align_pairs<T>(
+    est: &[T],
+    truth: &[T],
+    mode: AlignMode,
+    position: impl Fn(&T) -> &Vector3<f64>,
+    second: impl Fn(&mut UmeyamaCross, &T, &T),
 ) -> Result<Alignment, EvalError> {
     if est.len() != truth.len() {
         return Err(EvalError::LengthMismatch {
@@ -159,11 +167,11 @@ pub fn align_poses(
     let mut means = UmeyamaMeans::default();
     est.iter()
         .zip(truth)
-        .for_each(|(x, y)| means.push(&x.p_b_in_w, &y.p_b_in_w));
+        .for_each(|(x, y)| means.push(position(x), position(y)));
     let mut cross = means.cross()?;
     est.iter()
         .zip(truth)
-        .for_each(|(x, y)| cross.push_pose(x, y));
+        .for_each(|(x, y)| second(&mut cross, x, y));
     cross.alignment(mode)
 }
 
