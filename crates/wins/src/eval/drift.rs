@@ -7,7 +7,7 @@
 use nalgebra::UnitQuaternion;
 
 #[cfg(test)]
-use super::{AlignMode, Alignment, align};
+use super::{AlignMode, Alignment, align_poses};
 #[cfg(test)]
 use crate::dataset::truth::Pose;
 #[cfg(test)]
@@ -67,26 +67,28 @@ pub(crate) fn drift_metrics(
         .zip(&in_last)
         .filter(|&(_, &keep)| keep)
         .map(|(e, _)| *e);
-    let drift_last_60s_m = if last.0 - first.0 < 2 * window_ns {
-        None
-    } else {
-        let (est_p, truth_p): (Vec<_>, Vec<_>) = pairs
-            .iter()
-            .zip(&times)
-            .filter(|&(_, t)| t.0 <= first.0 + window_ns)
-            .map(|(&(i, j), _)| (est[i].p_b_in_w, truth[j].p_b_in_w))
-            .unzip();
-        // A first minute that cannot fix an alignment (still, or along one line) has no drift.
-        align(&est_p, &truth_p, mode).ok().map(|first_minute| {
-            rms(pairs
+    let drift_last_60s_m =
+        if last.0 - first.0 < 2 * window_ns {
+            None
+        } else {
+            let (est_p, truth_p): (Vec<_>, Vec<_>) = pairs
                 .iter()
-                .zip(&in_last)
-                .filter(|&(_, &keep)| keep)
-                .map(|(&(i, j), _)| {
-                    (first_minute.apply_point(&est[i].p_b_in_w) - truth[j].p_b_in_w).norm()
-                }))
-        })
-    };
+                .zip(&times)
+                .filter(|&(_, t)| t.0 <= first.0 + window_ns)
+                .map(|(&(i, j), _)| (&est[i], &truth[j]))
+                .unzip();
+            // A first minute that cannot fix an alignment (its positions on one line or still, and
+            // its attitudes in disagreement) has no drift.
+            align_poses(&est_p, &truth_p, mode)
+                .ok()
+                .map(|first_minute| {
+                    rms(pairs.iter().zip(&in_last).filter(|&(_, &keep)| keep).map(
+                        |(&(i, j), _)| {
+                            (first_minute.apply_point(&est[i].p_b_in_w) - truth[j].p_b_in_w).norm()
+                        },
+                    ))
+                })
+        };
     let heading_rad: Vec<f64> = pairs
         .iter()
         .map(|&(i, j)| {

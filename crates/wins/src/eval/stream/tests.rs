@@ -172,6 +172,21 @@ fn the_evaluation_in_passes_is_the_direct_formulas_bit_for_bit() {
         ..options.clone()
     };
     check_same("truth-drives", &est, &circle(150.0, 10.0, 0), &sparse);
+    // A first minute climbing straight up: its alignment's heading comes from the attitudes.
+    let climb = |poses: Vec<Pose>| -> Vec<Pose> {
+        poses
+            .into_iter()
+            .map(|mut p| {
+                if p.t.as_secs_f64() < 70.0 {
+                    p.p_b_in_w = Vector3::new(0.0, 3.0, 1.0 + 0.01 * p.t.as_secs_f64());
+                }
+                p
+            })
+            .collect()
+    };
+    let truth = climb(circle(150.0, 200.0, 0));
+    let est = estimate(&climb(circle(140.0, 50.0, 3_000)));
+    check_same("climb-first", &est, &truth, &options);
 }
 
 #[test]
