@@ -101,20 +101,14 @@ pub(crate) fn drive(
     };
     while let Some(released) = push(&mut pipeline)? {
         if let Some(t) = keep(released)? {
-            held_aps = (0..pipeline.ap_count())
-                .map(|l| pipeline.decided_ap_in_w(l))
-                .collect();
+            held_aps.clear();
+            held_aps.extend((0..pipeline.ap_count()).map(|l| pipeline.decided_ap_in_w(l)));
             held_at = Some(t);
         }
     }
+    // What the end releases comes from the final state, which the APs below are taken from.
     let done = pipeline.finish()?;
-    if let Some(t) = keep(done.released)? {
-        let wins = done.pipeline.wins();
-        held_aps = (0..done.pipeline.rig().ap_names.len())
-            .map(|l| wins.ap_in_w(l))
-            .collect();
-        held_at = Some(t);
-    }
+    keep(done.released)?;
     let end = flight.inputs.imu.span_s.map_or(Timestamp(0), |(_, to)| {
         Timestamp((to * NANOS_PER_SEC as f64).round() as i64)
     });
@@ -124,16 +118,17 @@ pub(crate) fn drive(
     // A run that ends lost has no AP left: it keeps those of its last converged frame (in that
     // frame's world, the one of the poses before the loss).
     let mut warnings = Vec::new();
-    let lost = (0..names.len()).all(|l| wins.ap_in_w(l).is_none());
-    let final_aps: Vec<ApFix> = match (held_aps, held_at) {
-        (held, Some(t)) if lost && held.iter().any(Option::is_some) => {
+    let current: Vec<ApFix> = (0..names.len()).map(|l| wins.ap_in_w(l)).collect();
+    let lost = current.iter().all(Option::is_none);
+    let final_aps = match held_at {
+        Some(t) if lost && held_aps.iter().any(Option::is_some) => {
             warnings.push(format!(
                 "the run ends lost: aps.csv holds the APs of the last converged pose, at {:.3} s",
                 t.as_secs_f64()
             ));
-            held
+            held_aps
         }
-        _ => (0..names.len()).map(|l| wins.ap_in_w(l)).collect(),
+        _ => current,
     };
     let aps = names
         .iter()
