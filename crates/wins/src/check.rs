@@ -217,7 +217,7 @@ fn edit_distance(a: &str, b: &str) -> usize {
 
 /// A deserializer's message split into the key it names (`… in `eval.align``, as `toml`
 /// reports it) and the rest; the key is empty when the message names none.
-pub fn located(error: &str) -> (String, String) {
+pub(crate) fn located(error: &str) -> (String, String) {
     let error = error.trim();
     match error.rsplit_once("\nin `") {
         Some((message, key)) => (

@@ -2,13 +2,13 @@
 //! that takes off straight up and hovers flies a vertical line, about which any yaw fits the
 //! positions equally. The attitudes still carry the rotation between the two worlds: for each
 //! pair `R_t · R_eᵀ` (`truth_world_from_est_world`), averaged over the pairs. For an alignment
-//! of a heading only its yaw is kept (`ψ = arg Σ exp(i·ψᵢ)`, `ψᵢ` the yaw of each
-//! pair's rotation); for SE(3) the whole rotation (the normalized sum of the pairs'
-//! quaternions, each on the first one's side: the chordal mean, Hartley et al., IJCV 2013,
-//! §5.3); `super::align` then adds the translation that takes the estimate's mean position onto
-//! the truth's. Pairs that disagree fix nothing: two rotations [`MAX_SPREAD_RAD`] apart have a mean resultant length of
-//! `cos(spread/2)` as yaw phasors and `cos(spread/4)` as quaternions, and a mean shorter than
-//! that is refused.
+//! of a heading only its yaw is kept (`ψ = arg Σ exp(i·ψᵢ)`, `ψᵢ` the yaw of each pair's
+//! rotation); for SE(3) the whole rotation (the normalized sum of the pairs' quaternions, each on
+//! the first one's side: the chordal mean, Hartley et al., IJCV 2013, §5.3); `super::align` then
+//! adds the translation that takes the estimate's mean position onto the truth's. Pairs that
+//! disagree fix nothing: two rotations [`MAX_SPREAD_RAD`] apart have a mean resultant length of
+//! `cos(spread/2)` as yaw phasors and `cos(spread/4)` as quaternions, and a shorter mean is
+//! refused.
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
@@ -16,7 +16,7 @@ use crate::dataset::truth::Pose;
 
 /// Widest spread of the pairs' rotations that still has a mean, rad: a third of a turn (half of
 /// them a half turn from the other half has none).
-pub const MAX_SPREAD_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
+pub(crate) const MAX_SPREAD_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
 
 /// The running sums of the pairs' relative rotations.
 #[derive(Clone, Debug, Default)]

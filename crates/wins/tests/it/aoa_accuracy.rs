@@ -62,17 +62,21 @@ fn estimator(calibration: Option<ChainCalibration>) -> AoaEstimator {
     .unwrap()
 }
 
-fn flight(name: &str, seconds: f64) -> SimOutput {
+/// The built-in `name`, airborne, cut to `seconds`.
+fn scenario(name: &str, seconds: f64) -> Scenario {
     let mut s = Scenario::built_in(name).unwrap().airborne();
     s.duration_s = seconds;
-    simulate(&s, &mut |_| {}).unwrap()
+    s
+}
+
+fn flight(name: &str, seconds: f64) -> SimOutput {
+    simulate(&scenario(name, seconds), &mut |_| {}).unwrap()
 }
 
 /// [`flight`] with an ideal receiver: no response over the band (`receiver_response = "flat"`),
 /// the timing offsets over 100 ns.
 fn ideal_receiver_flight(name: &str, seconds: f64) -> SimOutput {
-    let mut s = Scenario::built_in(name).unwrap().airborne();
-    s.duration_s = seconds;
+    let mut s = scenario(name, seconds);
     s.radio.receiver_response = ReceiverResponse::Flat;
     s.radio.sto_max_s = 100e-9;
     simulate(&s, &mut |_| {}).unwrap()
