@@ -5,13 +5,16 @@ use std::io::{self, BufReader, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use wins::dataset::truth::{ApRow, Pose, Truth, read_tum};
+use wins::dataset::truth::{Pose, Truth, read_tum};
 use wins::eval::{
     AlignMode, DEFAULT_MAX_TIME_DIFF_S, DEFAULT_RPE_DELTA_FRAMES, EstimatedAp, EvalOptions,
     covariance_of_each_pose, evaluate, position_error_rms_from, position_nees, read_estimated_aps,
     read_position_covariance,
 };
+use wins::figures::RunFigures;
 use wins::time::Timestamp;
+
+use crate::draw::draw_run;
 
 /// `wins eval`.
 #[derive(clap::Args)]
@@ -46,6 +49,12 @@ pub struct EvalArgs {
     /// Also write the metrics as JSON to this file (metrics.json).
     #[arg(long, short, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// Draw the figures into this folder (created if missing): the track from above with the
+    /// truth, height, attitude and the error per axis; with the files a run writes beside EST
+    /// (`covariance.csv`, `aps.csv`, `aoa.csv`, `stats.json`) also the σ band, the APs with
+    /// their ellipses and the AoA.
+    #[arg(long, value_name = "DIR")]
+    figures: Option<PathBuf>,
     /// Also the position error RMS over the poses at or after this time (s, the trajectory's
     /// clock), under the alignment of the whole trajectory: the error after a restart, its
     /// placement scored and not only its shape.
@@ -63,7 +72,8 @@ fn parse_align(s: &str) -> Result<AlignMode, String> {
 /// Runs `wins eval`.
 pub fn eval(args: EvalArgs) -> Result<()> {
     let est = read_tum_file(&args.est)?;
-    let (truth, truth_aps) = read_truth(&args.truth)?;
+    let truth_all = read_truth(&args.truth)?;
+    let (truth, truth_aps) = (&truth_all.poses, &truth_all.aps);
     let beside = |name: &str| {
         let path = args.est.with_file_name(name);
         path.is_file().then_some(path)
@@ -88,7 +98,7 @@ pub fn eval(args: EvalArgs) -> Result<()> {
         rpe_delta_frames: args.rpe_delta,
         align: args.align,
     };
-    let mut metrics = evaluate(&est, &truth, &aps, &truth_aps, &options).with_context(|| {
+    let mut metrics = evaluate(&est, truth, &aps, truth_aps, &options).with_context(|| {
         format!(
             "evaluating {} against {}",
             args.est.display(),
@@ -100,15 +110,23 @@ pub fn eval(args: EvalArgs) -> Result<()> {
         let rows = read_position_covariance(BufReader::new(file))
             .with_context(|| format!("reading {}", path.display()))?;
         let cov = covariance_of_each_pose(&est, &rows);
-        if let Some(nees) = position_nees(&est, &cov, &truth, &options)
+        if let Some(nees) = position_nees(&est, &cov, truth, &options)
             .with_context(|| format!("the NEES with {}", path.display()))?
         {
             metrics.position_nees_mean = Some(nees.mean);
             metrics.position_nees_within_95 = Some(nees.within_95);
         }
     }
+    if let Some(dir) = &args.figures {
+        let figures = RunFigures::from_files(&args.est, None, Some(&truth_all), &options)
+            .with_context(|| format!("the figures of {}", args.est.display()))?;
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for path in draw_run(dir, &figures)? {
+            eprintln!("wrote {}", path.display());
+        }
+    }
     let from = match args.from {
-        Some(t_s) => Some((t_s, error_from(&est, &truth, &options, t_s)?)),
+        Some(t_s) => Some((t_s, error_from(&est, truth, &options, t_s)?)),
         None => None,
     };
     let mut value = serde_json::to_value(&metrics)?;
@@ -164,19 +182,23 @@ fn read_tum_file(path: &Path) -> Result<Vec<Pose>> {
     read_tum(BufReader::new(file)).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
-/// Truth poses and AP positions: from a dataset directory or a truth folder, or poses only from
-/// a TUM file.
-fn read_truth(path: &Path) -> Result<(Vec<Pose>, Vec<ApRow>)> {
+/// The truth: a dataset directory's or a truth folder's, or poses only from a TUM file.
+fn read_truth(path: &Path) -> Result<Truth> {
     if path.is_dir() {
-        let truth = if path.join("poses.tum").is_file() {
+        if path.join("poses.tum").is_file() {
             Truth::load_dir(path)
-                .with_context(|| format!("loading the truth folder {}", path.display()))?
+                .with_context(|| format!("loading the truth folder {}", path.display()))
         } else {
             Truth::load(path)
-                .with_context(|| format!("loading the truth of dataset {}", path.display()))?
-        };
-        Ok((truth.poses, truth.aps))
+                .with_context(|| format!("loading the truth of dataset {}", path.display()))
+        }
     } else {
-        Ok((read_tum_file(path)?, Vec::new()))
+        Ok(Truth {
+            poses: read_tum_file(path)?,
+            aps: Vec::new(),
+            packets: Vec::new(),
+            imu_biases: Vec::new(),
+            info: None,
+        })
     }
 }

@@ -17,6 +17,7 @@ use wins::sim::{self, Scenario};
 mod aoa_cmd;
 mod bound_cmd;
 mod check_cmd;
+mod draw;
 mod eval_cmd;
 mod live_cmd;
 mod run_cmd;

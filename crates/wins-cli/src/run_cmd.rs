@@ -5,16 +5,16 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use wins::io_safety::replace_atomically;
+use wins::dataset::truth::{TRUTH_DIR, Truth};
+use wins::figures::{FigureError, RunFigures};
 use wins::rig::ChainCalibration;
-use wins::run::figures::RunFigures;
+use wins::run::output::TRAJECTORY_FILE;
 use wins::run::replay::Evaluation;
-use wins::run::run_dir::{
-    AOA_PNG, POSITION_ERROR_PNG, RunDir, RunInputs, RunManifest, TRAJECTORY_PNG,
-};
+use wins::run::run_dir::{RunDir, RunInputs, RunManifest};
 use wins::sim::{self, Scenario};
 use wins::{Config, RunOptions, RunOutput, run_dataset_into};
-use wins_plot::{Marker, MarkerStyle, Series, SeriesStyle, VerticalLine, XyPlot, xy_plot_png};
+
+use crate::draw::draw_run;
 
 /// Arguments of `wins run`.
 #[derive(clap::Args)]
@@ -82,7 +82,6 @@ pub fn run(args: RunArgs) -> Result<()> {
         calibration,
         imu_noise: None,
         no_calibration: args.no_calibration,
-        no_figures: args.no_plots,
     };
     process(&dir, &inputs, &config, &options, !args.no_plots)
 }
@@ -142,12 +141,13 @@ fn process(
     if let Some(m) = &run.metrics {
         write!(stdout, "{}", m.report())?;
     }
-    if plots && let Some(fig) = &run.figures {
-        let figures = draw(out, fig)?;
-        for p in &figures {
+    if plots {
+        let figures = figures_of(out, inputs.dataset, config)?;
+        let drawn = draw_run(out, &figures)?;
+        for p in &drawn {
             writeln!(stdout, "wrote {}", p.display())?;
         }
-        written.extend(figures);
+        written.extend(drawn);
     }
     for p in &written {
         if p.extension().is_none_or(|e| e != "png") {
@@ -223,97 +223,27 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
     Ok(())
 }
 
-/// The three figures of `wins::run::figures`: trajectory from above, position error over
-/// time, AoA per packet.
-fn draw(out: &Path, fig: &RunFigures) -> Result<Vec<PathBuf>> {
-    let marker = |label, style| move |&(x, y): &(f64, f64)| Marker { x, y, label, style };
-    let markers: Vec<Marker> = fig
-        .truth_aps_xy
-        .iter()
-        .map(marker("AP (true)", MarkerStyle::Circle))
-        .chain(
-            fig.estimated_aps_xy
-                .iter()
-                .map(marker("AP (estimated)", MarkerStyle::Cross)),
-        )
-        .collect();
-    let lines: Vec<VerticalLine> = fig
-        .converged_s
-        .iter()
-        .map(|&x| VerticalLine {
-            x,
-            label: "converged",
-        })
-        .collect();
-    let line = |label, points| Series {
-        label,
-        points,
-        style: SeriesStyle::Line,
+/// The figures of the run written into `out` from `dataset`: against its truth when it has
+/// one that the estimate can be aligned to, else alone (and a warning says why).
+fn figures_of(out: &Path, dataset: &Path, config: &Config) -> Result<RunFigures> {
+    let trajectory = out.join(TRAJECTORY_FILE);
+    let truth = if dataset.join(TRUTH_DIR).is_dir() {
+        Truth::load(dataset).ok()
+    } else {
+        None
     };
-    let labels: Vec<(String, String)> = fig
-        .aoa
-        .iter()
-        .map(|a| (format!("{} truth", a.name), format!("{} PAoA", a.name)))
-        .collect();
-    let mut aoa_series = Vec::new();
-    for (a, (lt, lm)) in fig.aoa.iter().zip(&labels) {
-        aoa_series.push(line(lt, &a.truth));
-        aoa_series.push(Series {
-            label: lm,
-            points: &a.measured,
-            style: SeriesStyle::Dots,
-        });
-    }
-    let plots = [
-        (
-            TRAJECTORY_PNG,
-            XyPlot {
-                title: "trajectory from above (estimate aligned to the truth)",
-                x_label: "x (m)",
-                y_label: "y (m)",
-                series: &[line("truth", &fig.truth_xy), line("WINS", &fig.estimate_xy)],
-                markers: &markers,
-                vertical_lines: &[],
-                equal_aspect: true,
-            },
-            700,
-        ),
-        (
-            POSITION_ERROR_PNG,
-            XyPlot {
-                title: "position error after alignment",
-                x_label: "time (s)",
-                y_label: "error (m)",
-                series: &[line("WINS", &fig.position_error)],
-                markers: &[],
-                vertical_lines: &lines,
-                equal_aspect: false,
-            },
-            500,
-        ),
-        (
-            AOA_PNG,
-            XyPlot {
-                title: "AoA per packet fed to the estimator vs truth",
-                x_label: "time (s)",
-                y_label: "AoA (deg)",
-                series: &aoa_series,
-                markers: &[],
-                vertical_lines: &lines,
-                equal_aspect: false,
-            },
-            500,
-        ),
-    ];
-    let mut files = Vec::new();
-    for (name, plot, height) in &plots {
-        let path = out.join(name);
-        // Drawn to a temporary file beside it and renamed: never half an image.
-        replace_atomically(&path, |temp| {
-            xy_plot_png(temp, plot, 900, *height).map_err(std::io::Error::other)
-        })
-        .with_context(|| format!("drawing {}", path.display()))?;
-        files.push(path);
-    }
-    Ok(files)
+    let alone = || RunFigures::from_files(&trajectory, Some(dataset), None, &config.eval);
+    let figures = match &truth {
+        Some(t) => {
+            match RunFigures::from_files(&trajectory, Some(dataset), Some(t), &config.eval) {
+                Err(FigureError::Align(e)) => {
+                    eprintln!("warning: the figures show no truth: {e}");
+                    alone()
+                }
+                other => other,
+            }
+        }
+        None => alone(),
+    };
+    figures.context("making the run's figures")
 }

@@ -335,6 +335,9 @@ fn demo_and_run_write_the_run_directory() {
         "trajectory.png",
         "position_error.png",
         "aoa.png",
+        "height.png",
+        "attitude.png",
+        "sigma.png",
     ] {
         assert!(run.join(f).is_file(), "{f} missing");
     }

@@ -407,6 +407,26 @@ fn eval_scores_the_nees_of_the_covariance_beside_the_estimate() {
         (quarter * 4.0 - nees).abs() < 1e-6 * nees,
         "{quarter} {nees}"
     );
+    // The figures: with a covariance the σ band, without a run's aoa.csv no AoA figure.
+    let figures = dir.join("figures");
+    let out = wins(&[
+        "eval",
+        s(&est_path),
+        s(&truth_path),
+        "--figures",
+        s(&figures),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for f in [
+        "trajectory.png",
+        "height.png",
+        "attitude.png",
+        "sigma.png",
+        "position_error.png",
+    ] {
+        assert!(figures.join(f).is_file(), "{f}");
+    }
+    assert!(!figures.join("aoa.png").exists());
     // A cell that is not a number is named.
     std::fs::write(
         dir.join("covariance.csv"),

@@ -454,6 +454,7 @@ fn check_recording_replays(dir: &Path) {
 /// pymavlink decodes (without pymavlink, that part is skipped); the recording replays to the
 /// trajectory.
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn replay_feeds_live_pymavlink_decodes_the_odometry_and_the_recording_replays() {
     let python = python("the ODOMETRY checks");
     let dir = scratch("replay");

@@ -109,6 +109,7 @@ fn wait_for_streaming(out: &Path, live: &Running) -> usize {
 }
 
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn a_killed_live_run_leaves_whole_lines_interim_stats_and_a_recording_that_replays() {
     let dir = common::fresh_dir("live-kill", "sigkill");
     let ds = simulate_circle(&dir.join("ds"), "1", DURATION_S);

@@ -48,6 +48,7 @@ fn data_lines(path: &Path) -> usize {
 }
 
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn a_stranger_on_both_ports_is_counted_and_moves_no_pose() {
     let dir = common::fresh_dir("live-spoof", "stranger");
     let (ds, other) = (dir.join("ds"), dir.join("other"));

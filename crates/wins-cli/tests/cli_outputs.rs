@@ -168,6 +168,7 @@ fn a_rerun_that_cannot_be_scored_leaves_none_of_the_previous_files() {
     assert_eq!(m["evaluation"], "ok");
     fs::write(out.join("notes.txt"), "mine").unwrap();
 
+    let first_aoa = fs::read(out.join("aoa.png")).unwrap();
     let second = run(&unscored, &out, &[]);
     assert!(second.status.success(), "{}", stderr(&second));
     for f in [
@@ -175,13 +176,14 @@ fn a_rerun_that_cannot_be_scored_leaves_none_of_the_previous_files() {
         "report.txt",
         "trajectory.png",
         "position_error.png",
-        "aoa.png",
     ] {
         assert!(
             !out.join(f).exists(),
             "{f} of the previous run is still there"
         );
     }
+    // Its packets are drawn (it has no pose to draw): the AoA figure is its own.
+    assert_ne!(fs::read(out.join("aoa.png")).unwrap(), first_aoa);
     assert!(out.join("trajectory_all.tum").is_file());
     assert_eq!(fs::read_to_string(out.join("notes.txt")).unwrap(), "mine");
     let m = manifest(&out);
@@ -209,6 +211,31 @@ fn a_rerun_that_cannot_be_scored_leaves_none_of_the_previous_files() {
         names.iter().all(|n| !n.starts_with(".wins-tmp-")),
         "{names:?}"
     );
+    fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_run_without_truth_draws_its_figures() {
+    let dir = scratch("no-truth");
+    let (dataset, out) = (dir.join("dataset"), dir.join("run"));
+    simulate(&dataset, 20);
+    fs::remove_dir_all(dataset.join("truth")).unwrap();
+    let done = run(&dataset, &out, &[]);
+    assert!(done.status.success(), "{}", stderr(&done));
+    for f in [
+        "trajectory.png",
+        "height.png",
+        "attitude.png",
+        "aoa.png",
+        "sigma.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // No truth, no error to draw.
+    assert!(!out.join("position_error.png").exists());
+    // The APs keep their covariance for the ellipses.
+    let aps = fs::read_to_string(out.join("aps.csv")).unwrap();
+    assert!(aps.starts_with("name,x_m,y_m,z_m,c_x_x,"), "{aps}");
     fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -165,6 +165,7 @@ fn without_wall(dir: &Path) -> (Vec<String>, Vec<BTreeMap<String, String>>) {
 }
 
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn sweep_rows_match_simulate_and_run_and_shards_merge_to_the_same() {
     let tmp = temp_dir("main");
     let whole = tmp.join("whole");
@@ -312,6 +313,7 @@ fn sweep_rows_match_simulate_and_run_and_shards_merge_to_the_same() {
 /// `wins simulate` + `wins run` like the rows above; its dataset is deleted, or kept with
 /// `--keep`.
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn a_converged_row_matches_and_datasets_are_deleted_unless_kept() {
     let tmp = temp_dir("keep");
     for keep in [false, true] {

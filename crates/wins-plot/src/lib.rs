@@ -175,6 +175,9 @@ pub enum SeriesStyle {
     Line,
     /// A small filled dot per finite point, for clouds of thousands of points.
     Dots,
+    /// A 1-pixel line, broken like [`SeriesStyle::Line`], in the colour of the nearest series
+    /// before it that is not an `Edge`: an edge of that series' band (a ±σ bound, say).
+    Edge,
 }
 
 /// A vertical line across an [`XyPlot`], e.g. marking the convergence time.

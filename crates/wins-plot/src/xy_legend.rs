@@ -46,6 +46,16 @@ pub(crate) struct Entry<'a> {
     pub glyph: Glyph,
 }
 
+/// Colour of series `index`: its place in the palette, or for a [`SeriesStyle::Edge`] the
+/// colour of the nearest series before it that is not an edge.
+pub(crate) fn series_colour(plot: &XyPlot, index: usize) -> RGBColor {
+    let owner = (0..=index)
+        .rev()
+        .find(|&i| plot.series[i].style != SeriesStyle::Edge)
+        .unwrap_or(index);
+    qualitative(owner)
+}
+
 /// Colour of vertical line `index`: the palette colours after those of the series.
 pub(crate) fn vertical_line_colour(plot: &XyPlot, index: usize) -> RGBColor {
     qualitative(plot.series.len() + index)
@@ -57,8 +67,8 @@ pub(crate) fn entries<'a>(plot: &XyPlot<'a>) -> Vec<Entry<'a>> {
     let mut rows = Vec::new();
     for (i, s) in plot.series.iter().enumerate() {
         let glyph = match s.style {
-            SeriesStyle::Line => Glyph::Line(qualitative(i)),
-            SeriesStyle::Dots => Glyph::Dots(qualitative(i)),
+            SeriesStyle::Line | SeriesStyle::Edge => Glyph::Line(series_colour(plot, i)),
+            SeriesStyle::Dots => Glyph::Dots(series_colour(plot, i)),
         };
         rows.push(Entry {
             label: s.label,

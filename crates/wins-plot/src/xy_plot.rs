@@ -7,7 +7,6 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
-use crate::colormap::qualitative;
 use crate::style::{
     DESC_FONT_PX, FONT, MARGIN_PX, TICK_FONT_PX, TITLE_FONT_PX, X_LABEL_AREA_PX, Y_LABEL_AREA_PX,
     draw_err, glyph, write_png,
@@ -15,7 +14,7 @@ use crate::style::{
 use crate::ticks::TickFormat;
 use crate::validate::check_size;
 use crate::xy_legend::{
-    self, DASH_GAP_PX, DASH_PX, DOT_RADIUS_PX, LINE_WIDTH_PX, vertical_line_colour,
+    self, DASH_GAP_PX, DASH_PX, DOT_RADIUS_PX, LINE_WIDTH_PX, series_colour, vertical_line_colour,
 };
 use crate::xy_range::{Axes, check, equalize};
 use crate::{MarkerStyle, PlotError, SeriesStyle, XyPlot};
@@ -141,7 +140,7 @@ fn draw<DB: DrawingBackend>(
         .map_err(draw_err)?;
 
     for (i, series) in plot.series.iter().enumerate() {
-        let colour = qualitative(i);
+        let colour = series_colour(plot, i);
         match series.style {
             SeriesStyle::Dots => {
                 let dots = series.points.iter().filter(|&&p| finite(p));
@@ -149,7 +148,8 @@ fn draw<DB: DrawingBackend>(
                     .draw_series(dots.map(|&p| Circle::new(p, DOT_RADIUS_PX, colour.filled())))
                     .map_err(draw_err)?;
             }
-            SeriesStyle::Line => draw_line(&mut chart, series.points, colour)?,
+            SeriesStyle::Line => draw_line(&mut chart, series.points, colour, LINE_WIDTH_PX)?,
+            SeriesStyle::Edge => draw_line(&mut chart, series.points, colour, 1)?,
         }
     }
     for (i, v) in plot.vertical_lines.iter().enumerate() {
@@ -184,15 +184,16 @@ fn draw_line<DB: DrawingBackend>(
     chart: &mut ChartContext<'_, DB, Frame>,
     points: &[(f64, f64)],
     colour: RGBColor,
+    width_px: u32,
 ) -> Result<(), PlotError> {
     let pieces = points.split(|&p| !finite(p)).filter(|p| !p.is_empty());
     for piece in pieces {
         let first = chart.backend_coord(&piece[0]);
         if piece.iter().all(|p| chart.backend_coord(p) == first) {
-            let dot = Circle::new(piece[0], LINE_WIDTH_PX, colour.filled());
+            let dot = Circle::new(piece[0], width_px, colour.filled());
             chart.draw_series([dot]).map_err(draw_err)?;
         } else {
-            let style = colour.stroke_width(LINE_WIDTH_PX);
+            let style = colour.stroke_width(width_px);
             let segments = piece
                 .windows(2)
                 .map(|w| PathElement::new(vec![w[0], w[1]], style));

@@ -1,6 +1,7 @@
 //! Tests of line and scatter plot rendering (PNG files and RGB buffers).
 
 use super::*;
+use crate::colormap::qualitative;
 use crate::png_check::{take_png, temp_png};
 use crate::{MIN_IMAGE_HEIGHT, MIN_IMAGE_WIDTH, Marker, Series, ShapeProblem, VerticalLine};
 
@@ -85,6 +86,27 @@ fn series_colours_are_where_their_data_is() {
     let (rgb, frame) = render_rgb(&plot(&swapped, &[]), W, H).unwrap();
     assert!(near(&rgb, frame.translate(&(5.0, 5.0)), 1, dot));
     assert!(near(&rgb, frame.translate(&(2.0, 8.0)), 1, line));
+}
+
+#[test]
+fn an_edge_takes_the_colour_of_the_series_it_bounds() {
+    let middle = [(0.0, 5.0), (10.0, 5.0)];
+    let upper = [(0.0, 8.0), (10.0, 8.0)];
+    let other = [(0.0, 1.0), (10.0, 1.0)];
+    let s = [
+        series("error", &middle, SeriesStyle::Line),
+        series("", &upper, SeriesStyle::Edge),
+        series("other", &other, SeriesStyle::Line),
+    ];
+    let (rgb, frame) = render_rgb(&plot(&s, &[]), W, H).unwrap();
+    let at = |p: (f64, f64)| frame.translate(&p);
+    assert!(near(&rgb, at((5.0, 8.0)), 1, qualitative(0)));
+    assert!(!near(&rgb, at((5.0, 8.0)), 1, qualitative(1)));
+    // The series after the edge keeps its own place in the palette.
+    assert!(near(&rgb, at((5.0, 1.0)), 1, qualitative(2)));
+    // An unlabelled edge has no legend row.
+    let rows = xy_legend::entries(&plot(&s, &[]));
+    assert_eq!(rows.len(), 2);
 }
 
 #[test]

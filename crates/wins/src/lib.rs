@@ -96,6 +96,7 @@ pub mod config;
 pub mod csi;
 pub mod dataset;
 pub mod eval;
+pub mod figures;
 pub mod fusion;
 pub mod imu;
 pub mod io_safety;

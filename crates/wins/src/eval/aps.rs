@@ -4,16 +4,17 @@
 use std::collections::BTreeMap;
 use std::io::{self, Read, Write};
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::{Alignment, EvalError};
 use crate::dataset::truth::{ApRow, write_csv};
 
-/// One row of an estimated-AP CSV (`name,x_m,y_m,z_m`), the file the pipeline writes and
-/// `wins eval --aps` reads. The columns are those of `truth/aps.csv`, but the position is in the
-/// estimate's world frame.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// One row of an estimated-AP CSV (`name,x_m,y_m,z_m`, then the position's covariance
+/// `c_x_x,c_x_y,c_x_z,c_y_y,c_y_z,c_z_z` when known), the file the pipeline writes and `wins eval
+/// --aps` reads. The first columns are those of `truth/aps.csv`, but the position is in the
+/// estimate's world frame. The covariance columns may be absent or empty.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct EstimatedAp {
     /// AP name (as in `dataset.toml` and `truth/aps.csv`).
     pub name: String,
@@ -23,12 +24,54 @@ pub struct EstimatedAp {
     pub y_m: f64,
     /// Position in the estimate's world frame, m.
     pub z_m: f64,
+    /// Covariance of the position in the estimate's world frame, m² (upper triangle).
+    #[serde(default)]
+    pub c_x_x: Option<f64>,
+    /// See `c_x_x`.
+    #[serde(default)]
+    pub c_x_y: Option<f64>,
+    /// See `c_x_x`.
+    #[serde(default)]
+    pub c_x_z: Option<f64>,
+    /// See `c_x_x`.
+    #[serde(default)]
+    pub c_y_y: Option<f64>,
+    /// See `c_x_x`.
+    #[serde(default)]
+    pub c_y_z: Option<f64>,
+    /// See `c_x_x`.
+    #[serde(default)]
+    pub c_z_z: Option<f64>,
 }
 
 impl EstimatedAp {
     /// The position as a vector, m.
     pub fn position(&self) -> Vector3<f64> {
         Vector3::new(self.x_m, self.y_m, self.z_m)
+    }
+
+    /// A row with the position `p` and its covariance `c`, both in the estimate's world frame.
+    pub fn with_covariance(name: &str, p: &Vector3<f64>, c: &Matrix3<f64>) -> Self {
+        let finite = |x: f64| x.is_finite().then_some(x);
+        Self {
+            name: name.to_string(),
+            x_m: p.x,
+            y_m: p.y,
+            z_m: p.z,
+            c_x_x: finite(c[(0, 0)]),
+            c_x_y: finite(c[(0, 1)]),
+            c_x_z: finite(c[(0, 2)]),
+            c_y_y: finite(c[(1, 1)]),
+            c_y_z: finite(c[(1, 2)]),
+            c_z_z: finite(c[(2, 2)]),
+        }
+    }
+
+    /// The position's covariance, when every cell of it is given, m².
+    pub fn covariance(&self) -> Option<Matrix3<f64>> {
+        let (xx, xy, xz) = (self.c_x_x?, self.c_x_y?, self.c_x_z?);
+        let (yy, yz, zz) = (self.c_y_y?, self.c_y_z?, self.c_z_z?);
+        Some(Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz))
     }
 }
 
@@ -108,19 +151,34 @@ mod tests {
                 x_m: 1.25,
                 y_m: -3.0,
                 z_m: 0.1,
+                ..Default::default()
             },
             EstimatedAp {
                 name: "ap1".into(),
                 x_m: 0.0,
                 y_m: 1e-17,
                 z_m: 2.0,
+                ..Default::default()
             },
         ];
         let mut bytes = Vec::new();
         write_estimated_aps(&mut bytes, &aps).expect("written");
         let text = String::from_utf8(bytes.clone()).expect("utf-8");
-        assert!(text.starts_with("name,x_m,y_m,z_m\n"), "{text}");
+        assert!(
+            text.starts_with("name,x_m,y_m,z_m,c_x_x,c_x_y,c_x_z,c_y_y,c_y_z,c_z_z\n"),
+            "{text}"
+        );
         assert_eq!(read_estimated_aps(bytes.as_slice()).expect("read"), aps);
+        // The covariance round trips; a file without its columns reads without it.
+        let c = Matrix3::new(4.0, 0.5, 0.1, 0.5, 1.0, 0.2, 0.1, 0.2, 2.0);
+        let with = [EstimatedAp::with_covariance("ap2", &Vector3::new(1.0, 2.0, 3.0), &c)];
+        let mut bytes = Vec::new();
+        write_estimated_aps(&mut bytes, &with).expect("written");
+        let read = read_estimated_aps(bytes.as_slice()).expect("read");
+        assert_eq!(read[0].covariance(), Some(c));
+        let old = read_estimated_aps("name,x_m,y_m,z_m\nap0,1,2,3\n".as_bytes()).expect("read");
+        assert_eq!(old[0].covariance(), None);
+        assert_eq!(old[0].position(), Vector3::new(1.0, 2.0, 3.0));
 
         let bad = "name,x_m,y_m,z_m\nap0,1,2,3\nap1,1,x,3\n";
         assert!(matches!(
@@ -154,6 +212,7 @@ mod tests {
                 x_m: q.x,
                 y_m: q.y,
                 z_m: q.z,
+                ..Default::default()
             }
         };
         let aps = [

@@ -39,7 +39,7 @@ pub fn evaluate(
         truth_scan: &truth_scan,
         options,
     };
-    match eval.evaluate(aps, truth_aps, false) {
+    match eval.evaluate(aps, truth_aps) {
         Ok(s) => Ok(s.metrics),
         Err(StreamedError::Eval(e)) => Err(e),
         Err(StreamedError::Read(e)) => Err(EvalError::Read(e.to_string())),

@@ -84,8 +84,6 @@ pub(crate) struct Streamed {
     pub(crate) metrics: Metrics,
     /// The position NEES of the pairs whose estimate has a covariance.
     pub(crate) nees: Option<NeesSummary>,
-    /// When asked: per pair the estimate's time and `‖e‖` ([`super::position_error_series`]).
-    pub(crate) series: Option<Vec<(Timestamp, f64)>>,
 }
 
 impl<'a> StreamedEval<'a> {
@@ -134,13 +132,11 @@ impl<'a> StreamedEval<'a> {
     }
 
     /// The evaluation of [`super::evaluate`] and [`super::position_nees`], with the same errors
-    /// in the same order; `aps` are scored against `truth_aps`. `series`: keep the position
-    /// error of each pair.
+    /// in the same order; `aps` are scored against `truth_aps`.
     pub(crate) fn evaluate(
         &self,
         aps: &[EstimatedAp],
         truth_aps: &[ApRow],
-        series: bool,
     ) -> Result<Streamed, StreamedError> {
         self.options.validate()?;
         self.est_scan.check_finite("estimate")?;
@@ -195,7 +191,7 @@ impl<'a> StreamedEval<'a> {
             return Err(EvalError::RpeTooShort { poses: n, delta }.into());
         }
         let ap_position_error_m = aps::ap_errors(aps, truth_aps, &alignment)?;
-        let sums = self.errors(&alignment, first_minute.as_ref(), (first, last), series)?;
+        let sums = self.errors(&alignment, first_minute.as_ref(), (first, last))?;
         let moments = self.moments(&alignment, first, n, &sums)?;
         let nf = n as f64;
         let position = metrics::summarize(&sums.norms);
@@ -248,11 +244,7 @@ impl<'a> StreamedEval<'a> {
             sent: SentMetrics::default(),
             alignment,
         };
-        Ok(Streamed {
-            metrics,
-            nees,
-            series: sums.series,
-        })
+        Ok(Streamed { metrics, nees })
     }
 
     /// Pass 3: the errors of the pairs under `alignment` and their sums.
@@ -261,16 +253,12 @@ impl<'a> StreamedEval<'a> {
         alignment: &Alignment,
         first_minute: Option<&Alignment>,
         (first, last): (Timestamp, Timestamp),
-        series: bool,
     ) -> io::Result<ErrorSums> {
         let window_ns = (DRIFT_WINDOW_S * NANOS_PER_SEC as f64).round() as i64;
         let iso = alignment.isometry();
         let r = iso.rotation.to_rotation_matrix().into_inner();
         let delta = self.options.rpe_delta_frames;
-        let mut s = ErrorSums {
-            series: series.then(Vec::new),
-            ..ErrorSums::default()
-        };
+        let mut s = ErrorSums::default();
         let (mut k, mut start, mut heading) = (0usize, None::<(Pose, Pose)>, None);
         let pose_iso =
             |p: &Pose| Isometry3::from_parts(Translation3::from(p.p_b_in_w), p.world_from_body);
@@ -279,9 +267,6 @@ impl<'a> StreamedEval<'a> {
             let e = iso.transform_point(&est.p_b_in_w.into()).coords - truth.p_b_in_w;
             let norm = e.norm();
             s.norms.push(norm);
-            if let Some(series) = &mut s.series {
-                series.push((est.t, norm));
-            }
             for (sum, x) in s.e.iter_mut().zip(e.iter()) {
                 *sum += x;
             }
@@ -363,7 +348,6 @@ impl<'a> StreamedEval<'a> {
 /// from 0 as its folds).
 struct ErrorSums {
     norms: Vec<f64>,
-    series: Option<Vec<(Timestamp, f64)>>,
     e: [f64; 3],
     /// Σ angle, Σ angle².
     attitude: (f64, f64),
@@ -383,7 +367,6 @@ impl Default for ErrorSums {
     fn default() -> Self {
         Self {
             norms: Vec::new(),
-            series: None,
             e: [-0.0; 3],
             attitude: (-0.0, -0.0),
             rpe: (0, -0.0, -0.0),

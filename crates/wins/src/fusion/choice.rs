@@ -3,7 +3,7 @@
 //! ([`super::paper::estimator::LinearEstimator`]), behind one push API so that a sweep can compare them side by
 //! side.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::bearing::Bearing;
@@ -11,7 +11,7 @@ use super::error::EstimatorError;
 use super::nonlinear::{NonlinearConfig, NonlinearEstimator, PhaseChange, Sensors};
 use super::paper::estimator::{LinearConfig, LinearEstimator};
 use super::paper::start_solver::linear_start_solver;
-use super::pose::Step;
+use super::pose::{ApInWorld, Step};
 use super::stats::EstimatorStats;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
@@ -152,12 +152,20 @@ impl Estimator {
     }
 
     /// AP `l` in the output frame `w` and its largest σ, m.
-    pub fn ap_in_w(&self, l: usize) -> Option<(Vector3<f64>, f64)> {
+    pub fn ap_in_w(&self, l: usize) -> Option<ApInWorld> {
         match self {
             Self::Paper(w) => {
                 let c = w.window().ap_in_b0(l)?;
-                let sigma = w.window().ap_sigma_m(l).unwrap_or(f64::INFINITY);
-                Some((w.world_from_b0().transform_point(&c.into()).coords, sigma))
+                let world_from_b0 = w.world_from_b0();
+                let r = world_from_b0.rotation.to_rotation_matrix();
+                let covariance_in_b0 = w
+                    .window()
+                    .ap_covariance(l)
+                    .unwrap_or_else(|| Matrix3::from_diagonal_element(f64::INFINITY));
+                Some(ApInWorld {
+                    p_in_w: world_from_b0.transform_point(&c.into()).coords,
+                    covariance_in_w: r.matrix() * covariance_in_b0 * r.matrix().transpose(),
+                })
             }
             Self::Nonlinear(n) => n.ap_in_w(l),
         }

@@ -1,7 +1,7 @@
 //! What an estimator gives out: a pose with its covariance, and what one IMU push produced. Both
 //! estimators (the default [`super::nonlinear`] and the paper's [`super::paper`]) give these.
 
-use nalgebra::{Matrix6, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix6, UnitQuaternion, Vector3};
 
 use super::error::FrameError;
 use crate::time::Timestamp;
@@ -37,4 +37,28 @@ pub struct Step {
     pub imu_pose: Option<PoseEstimate>,
     /// Frames the window refused in this push, and why (counted in `frames_refused`).
     pub refused: Vec<FrameError>,
+}
+
+/// An AP placed by the estimator, in its world frame `w`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ApInWorld {
+    /// Position in `w`, m.
+    pub p_in_w: Vector3<f64>,
+    /// Marginal covariance of the position in `w` (the window's last solve), m².
+    pub covariance_in_w: Matrix3<f64>,
+}
+
+impl ApInWorld {
+    /// Largest standard deviation of the position (square root of the covariance's largest
+    /// eigenvalue), m; infinite when the covariance is not finite.
+    pub fn sigma_m(&self) -> f64 {
+        if !self.covariance_in_w.iter().all(|x| x.is_finite()) {
+            return f64::INFINITY;
+        }
+        self.covariance_in_w
+            .symmetric_eigenvalues()
+            .max()
+            .max(0.0)
+            .sqrt()
+    }
 }

@@ -178,7 +178,7 @@ impl ChainResolver {
 
     /// AP `l`'s position in the world and its σ, m, as the kept pipeline has it now (`None`
     /// before the decision, or while it has not placed the AP).
-    pub fn decided_ap_in_w(&self, l: usize) -> Option<(nalgebra::Vector3<f64>, f64)> {
+    pub fn decided_ap_in_w(&self, l: usize) -> Option<crate::fusion::pose::ApInWorld> {
         match &self.stage {
             Stage::Decided(p) => p.wins().ap_in_w(l),
             _ => None,

@@ -4,13 +4,11 @@
 use std::io;
 use std::time::Instant;
 
-use nalgebra::Vector3;
-
 use super::coverage::CoverageCheck;
 use super::run_output::{ApEstimate, Evaluation, ReplayError, RunOutput};
 use crate::config::Config;
 use crate::dataset::checks::InputReport;
-use crate::fusion::pose::PoseEstimate;
+use crate::fusion::pose::{ApInWorld, PoseEstimate};
 use crate::pipeline::{ChainResolver, PacketLog, Released};
 use crate::rig::Rig;
 use crate::time::{NANOS_PER_SEC, Timestamp};
@@ -49,7 +47,7 @@ impl RunSink for Collected {
 }
 
 /// An AP's position in the world and its σ, m, when placed.
-type ApFix = Option<(Vector3<f64>, f64)>;
+type ApFix = Option<ApInWorld>;
 
 /// What a replay knows of its flight before it starts.
 pub(crate) struct Flight<'a> {
@@ -134,11 +132,12 @@ pub(crate) fn drive(
         .iter()
         .zip(final_aps)
         .filter_map(|(name, ap)| {
-            let (p_in_w, sigma_m) = ap?;
+            let ap = ap?;
             Some(ApEstimate {
                 name: name.clone(),
-                p_in_w,
-                sigma_m,
+                p_in_w: ap.p_in_w,
+                sigma_m: ap.sigma_m(),
+                covariance_in_w: ap.covariance_in_w,
             })
         })
         .collect();
@@ -159,7 +158,6 @@ pub(crate) fn drive(
         imu_refused,
         metrics: None,
         evaluation: Evaluation::NoTruth,
-        figures: None,
         inputs: flight.inputs.clone(),
         coverage,
         warnings,

@@ -13,7 +13,6 @@
 
 pub mod coverage;
 pub mod drive;
-pub mod figures;
 pub mod output;
 pub mod replay;
 pub mod run_dir;
@@ -48,8 +47,6 @@ pub struct RunOptions {
     /// Use no chain calibration, not even the dataset's: the offsets are resolved from the
     /// flight alone ([`crate::pipeline::chains`]).
     pub no_calibration: bool,
-    /// Make no figures' data (`figures` stays `None`; `wins run --no-plots`).
-    pub no_figures: bool,
 }
 
 /// Why a dataset could not be run.
@@ -101,7 +98,7 @@ pub fn run_dataset_with(
     run.frames = sink.frames;
     run.sent = sink.sent;
     run.packets = sink.packets;
-    score(&mut run, path, config, !options.no_figures, None);
+    score(&mut run, path, config, None);
     Ok(run)
 }
 
@@ -111,7 +108,7 @@ pub fn run_dataset_with(
 /// the dataset nor those rows ([`RunOutput::converged_poses`] is empty). With a truth, what
 /// scoring reads (the converged poses and covariances, the fed packets' AoA) goes to two more
 /// spool files, and the scoring reads them and the truth's poses in passes, holding neither
-/// trajectory: the metrics and figures' data are those of [`run_dataset_with`]. The scoring's
+/// trajectory: the metrics are those of [`run_dataset_with`]. The scoring's
 /// files are removed before this returns.
 pub fn run_dataset_into(
     path: &Path,
@@ -124,13 +121,7 @@ pub fn run_dataset_into(
     let mut run = run_into_sink(path, config, options, &mut spool)?;
     let (spooled, scoring) = spool.finish_with_scoring().map_err(ReplayError::Output)?;
     run.spooled = Some(spooled);
-    score(
-        &mut run,
-        path,
-        config,
-        !options.no_figures,
-        scoring.as_ref(),
-    );
+    score(&mut run, path, config, scoring.as_ref());
     Ok(run)
 }
 
@@ -188,13 +179,7 @@ fn run_into_sink(
 /// Scores `run` against the truth of the dataset at `path`, when it has one: from the spool's
 /// `files` for a spooled run, from memory for one held. A truth that cannot be read fails the
 /// evaluation, not the estimate.
-fn score(
-    run: &mut RunOutput,
-    path: &Path,
-    config: &Config,
-    figures: bool,
-    files: Option<&ScoringSpool>,
-) {
+fn score(run: &mut RunOutput, path: &Path, config: &Config, files: Option<&ScoringSpool>) {
     if !path.join(TRUTH_DIR).is_dir() {
         return;
     }
@@ -202,8 +187,8 @@ fn score(
         .map_err(|e| Box::new(e) as Box<dyn std::error::Error>)
         .and_then(|truth| {
             match files {
-                Some(files) => run.score_spooled(&truth, files, &config.eval, figures),
-                None => run.score_held(&truth, &config.eval, figures),
+                Some(files) => run.score_spooled(&truth, files, &config.eval),
+                None => run.score_held(&truth, &config.eval),
             }
             .map_err(Into::into)
         });

@@ -106,12 +106,7 @@ impl RunOutput {
     pub fn estimated_aps(&self) -> Vec<EstimatedAp> {
         self.aps
             .iter()
-            .map(|a| EstimatedAp {
-                name: a.name.clone(),
-                x_m: a.p_in_w.x,
-                y_m: a.p_in_w.y,
-                z_m: a.p_in_w.z,
-            })
+            .map(|a| EstimatedAp::with_covariance(&a.name, &a.p_in_w, &a.covariance_in_w))
             .collect()
     }
 

@@ -35,13 +35,19 @@ use crate::io_safety::{
 pub const MANIFEST_FILE: &str = "run.json";
 /// Figure: the trajectory from above.
 pub const TRAJECTORY_PNG: &str = "trajectory.png";
-/// Figure: the position error over time.
+/// Figure: the position error per axis over time in its ±σ band (with a truth).
 pub const POSITION_ERROR_PNG: &str = "position_error.png";
-/// Figure: the AoA per packet against the truth.
+/// Figure: the AoA per packet, fed and dropped (and the truth's).
 pub const AOA_PNG: &str = "aoa.png";
+/// Figure: the height over time, with the barometer's.
+pub const HEIGHT_PNG: &str = "height.png";
+/// Figure: roll, pitch and yaw over time.
+pub const ATTITUDE_PNG: &str = "attitude.png";
+/// Figure: the position σ over time.
+pub const SIGMA_PNG: &str = "sigma.png";
 
 /// Every file a run may write besides its manifest.
-pub const RUN_FILES: [&str; 12] = [
+pub const RUN_FILES: [&str; 15] = [
     TRAJECTORY_FILE,
     TRAJECTORY_ALL_FILE,
     TRAJECTORY_SENT_FILE,
@@ -54,6 +60,9 @@ pub const RUN_FILES: [&str; 12] = [
     TRAJECTORY_PNG,
     POSITION_ERROR_PNG,
     AOA_PNG,
+    HEIGHT_PNG,
+    ATTITUDE_PNG,
+    SIGMA_PNG,
 ];
 
 /// What a run reads: the dataset folder and the files given beside it.

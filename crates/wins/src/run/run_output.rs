@@ -2,9 +2,8 @@
 //! dataset cannot be replayed ([`ReplayError`]): the types the replay, its driver and the
 //! writers of its outputs share.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
-use super::figures::RunFigures;
 use crate::dataset::DatasetError;
 use crate::dataset::checks::InputReport;
 use crate::eval::Metrics;
@@ -43,6 +42,8 @@ pub struct ApEstimate {
     pub p_in_w: Vector3<f64>,
     /// Largest standard deviation of the position, m.
     pub sigma_m: f64,
+    /// Marginal covariance of the position in `w`, m².
+    pub covariance_in_w: Matrix3<f64>,
 }
 
 /// Everything a replay produced.
@@ -84,8 +85,6 @@ pub struct RunOutput {
     pub metrics: Option<Metrics>,
     /// What became of the scoring against the truth.
     pub evaluation: Evaluation,
-    /// The figures' data against the truth, with `metrics`.
-    pub figures: Option<RunFigures>,
     /// What the input checks dropped, counted and found.
     pub inputs: InputReport,
     /// How much of the flight after convergence the poses cover.

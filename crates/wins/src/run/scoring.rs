@@ -7,7 +7,6 @@
 use std::io;
 use std::path::Path;
 
-use super::figures::{AoaSeries, RunFigures};
 use super::output::TRUTH_PAIR_NS;
 use super::run_output::{Evaluation, RunOutput};
 use super::scoring_truth::ScoringTruth;
@@ -17,7 +16,6 @@ use crate::eval::records::{AoaRecord, EstRecord, read_records};
 use crate::eval::scan::TrajectoryScan;
 use crate::eval::stream::{EstSource, StreamedError, StreamedEval};
 use crate::eval::{EvalError, EvalOptions, Metrics, SentMetrics};
-use crate::time::Timestamp;
 
 /// The poses the merge-join of the estimate and the truth holds: one of the driving trajectory,
 /// and of the other the last before it and the next.
@@ -64,31 +62,23 @@ impl<'a> ScoringEstimate<'a> {
 }
 
 impl RunOutput {
-    /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics and the
-    /// figures' data; when it cannot be scored (it never converged, say), says why in
-    /// `warnings` and `evaluation`.
+    /// Scores the run against `truth` ([`RunOutput::score`]) and keeps the metrics; when it
+    /// cannot be scored (it never converged, say), says why in `warnings` and `evaluation`.
     pub fn score_against(&mut self, truth: &Truth, options: &EvalOptions) {
-        self.score_against_with(truth, options, true);
-    }
-
-    /// [`RunOutput::score_against`], the figures' data made only when `figures` is true.
-    pub fn score_against_with(&mut self, truth: &Truth, options: &EvalOptions, figures: bool) {
-        if let Err(e) = self.score_held(&ScoringTruth::of(truth), options, figures) {
+        if let Err(e) = self.score_held(&ScoringTruth::of(truth), options) {
             // Records in memory are read again without fail; should one not be, say so.
             self.not_scored(&e.to_string());
         }
     }
 
-    /// Scores the run, held in memory, against `truth` (the figures' data too when
-    /// `figures`); a run that cannot be scored says why in `warnings` and `evaluation`.
-    /// Errors: a truth file that cannot be read again.
+    /// Scores the run, held in memory, against `truth`; a run that cannot be scored says why
+    /// in `warnings` and `evaluation`. Errors: a truth file that cannot be read again.
     pub(crate) fn score_held(
         &mut self,
         truth: &ScoringTruth<'_>,
         options: &EvalOptions,
-        figures: bool,
     ) -> io::Result<()> {
-        let scored = self.in_memory(|run, est| run.scored(&est, truth, options, figures));
+        let scored = self.in_memory(|run, est| run.scored(&est, truth, options));
         self.keep(scored)
     }
 
@@ -96,31 +86,29 @@ impl RunOutput {
     /// with the run-only fields (AoA median error, position NEES, packets, real-time factor).
     /// A spooled run holds no frames: [`super::run_dataset_into`] scores it from its files.
     pub fn score(&self, truth: &Truth, options: &EvalOptions) -> Result<Metrics, EvalError> {
-        let scored =
-            self.in_memory(|run, est| run.scored(&est, &ScoringTruth::of(truth), options, false));
+        let scored = self.in_memory(|run, est| run.scored(&est, &ScoringTruth::of(truth), options));
         match scored {
-            Ok((metrics, _)) => Ok(metrics),
+            Ok(metrics) => Ok(metrics),
             Err(StreamedError::Eval(e)) => Err(e),
             Err(StreamedError::Read(e)) => Err(EvalError::Read(e.to_string())),
         }
     }
 
-    /// Scores the spooled run whose scoring files are `spool` against `truth` (the figures'
-    /// data too when `figures`); a run that cannot be scored says why in `warnings` and
-    /// `evaluation`. Errors: a file that cannot be read again.
+    /// Scores the spooled run whose scoring files are `spool` against `truth`; a run that
+    /// cannot be scored says why in `warnings` and `evaluation`. Errors: a file that cannot be
+    /// read again.
     pub(crate) fn score_spooled(
         &mut self,
         truth: &ScoringTruth<'_>,
         spool: &ScoringSpool,
         options: &EvalOptions,
-        figures: bool,
     ) -> io::Result<()> {
         if let Some(s) = &mut self.spooled {
             s.scoring_poses_held = spool.est_scan.most_poses_held()
                 + truth.scan.most_poses_held()
                 + POSES_HELD_BY_THE_JOIN;
         }
-        let scored = self.scored(&ScoringEstimate::spooled(spool), truth, options, figures);
+        let scored = self.scored(&ScoringEstimate::spooled(spool), truth, options);
         self.keep(scored)
     }
 
@@ -147,16 +135,12 @@ impl RunOutput {
         )
     }
 
-    /// Keeps a scoring's outcome: its metrics and figures, or why the run cannot be scored.
+    /// Keeps a scoring's outcome: its metrics, or why the run cannot be scored.
     /// Errors: a trajectory that could not be read again.
-    fn keep(
-        &mut self,
-        scored: Result<(Metrics, Option<RunFigures>), StreamedError>,
-    ) -> io::Result<()> {
+    fn keep(&mut self, scored: Result<Metrics, StreamedError>) -> io::Result<()> {
         match scored {
-            Ok((metrics, figures)) => {
+            Ok(metrics) => {
                 self.metrics = Some(metrics);
-                self.figures = figures;
                 self.evaluation = Evaluation::Scored;
                 Ok(())
             }
@@ -174,14 +158,13 @@ impl RunOutput {
         self.evaluation = Evaluation::NotScored(why.to_string());
     }
 
-    /// The metrics of `est` against `truth`, and the figures' data when `figures`.
+    /// The metrics of `est` against `truth`.
     fn scored(
         &self,
         est: &ScoringEstimate<'_>,
         truth: &ScoringTruth<'_>,
         options: &EvalOptions,
-        figures: bool,
-    ) -> Result<(Metrics, Option<RunFigures>), StreamedError> {
+    ) -> Result<Metrics, StreamedError> {
         let eval = StreamedEval {
             est: est.poses,
             est_scan: est.scan,
@@ -189,9 +172,9 @@ impl RunOutput {
             truth_scan: &truth.scan,
             options,
         };
-        let streamed = eval.evaluate(&self.estimated_aps(), &truth.aps, figures)?;
+        let streamed = eval.evaluate(&self.estimated_aps(), &truth.aps)?;
         let mut m = streamed.metrics;
-        let (mut errors, pairs) = aoa_errors(est.aoa, truth, figures)?;
+        let (mut errors, _) = aoa_errors(est.aoa, truth, false)?;
         errors.sort_by(f64::total_cmp);
         m.aoa_error_median_deg = errors.get(errors.len() / 2).copied();
         drop(errors);
@@ -203,67 +186,7 @@ impl RunOutput {
         m.packets_dropped = Some(self.stats.dropped());
         m.realtime_factor = Some(self.realtime_factor());
         m.sent = sent_metrics(est, truth, options)?;
-        let figures = match streamed.series {
-            Some(series) if figures => Some(self.figures(&eval, truth, &m, &series, &pairs)?),
-            _ => None,
-        };
-        Ok((m, figures))
-    }
-
-    /// The figures' data: `series` is the pairs' position error, `pairs` the fed packets' AoA
-    /// against the truth.
-    fn figures(
-        &self,
-        eval: &StreamedEval<'_>,
-        truth: &ScoringTruth<'_>,
-        metrics: &Metrics,
-        series: &[(Timestamp, f64)],
-        pairs: &[AoaPair],
-    ) -> io::Result<RunFigures> {
-        let align = &metrics.alignment;
-        let t0 = truth.scan.first_t().map_or(0.0, |t| t.as_secs_f64());
-        let xy = |p: &nalgebra::Vector3<f64>| (p.x, p.y);
-        let aoa = self
-            .stats
-            .per_ap
-            .iter()
-            .enumerate()
-            .map(|(l, s)| AoaSeries {
-                name: s.name.clone(),
-                measured: pairs
-                    .iter()
-                    .filter(|p| p.0 == l)
-                    .map(|p| (p.1 - t0, p.2))
-                    .collect(),
-                truth: truth.packet_aoa_deg.get(l).map_or_else(Vec::new, |rows| {
-                    rows.iter()
-                        .map(|&(t_ns, aoa_deg)| (t_ns as f64 * 1e-9 - t0, aoa_deg))
-                        .collect()
-                }),
-            })
-            .collect();
-        Ok(RunFigures {
-            truth_xy: eval
-                .truth_poses()?
-                .map(|p| p.map(|p| xy(&p.p_b_in_w)))
-                .collect::<io::Result<_>>()?,
-            estimate_xy: eval
-                .est_records()?
-                .map(|r| r.map(|r| xy(&align.apply_point(&r.pose.p_b_in_w))))
-                .collect::<io::Result<_>>()?,
-            truth_aps_xy: truth.aps.iter().map(|a| (a.x_m, a.y_m)).collect(),
-            estimated_aps_xy: self
-                .aps
-                .iter()
-                .map(|a| xy(&align.apply_point(&a.p_in_w)))
-                .collect(),
-            position_error: series
-                .iter()
-                .map(|(t, e)| (t.as_secs_f64() - t0, *e))
-                .collect(),
-            converged_s: self.converged_at.map(|t| t.as_secs_f64() - t0),
-            aoa,
-        })
+        Ok(m)
     }
 
     /// `(AP, time s, measured AoA °, true AoA °)` of every fed packet that has a truth row.
@@ -297,7 +220,7 @@ fn sent_metrics(
             .map(|(first_sent, first_truth)| first_sent.secs_since(first_truth)),
         ..SentMetrics::default()
     };
-    match eval.evaluate(&[], &[], false) {
+    match eval.evaluate(&[], &[]) {
         Ok(s) => {
             sent.ate_rmse_m = Some(s.metrics.ate_rmse_m);
             sent.position_error_median_m = Some(s.metrics.position_error_median_m);

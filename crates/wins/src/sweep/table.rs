@@ -159,6 +159,7 @@ pub fn metric_keys(ap_names: &[String]) -> Vec<String> {
             x_m: 3.0,
             y_m: 0.0,
             z_m: 1.0,
+            ..Default::default()
         })
         .collect();
     let truth: Vec<ApRow> = ap_names

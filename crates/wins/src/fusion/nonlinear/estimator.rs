@@ -24,7 +24,7 @@
 
 use std::collections::VecDeque;
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Vector3};
 
 use crate::fusion::bearing::Bearing;
 use crate::fusion::error::EstimatorError;
@@ -35,7 +35,7 @@ use crate::fusion::nonlinear::solve::{NonlinearWindow, SubFrame};
 use crate::fusion::nonlinear::start::StartKeyframe;
 use crate::fusion::nonlinear::start::rest::{ONSET_MARGIN_S, RestDetector, StaticInit};
 use crate::fusion::nonlinear::start::still::StillDetector;
-use crate::fusion::pose::{PoseEstimate, Step};
+use crate::fusion::pose::{ApInWorld, PoseEstimate, Step};
 use crate::fusion::proposal::StartSolverFactory;
 use crate::fusion::stats::EstimatorStats;
 use crate::imu::{
@@ -201,12 +201,18 @@ impl NonlinearEstimator {
         self.window()?.ap(l)
     }
 
-    /// AP `l` in the output frame `w`, and its largest σ, while tracking.
-    pub fn ap_in_w(&self, l: usize) -> Option<(Vector3<f64>, f64)> {
+    /// AP `l` in the output frame `w`, with its covariance there, while tracking.
+    pub fn ap_in_w(&self, l: usize) -> Option<ApInWorld> {
         let w = self.window()?;
         let c = w.ap(l)?;
-        let sigma = w.ap_sigma_m(l).unwrap_or(f64::INFINITY);
-        Some((self.anchor.transform_point(&c.into()).coords, sigma))
+        let r = self.anchor.rotation.to_rotation_matrix();
+        let covariance = w
+            .ap_covariance(l)
+            .unwrap_or_else(|| Matrix3::from_diagonal_element(f64::INFINITY));
+        Some(ApInWorld {
+            p_in_w: self.anchor.transform_point(&c.into()).coords,
+            covariance_in_w: r.matrix() * covariance * r.matrix().transpose(),
+        })
     }
 
     /// Queues a frame of bearings at `t`.

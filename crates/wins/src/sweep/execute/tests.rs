@@ -30,6 +30,7 @@ fn without_wall(dir: &Path) -> Vec<u8> {
 }
 
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn a_sweep_gives_the_same_rows_on_any_threads_and_shards() {
     let plan = small_plan();
     let root = temp_dir("execute");

@@ -24,6 +24,7 @@ fn family_plan() -> Plan {
 }
 
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn a_family_sweep_writes_its_labels_scenarios_and_breakdowns() {
     let plan = family_plan();
     assert_eq!(plan.scenarios[0].label, "room");

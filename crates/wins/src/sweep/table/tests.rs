@@ -25,6 +25,7 @@ pub(crate) fn sample_metrics() -> Metrics {
         x_m,
         y_m: 4.0,
         z_m: 1.5,
+        ..Default::default()
     };
     let truth_ap = |name: &str, x_m: f64| ApRow {
         name: name.into(),
