@@ -1,7 +1,7 @@
 //! WINS on the simulator's `paper-circle` with true AoA plus 2° Gaussian noise at 50 Hz and the
 //! MicroStrain IMU, the estimator alone (no AoA stage): position and AP error after convergence,
 //! convergence time, attitude error; and robustness (motion toward the AP, outages, a still
-//! start). Three studies that measure rather than guard are `#[ignore]`d; run them with
+//! start). Three studies are in the heavy tier (`#[ignore]`d); run them with
 //! `cargo test --release -p wins --test it -- --ignored --nocapture NAME` (docs/RESULTS.md).
 
 use nalgebra::{UnitQuaternion, Vector3};
@@ -279,7 +279,7 @@ fn paper_circle_with_two_degree_bearings() {
 /// 0.55–1.35° to ~0.05°. One AP observes a ±0.08 °/s turn-on bias only slowly; the first seconds
 /// after convergence carry metre errors while it settles.
 #[test]
-#[ignore = "study, figures in docs/RESULTS.md"]
+#[ignore = "heavy: a study (docs/RESULTS.md); run by `cargo test --release -- --ignored` (CI runs it)"]
 fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
     let mut sc = scenario("paper-circle", 40.0);
     let mut noise = sc.imu.model.noise();
@@ -315,7 +315,7 @@ fn with_the_gyro_turn_on_bias_known_the_aims_are_met() {
 /// removed from the simulated IMU the same start nearly meets it). It asserts that the floor is
 /// still above the aim: a better data model would fail it, which is why it is a study.
 #[test]
-#[ignore = "study, figures in docs/RESULTS.md"]
+#[ignore = "heavy: a study (docs/RESULTS.md); run by `cargo test --release -- --ignored` (CI runs it)"]
 fn the_information_floor() {
     let sc = scenario("paper-circle", 40.0);
     let start = TruthStart {
@@ -356,7 +356,7 @@ fn the_information_floor() {
 /// these bearings but fails for APs in the flight's plane and in the pipeline: docs/RESULTS.md).
 /// It asserts the off-plane APs stay off, so a better model fails it: a study.
 #[test]
-#[ignore = "study, figures in docs/RESULTS.md"]
+#[ignore = "heavy: a study (docs/RESULTS.md); run by `cargo test --release -- --ignored` (CI runs it)"]
 fn three_aps_off_the_flight_plane() {
     let off_plane = scenario("paper-circle-3ap", 40.0);
     // `ap0` is at the flight's height (1.5 m); the others are moved to it.
