@@ -171,7 +171,11 @@ mod tests {
         assert_eq!(read_estimated_aps(bytes.as_slice()).expect("read"), aps);
         // The covariance round trips; a file without its columns reads without it.
         let c = Matrix3::new(4.0, 0.5, 0.1, 0.5, 1.0, 0.2, 0.1, 0.2, 2.0);
-        let with = [EstimatedAp::with_covariance("ap2", &Vector3::new(1.0, 2.0, 3.0), &c)];
+        let with = [EstimatedAp::with_covariance(
+            "ap2",
+            &Vector3::new(1.0, 2.0, 3.0),
+            &c,
+        )];
         let mut bytes = Vec::new();
         write_estimated_aps(&mut bytes, &with).expect("written");
         let read = read_estimated_aps(bytes.as_slice()).expect("read");

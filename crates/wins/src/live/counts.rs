@@ -26,6 +26,9 @@ pub struct LiveStats {
     pub csi_connections: u64,
     /// CSI connections that ended.
     pub csi_disconnects: u64,
+    /// Of those, the ones the peer closed after a whole record (a replay or a logger that
+    /// finished); the others were dropped (an error, an idle timeout, a record cut).
+    pub csi_closed: u64,
     /// CSI records received.
     pub csi_records: u64,
     /// Stretches of bytes the CSI decoder skipped (garbage, non-CSI records other than the

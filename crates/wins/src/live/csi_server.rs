@@ -92,6 +92,10 @@ pub enum CsiEvent {
         conn: u64,
         /// Why (`"closed by the peer"`, or the I/O error).
         reason: String,
+        /// The peer closed it after a whole record (a replay that finished, a logger that
+        /// stopped, but also one that crashed: TCP cannot tell them apart), rather than an
+        /// error, an idle timeout, or a close that cut a record.
+        clean: bool,
     },
 }
 
@@ -178,6 +182,7 @@ fn accept_loop(
                         let _ = tx.send(LiveInput::Csi(CsiEvent::Disconnected {
                             conn,
                             reason: format!("no thread for the connection: {e}"),
+                            clean: false,
                         }));
                     }
                 }
@@ -203,6 +208,7 @@ fn serve(
     let mut decoder = StreamDecoder::new();
     let mut buf = vec![0u8; CHUNK];
     let mut last_bytes = std::time::Instant::now();
+    let mut peer_closed = false;
     let reason = match stream
         .set_nonblocking(false)
         .and_then(|()| stream.set_read_timeout(Some(POLL)))
@@ -216,12 +222,15 @@ fn serve(
                 break format!("idle for {:.1} s: closed", idle_close.as_secs_f64());
             }
             match stream.read(&mut buf) {
-                Ok(0) => break "closed by the peer".to_string(),
+                Ok(0) => {
+                    peer_closed = true;
+                    break "closed by the peer".to_string();
+                }
                 Ok(n) => {
                     last_bytes = std::time::Instant::now();
                     let arrival_ns = clock.now_ns();
                     decoder.push(buf.get(..n).unwrap_or_default());
-                    if !drain(conn, &mut decoder, tx, arrival_ns) {
+                    if drain(conn, &mut decoder, tx, arrival_ns).is_none() {
                         return;
                     }
                 }
@@ -237,18 +246,24 @@ fn serve(
         },
     };
     decoder.finish();
-    if drain(conn, &mut decoder, tx, clock.now_ns()) {
-        let _ = tx.send(LiveInput::Csi(CsiEvent::Disconnected { conn, reason }));
+    if let Some(cut) = drain(conn, &mut decoder, tx, clock.now_ns()) {
+        let clean = peer_closed && cut == 0;
+        let _ = tx.send(LiveInput::Csi(CsiEvent::Disconnected {
+            conn,
+            reason,
+            clean,
+        }));
     }
 }
 
-/// Sends every decoded event; `false` when the session has gone.
+/// Sends every decoded event; the skips among them (`None` when the session has gone).
 fn drain(
     conn: u64,
     decoder: &mut StreamDecoder,
     tx: &SyncSender<LiveInput>,
     arrival_ns: i64,
-) -> bool {
+) -> Option<usize> {
+    let mut skips = 0;
     while let Some(event) = decoder.next_event() {
         let event = match event {
             Event::Csi(record) => CsiEvent::Record {
@@ -257,13 +272,16 @@ fn drain(
                 transmitter: decoder.transmitter(),
                 arrival_ns,
             },
-            Event::Skipped(skip) => CsiEvent::Skipped { conn, skip },
+            Event::Skipped(skip) => {
+                skips += 1;
+                CsiEvent::Skipped { conn, skip }
+            }
         };
         if tx.send(LiveInput::Csi(event)).is_err() {
-            return false;
+            return None;
         }
     }
-    true
+    Some(skips)
 }
 
 #[cfg(test)]
@@ -322,6 +340,44 @@ mod tests {
         thread::sleep(Duration::from_millis(100));
         let _d = TcpStream::connect(s.local_addr).expect("d");
         assert!(matches!(next(&rx), CsiEvent::Connected { conn: 2, .. }));
+        stop.store(true, Ordering::Relaxed);
+    }
+
+    #[test]
+    fn a_close_after_a_whole_record_is_clean_and_one_that_cuts_a_record_is_not() {
+        use std::io::Write;
+
+        use num_complex::Complex;
+
+        use crate::csi::intel5300::{BfeeHeader, CsiRecord, encode_record};
+        use crate::time::Timestamp;
+
+        let header = BfeeHeader {
+            nrx: 3,
+            ntx: 1,
+            ..Default::default()
+        };
+        let csi = vec![Complex::new(7i8, -3); header.num_entries()];
+        let record = CsiRecord::new(header, &csi, Timestamp(0)).expect("a record");
+        let mut bytes = Vec::new();
+        encode_record(&record, &mut bytes);
+        let (s, rx, stop) = server(CsiServerLimits::default());
+        for (sent, clean) in [(bytes.len(), true), (bytes.len() / 2, false)] {
+            let mut peer = TcpStream::connect(s.local_addr).expect("connected");
+            assert!(matches!(next(&rx), CsiEvent::Connected { .. }));
+            peer.write_all(&bytes[..sent]).expect("sent");
+            drop(peer);
+            loop {
+                match next(&rx) {
+                    CsiEvent::Disconnected { clean: c, .. } => {
+                        assert_eq!(c, clean, "{sent} of {} bytes", bytes.len());
+                        break;
+                    }
+                    CsiEvent::Record { .. } | CsiEvent::Skipped { .. } => {}
+                    other => panic!("{other:?}"),
+                }
+            }
+        }
         stop.store(true, Ordering::Relaxed);
     }
 }

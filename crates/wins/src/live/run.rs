@@ -176,7 +176,6 @@ pub fn run_live(
         not_sent: 0,
         ages: Histogram::default(),
         window_ages_ms: Vec::new(),
-        converged: false,
     };
     let stats_file = StatsFile {
         path: options.out.join(STATS_FILE),
@@ -423,7 +422,7 @@ impl Loop<'_> {
             imu_hz: stats.imu_received.saturating_sub(last.1.imu_received) as f64 / dt,
             packets_hz,
             poses_hz: out.sent.saturating_sub(last.2) as f64 / dt,
-            converged: out.converged,
+            estimate: session.estimate_state(),
             clocks: session.clocks(),
             latency_ms: percentiles(&mut out.window_ages_ms),
             mavlink_signing: out.link.signing_counts(),

@@ -33,7 +33,7 @@ use super::recorder::Recorder;
 use crate::config::Config;
 use crate::csi::intel5300::MacAddress;
 use crate::fusion::pose::PoseEstimate;
-use crate::pipeline::{ChainResolver, PipelineError, Released};
+use crate::pipeline::{ChainResolver, EstimateState, PipelineError, Released};
 use crate::rig::Rig;
 use crate::time::Timestamp;
 
@@ -357,6 +357,14 @@ impl LiveSession {
             r.finish()?;
         }
         Ok((frames, self.stats))
+    }
+
+    /// What the estimate is doing now.
+    pub fn estimate_state(&self) -> EstimateState {
+        match &self.stage {
+            Stage::Running(r) => r.state(),
+            Stage::Waiting { .. } => EstimateState::Starting,
+        }
     }
 
     /// The counts so far.

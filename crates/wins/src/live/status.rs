@@ -5,6 +5,7 @@ use serde::Serialize;
 use super::mavlink::link::LinkCounts;
 use super::mavlink::signing::SigningCounts;
 use super::session::{ClockReport, LiveStats};
+use crate::pipeline::EstimateState;
 
 /// A status line's content (the binary prints it).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -17,8 +18,8 @@ pub struct LiveStatus {
     pub packets_hz: Vec<(String, f64)>,
     /// Poses sent per second since the last status.
     pub poses_hz: f64,
-    /// Whether the last frame was converged.
-    pub converged: bool,
+    /// What the estimate is doing.
+    pub estimate: EstimateState,
     /// The clocks.
     pub clocks: ClockReport,
     /// Median and 99th percentile of the poses' age when sent (host time of sending minus the
@@ -56,16 +57,29 @@ impl std::fmt::Display for LiveStatus {
                 write!(f, " nic{conn} {:+.3} s {d:+.0} ppm", *o as f64 * 1e-9)?;
             }
         }
-        let state = if self.converged {
-            "converged"
-        } else {
-            "not converged"
-        };
-        write!(f, " | {state}, {:.0} poses/s", self.poses_hz)?;
+        match self.estimate {
+            EstimateState::Starting => write!(f, " | starting")?,
+            EstimateState::Deciding {
+                converged: 0,
+                hypotheses,
+            } => write!(f, " | not converged ({hypotheses} chain-offset hypotheses)")?,
+            EstimateState::Deciding {
+                converged,
+                hypotheses,
+            } => write!(
+                f,
+                " | converged, deciding the chain offsets ({converged} of {hypotheses} \
+                 hypotheses converged; poses held)"
+            )?,
+            EstimateState::Tracking { converged: true } => write!(f, " | converged")?,
+            EstimateState::Tracking { converged: false } => write!(f, " | not converged")?,
+        }
+        write!(f, ", {:.0} poses/s", self.poses_hz)?;
         if let Some((p50, p99)) = self.latency_ms {
             write!(f, " | latency {p50:.1}/{p99:.1} ms (p50/p99)")?;
         }
         let s = &self.stats;
+        let dropped = s.csi_disconnects.saturating_sub(s.csi_closed);
         let events = s.late
             + s.csi_skips
             + s.csi_no_transmitter
@@ -75,7 +89,7 @@ impl std::fmt::Display for LiveStatus {
             + s.fc_clock_outliers
             + s.fc_clock_relocks
             + s.fc_refused
-            + s.csi_disconnects;
+            + dropped;
         if events > 0 {
             write!(
                 f,
@@ -88,8 +102,11 @@ impl std::fmt::Display for LiveStatus {
                 s.nic_clock_outliers,
                 s.fc_clock_relocks,
                 s.nic_clock_relocks,
-                s.csi_disconnects
+                dropped
             )?;
+        }
+        if s.csi_closed > 0 {
+            write!(f, " | CSI links closed by the peer {}", s.csi_closed)?;
         }
         let l = &self.mavlink_link;
         if l.any_fault() {
@@ -195,6 +212,50 @@ mod tests {
             line.ends_with(" | MAVLink refused: unsigned 3 bad signature 2 replayed 1 stale 0"),
             "{line}"
         );
+    }
+
+    #[test]
+    fn a_converged_hypothesis_is_said_while_the_chain_offsets_are_decided() {
+        let mut status = LiveStatus::default();
+        assert!(status.to_string().contains("| starting,"));
+        status.estimate = EstimateState::Deciding {
+            converged: 0,
+            hypotheses: 4,
+        };
+        assert!(
+            status
+                .to_string()
+                .contains("| not converged (4 chain-offset")
+        );
+        status.estimate = EstimateState::Deciding {
+            converged: 2,
+            hypotheses: 4,
+        };
+        let line = status.to_string();
+        assert!(
+            line.contains("| converged, deciding the chain offsets (2 of 4"),
+            "{line}"
+        );
+        status.estimate = EstimateState::Tracking { converged: false };
+        assert!(status.to_string().contains("| not converged,"));
+        status.estimate = EstimateState::Tracking { converged: true };
+        assert!(status.to_string().contains("| converged,"));
+    }
+
+    #[test]
+    fn a_csi_link_closed_after_a_whole_record_is_not_a_dropped_link() {
+        let mut status = LiveStatus::default();
+        status.stats.csi_disconnects = 1;
+        status.stats.csi_closed = 1;
+        let line = status.to_string();
+        assert!(!line.contains("dropped links"), "{line}");
+        assert!(
+            line.ends_with(" | CSI links closed by the peer 1"),
+            "{line}"
+        );
+        status.stats.csi_disconnects = 3;
+        let line = status.to_string();
+        assert!(line.contains("dropped links 2"), "{line}");
     }
 
     #[test]

@@ -79,6 +79,29 @@ enum Stage {
     Decided(Box<Pipeline>),
 }
 
+/// What the estimate is doing, for a status line ([`ChainResolver::state`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "stage", rename_all = "snake_case")]
+pub enum EstimateState {
+    /// Nothing estimated yet: before the pipeline is built, or while the chains' curvature is
+    /// measured.
+    #[default]
+    Starting,
+    /// The chains' offsets are being decided: `converged` of the `hypotheses` have converged;
+    /// their poses are held until one is kept.
+    Deciding {
+        /// Hypotheses converged now.
+        converged: usize,
+        /// Hypotheses flown.
+        hypotheses: usize,
+    },
+    /// The offsets are decided; whether the estimate is converged now.
+    Tracking {
+        /// Converged now (not lost).
+        converged: bool,
+    },
+}
+
 /// A [`Pipeline`] whose chain offsets are resolved from the flight (module doc). Same push API;
 /// each push returns what it released.
 pub struct ChainResolver {
@@ -182,6 +205,20 @@ impl ChainResolver {
         match &self.stage {
             Stage::Decided(p) => p.wins().ap_in_w(l),
             _ => None,
+        }
+    }
+
+    /// What the estimate is doing now.
+    pub fn state(&self) -> EstimateState {
+        match &self.stage {
+            Stage::Measuring { .. } => EstimateState::Starting,
+            Stage::Testing(c) => EstimateState::Deciding {
+                converged: c.iter().filter(|c| c.converged).count(),
+                hypotheses: c.len(),
+            },
+            Stage::Decided(p) => EstimateState::Tracking {
+                converged: p.wins().is_converged(),
+            },
         }
     }
 

@@ -32,7 +32,7 @@ use std::time::Instant;
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-pub use self::chains::{ChainReport, ChainResolver, FRESH_NS, Finished, Released};
+pub use self::chains::{ChainReport, ChainResolver, EstimateState, FRESH_NS, Finished, Released};
 use self::slot::{FrameSlot, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
 use self::track::{ArrayPose, Track, TrackState};

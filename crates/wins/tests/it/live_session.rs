@@ -283,6 +283,7 @@ fn faults_while_flying_are_counted_and_flown_through() {
         CsiEvent::Disconnected {
             conn: 0,
             reason: "closed by the peer".into(),
+            clean: false,
         },
     ));
     a.push(csi_event(
@@ -321,6 +322,7 @@ fn faults_while_flying_are_counted_and_flown_through() {
         CsiEvent::Disconnected {
             conn: 9,
             reason: "closed by the peer".into(),
+            clean: false,
         },
     ));
     // 45–48 s: the AP is silent.
@@ -374,6 +376,7 @@ fn faults_while_flying_are_counted_and_flown_through() {
         CsiEvent::Disconnected {
             conn: 5,
             reason: "closed by the peer".into(),
+            clean: false,
         },
     ));
     // 62–62.3 s: no IMU.

@@ -209,6 +209,7 @@ impl CsiSide {
             out.push(LiveInput::Csi(CsiEvent::Disconnected {
                 conn: self.conn_ids[k],
                 reason: "closed by the peer".into(),
+                clean: false,
             }));
         }
         out

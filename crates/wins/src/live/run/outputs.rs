@@ -32,7 +32,6 @@ pub(super) struct Outputs<'a> {
     pub(super) not_sent: u64,
     pub(super) ages: Histogram,
     pub(super) window_ages_ms: Vec<f64>,
-    pub(super) converged: bool,
 }
 
 impl Outputs<'_> {
@@ -45,7 +44,6 @@ impl Outputs<'_> {
         age_ms: Option<f64>,
         fc_epoch_offset_ns: i64,
     ) -> Result<(), LiveError> {
-        self.converged = f.pose.converged;
         if !f.pose.converged {
             return Ok(());
         }

@@ -73,8 +73,9 @@ impl LiveSession {
                     },
                 );
             }
-            CsiEvent::Disconnected { conn, .. } => {
+            CsiEvent::Disconnected { conn, clean, .. } => {
                 self.stats.csi_disconnects += 1;
+                self.stats.csi_closed += u64::from(clean);
                 self.nics.remove(&conn);
                 self.ap_streams.retain(|_, c| *c != conn);
             }
