@@ -5,10 +5,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use wins::dataset::truth::{TRUTH_DIR, Truth};
-use wins::figures::{FigureError, RunFigures};
+use wins::figures::RunFigures;
 use wins::rig::ChainCalibration;
-use wins::run::output::TRAJECTORY_FILE;
 use wins::run::replay::Evaluation;
 use wins::run::run_dir::{RunDir, RunInputs, RunManifest};
 use wins::sim::{self, Scenario};
@@ -223,27 +221,13 @@ fn summary(out: &mut impl Write, run: &RunOutput) -> Result<()> {
     Ok(())
 }
 
-/// The figures of the run written into `out` from `dataset`: against its truth when it has
-/// one that the estimate can be aligned to, else alone (and a warning says why).
+/// The figures of the run written into `out` from `dataset` (a warning says why they show no
+/// truth when the dataset has one).
 fn figures_of(out: &Path, dataset: &Path, config: &Config) -> Result<RunFigures> {
-    let trajectory = out.join(TRAJECTORY_FILE);
-    let truth = if dataset.join(TRUTH_DIR).is_dir() {
-        Truth::load(dataset).ok()
-    } else {
-        None
-    };
-    let alone = || RunFigures::from_files(&trajectory, Some(dataset), None, &config.eval);
-    let figures = match &truth {
-        Some(t) => {
-            match RunFigures::from_files(&trajectory, Some(dataset), Some(t), &config.eval) {
-                Err(FigureError::Align(e)) => {
-                    eprintln!("warning: the figures show no truth: {e}");
-                    alone()
-                }
-                other => other,
-            }
-        }
-        None => alone(),
-    };
-    figures.context("making the run's figures")
+    let (figures, no_truth) =
+        RunFigures::of_run(out, dataset, &config.eval).context("making the run's figures")?;
+    if let Some(why) = no_truth {
+        eprintln!("warning: the figures show no truth: {why}");
+    }
+    Ok(figures)
 }

@@ -308,6 +308,68 @@ impl Truth {
     }
 }
 
+impl Truth {
+    /// The truth folder `dir` as [`Truth::load_dir`] reads it, but of its poses only, for each
+    /// time of `near` (increasing), the one nearest to it, and one every `every_ns` besides;
+    /// and without the IMU biases. Its memory is that of `near`, not of the truth's IMU-rate
+    /// poses (what a run's figures need of an hour-long flight's truth).
+    pub fn load_dir_near(
+        dir: impl AsRef<Path>,
+        near: &[Timestamp],
+        every_ns: i64,
+    ) -> Result<Self, TruthError> {
+        let dir = dir.as_ref();
+        let path = dir.join("poses.tum");
+        let file = crate::io_safety::open_regular(&path).map_err(|source| TruthError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let mut poses: Vec<Pose> = Vec::new();
+        let (mut next, mut previous): (usize, Option<Pose>) = (0, None);
+        for pose in tum_poses(io::BufReader::new(file)) {
+            let pose = pose.map_err(|reason| TruthError::Parse {
+                path: path.clone(),
+                reason,
+            })?;
+            let mut keep = poses.last().is_none_or(|k| pose.t.0 - k.t.0 >= every_ns);
+            // Each time of `near` up to this pose takes the nearer of it and the one before.
+            while let Some(&t) = near.get(next).filter(|t| t.0 <= pose.t.0) {
+                match previous {
+                    Some(p) if (t.0 - p.t.0) <= (pose.t.0 - t.0) => {
+                        if poses.last().is_none_or(|k| k.t != p.t) {
+                            poses.push(p);
+                        }
+                    }
+                    _ => keep = true,
+                }
+                next += 1;
+            }
+            if keep && poses.last().is_none_or(|k| k.t != pose.t) {
+                poses.push(pose);
+            }
+            previous = Some(pose);
+        }
+        // Times beyond the last pose take it.
+        if let Some(p) =
+            previous.filter(|p| next < near.len() && poses.last().is_none_or(|k| k.t != p.t))
+        {
+            poses.push(p);
+        }
+        let aps: Vec<ApRow> = csv_or_empty(dir, "aps.csv")?;
+        let mut packets = Vec::with_capacity(aps.len());
+        for ap in &aps {
+            packets.push(csv_or_empty(dir, &packets_file(&ap.name))?);
+        }
+        Ok(Self {
+            poses,
+            aps,
+            packets,
+            imu_biases: Vec::new(),
+            info: None,
+        })
+    }
+}
+
 /// The bytes of `dir/name`, or `None` when there is no such file.
 pub(crate) fn read_optional(dir: &Path, name: &str) -> Result<Option<Vec<u8>>, TruthError> {
     let path = dir.join(name);
@@ -360,5 +422,42 @@ mod tests {
         // 1e300 s would saturate to i64::MAX ns and overflow the association's differences.
         let e = read_tum("1.5 0 0 0 0 0 0 1\n1e300 0 0 0 0 0 0 1\n".as_bytes()).unwrap_err();
         assert!(e.contains("line 2") && e.contains("146 years"), "{e}");
+    }
+
+    #[test]
+    fn a_truth_loaded_near_some_times_keeps_the_nearest_pose_of_each() {
+        let dir = std::env::temp_dir().join(format!("wins-truth-near-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let pose = |ns: i64| Pose {
+            t: Timestamp(ns),
+            p_b_in_w: Vector3::new(ns as f64 * 1e-9, 0.0, 0.0),
+            world_from_body: UnitQuaternion::identity(),
+        };
+        // 10 s at 200 Hz; the estimate every 20 ms, 2 ms late, and twice beyond the end.
+        let all: Vec<Pose> = (0..2000).map(|i| pose(i * 5_000_000)).collect();
+        let mut tum = Vec::new();
+        write_tum(&mut tum, &all).unwrap();
+        std::fs::write(dir.join("poses.tum"), tum).unwrap();
+        let mut near: Vec<Timestamp> = (0..500)
+            .map(|i| Timestamp(i * 20_000_000 + 2_000_000))
+            .collect();
+        near.extend([Timestamp(10_500_000_000), Timestamp(11_000_000_000)]);
+        let t = Truth::load_dir_near(&dir, &near, 100_000_000).unwrap();
+        assert!(t.poses.windows(2).all(|w| w[0].t < w[1].t));
+        let nearest = |poses: &[Pose], at: Timestamp| {
+            poses
+                .iter()
+                .min_by_key(|p| ((p.t.0 - at.0).abs(), p.t.0))
+                .map(|p| p.t)
+        };
+        for &at in &near {
+            assert_eq!(nearest(&t.poses, at), nearest(&all, at), "{at:?}");
+        }
+        // One every 100 ms besides: 100 of them, and the 502 nearest (2 ms late: the pose
+        // 2 ms before, two of them the last pose).
+        assert!(t.poses.len() <= 100 + 502, "{}", t.poses.len());
+        assert!(t.poses.len() < all.len() / 3);
+        assert!(t.imu_biases.is_empty() && t.aps.is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

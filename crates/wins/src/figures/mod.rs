@@ -21,15 +21,20 @@ use nalgebra::{Matrix2, Matrix3, UnitQuaternion, Vector3};
 pub use against_truth::TruthFigures;
 use read::RunFiles;
 
-use crate::dataset::truth::{Pose, Truth};
+use crate::dataset::truth::{Pose, TRUTH_DIR, Truth};
 use crate::eval::{EvalError, EvalOptions};
 use crate::run::coverage::POSE_GAP_S;
+use crate::run::output::TRAJECTORY_FILE;
+use crate::time::Timestamp;
 
 /// Points of a series, `(x, y)`; a point with NaN coordinates is a gap.
 pub type Points = Vec<(f64, f64)>;
 
 /// The gap point of [`Points`].
 pub const GAP: (f64, f64) = (f64::NAN, f64::NAN);
+
+/// Besides the poses paired with the estimate's, the truth's drawn every this, ns.
+const TRUTH_DRAWN_EVERY_NS: i64 = 100_000_000;
 
 /// Points on an AP's ellipse.
 const ELLIPSE_POINTS: usize = 48;
@@ -220,6 +225,40 @@ impl RunFigures {
                 _ => None,
             },
         })
+    }
+}
+
+impl RunFigures {
+    /// The figures of the run written into `run_dir` from `dataset`
+    /// ([`RunFigures::from_files`] of its trajectory), against the dataset's truth when it has
+    /// one the estimate can be aligned to, else alone, with why in the second value. The truth's
+    /// poses are read near the estimate's ([`Truth::load_dir_near`]), so an hour-long flight's
+    /// truth at the IMU's rate is never held.
+    pub fn of_run(
+        run_dir: &Path,
+        dataset: &Path,
+        options: &EvalOptions,
+    ) -> Result<(Self, Option<String>), FigureError> {
+        let trajectory = run_dir.join(TRAJECTORY_FILE);
+        let alone = |why: String| {
+            Self::from_files(&trajectory, Some(dataset), None, options).map(|f| (f, Some(why)))
+        };
+        let truth_dir = dataset.join(TRUTH_DIR);
+        if !truth_dir.is_dir() {
+            return Ok((
+                Self::from_files(&trajectory, Some(dataset), None, options)?,
+                None,
+            ));
+        }
+        let times: Vec<Timestamp> = read::poses(&trajectory)?.iter().map(|p| p.t).collect();
+        let truth = match Truth::load_dir_near(&truth_dir, &times, TRUTH_DRAWN_EVERY_NS) {
+            Ok(t) => t,
+            Err(e) => return alone(format!("the truth cannot be read: {e}")),
+        };
+        match Self::from_files(&trajectory, Some(dataset), Some(&truth), options) {
+            Err(FigureError::Align(e)) => alone(e.to_string()),
+            other => other.map(|f| (f, None)),
+        }
     }
 }
 
