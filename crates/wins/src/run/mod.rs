@@ -8,8 +8,8 @@
 //!   of `trajectory.tum` is [`trajectory`] (`wins live` writes through it too);
 //! - [`spool`]: the per-frame and per-packet files written as they come, for a run whose memory
 //!   does not grow with the flight ([`run_dataset_into`]), and its scoring from those files;
-//! - [`figures`], [`coverage`]: the figures' data against a truth, and how much of the flight
-//!   the converged poses cover.
+//! - [`coverage`]: how much of the flight the converged poses cover. The figures are made
+//!   from the run's files afterwards ([`crate::figures`]).
 
 pub mod coverage;
 pub mod drive;
