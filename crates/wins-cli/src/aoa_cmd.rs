@@ -7,13 +7,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
-use wins::csi::intel5300::{CsiLog, CsiRecord, SkipReason, read_log};
-use wins::dataset::Dataset;
+use wins::csi::intel5300::{CsiRecord, SkipReason};
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::{AoaMode, estimate_log, match_chain_curvature, truth_pairs};
-use wins::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
-use wins::rig::channel::wifi_channel_hz;
-use wins::rig::{ArrayGeometry, ChainCalibration};
+use wins::pipeline::aoa_log::input::{AoaInput, AoaSource, AoaSpec};
+use wins::pipeline::aoa_log::{AoaMode, truth_pairs};
+use wins::rig::ChainCalibration;
 use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
 
 /// Plot size, pixels.
@@ -112,155 +110,63 @@ fn parse_aoa_deg(text: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// A log to process, with the array and channel it was recorded with.
-struct Input {
-    source: Source,
-    geometry: ArrayGeometry,
-    center_freq_hz: f64,
-    config: AoaConfig,
+/// Opens the input of `wins aoa` and `wins calibrate` ([`AoaInput::open`]).
+fn open_input(args: &InputArgs) -> Result<AoaInput> {
+    let config = match &args.config {
+        Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
+        None => AoaConfig::default(),
+    };
+    let spec = AoaSpec {
+        file: args.file.clone(),
+        ap: args.ap.clone(),
+        channel: args.channel,
+        center_freq_hz: args.center_freq_hz,
+        spacing_m: args.spacing_m,
+        config,
+    };
+    Ok(AoaInput::open(&spec)?)
 }
 
-enum Source {
-    Log(CsiLog),
-    Dataset { dataset: Box<Dataset>, ap: usize },
-}
-
-impl Input {
-    fn open(args: &InputArgs) -> Result<Self> {
-        let config = match &args.config {
-            Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
-            None => AoaConfig::default(),
-        };
-        if !args.file.is_dir() {
-            if args.ap.is_some() {
-                bail!(
-                    "--ap is for a dataset directory, {} is a file",
-                    args.file.display()
-                );
-            }
-            let center_freq_hz = match (args.channel, args.center_freq_hz) {
-                (Some(n), _) => wifi_channel_hz(n).with_context(|| {
-                    format!(
-                        "--channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)"
-                    )
-                })?,
-                (None, f) => f.unwrap_or(CHANNEL_64_HZ),
-            };
-            let geometry = ArrayGeometry {
-                spacing_m: args
-                    .spacing_m
-                    .unwrap_or_else(|| half_wavelength_m(center_freq_hz)),
-                ..ArrayGeometry::default()
-            };
-            geometry
-                .validate(center_freq_hz)
-                .context("the array (--spacing-m) cannot be used on this carrier")?;
-            let log = read_log(&args.file)?;
-            if log.records.is_empty() {
-                bail!(
-                    "{}: no CSI records ({} bytes; {} stretches skipped): not an Intel 5300 CSI Tool \
-                     log, or one with no packets",
-                    args.file.display(),
-                    log.bytes,
-                    log.skips.len()
-                );
-            }
-            let source = Source::Log(log);
-            return Ok(Self {
-                source,
-                geometry,
-                center_freq_hz,
-                config,
-            });
-        }
-        if args.center_freq_hz.is_some() || args.channel.is_some() || args.spacing_m.is_some() {
-            bail!(
-                "--channel, --center-freq-hz and --spacing-m come from the dataset's dataset.toml"
-            );
-        }
-        let dataset = Dataset::load(&args.file)?;
-        let names: Vec<&str> = dataset.aps.iter().map(|a| a.name.as_str()).collect();
-        let Some(name) = &args.ap else {
-            bail!(
-                "{} is a dataset: give --ap ({})",
-                args.file.display(),
-                names.join(", ")
-            );
-        };
-        let Some(ap) = names.iter().position(|n| n == name) else {
-            bail!(
-                "no AP {name:?} in {} (it has {})",
-                args.file.display(),
-                names.join(", ")
-            );
-        };
-        Ok(Self {
-            geometry: dataset.manifest.array.geometry,
-            center_freq_hz: dataset.manifest.channel.center_freq_hz,
-            source: Source::Dataset {
-                dataset: Box::new(dataset),
-                ap,
-            },
-            config,
-        })
+/// Prints the log's lost byte ranges (non-CSI records are only counted).
+fn report_log_skips(input: &AoaInput, label: &Path) {
+    let skips = input.skips();
+    let non_csi = skips
+        .iter()
+        .filter(|s| matches!(s.reason, SkipReason::NonCsi { .. }))
+        .count();
+    if non_csi > 0 {
+        eprintln!("{}: {non_csi} non-CSI records skipped", label.display());
     }
-
-    fn records(&self) -> Vec<&CsiRecord> {
-        match &self.source {
-            Source::Log(log) => log.records.iter().collect(),
-            Source::Dataset { dataset, ap } => {
-                dataset.aps[*ap].packets.iter().map(|p| &p.record).collect()
-            }
-        }
-    }
-
-    /// Prints the log's lost byte ranges (non-CSI records are only counted).
-    fn report_log_skips(&self, label: &Path) {
-        let skips = match &self.source {
-            Source::Log(log) => &log.skips,
-            Source::Dataset { dataset, ap } => &dataset.aps[*ap].skips,
-        };
-        let non_csi = skips
+    crate::warn_lost(
+        skips
             .iter()
-            .filter(|s| matches!(s.reason, SkipReason::NonCsi { .. }))
-            .count();
-        if non_csi > 0 {
-            eprintln!("{}: {non_csi} non-CSI records skipped", label.display());
-        }
-        crate::warn_lost(
-            skips
-                .iter()
-                .filter(|s| !matches!(s.reason, SkipReason::NonCsi { .. })),
-        );
-    }
+            .filter(|s| !matches!(s.reason, SkipReason::NonCsi { .. })),
+    );
 }
 
 /// `wins aoa`.
 pub fn aoa(args: AoaArgs) -> Result<()> {
-    let input = Input::open(&args.input)?;
+    let input = open_input(&args.input)?;
     let calibration = match &args.calibration {
         Some(path) => Some(ChainCalibration::load(path)?),
         None => None,
     };
-    let mut estimator = AoaEstimator::new(
-        &input.config,
-        input.geometry,
-        input.center_freq_hz,
-        calibration,
-    )
-    .with_context(|| match &args.calibration {
-        Some(path) => format!("calibration {} does not fit the array", path.display()),
-        None => "cannot set up the AoA estimator".into(),
-    })?;
-    if let Some(ambiguity) = estimator.ambiguity() {
+    let mode = match args.mode {
+        Mode::Music => AoaMode::Music,
+        Mode::Spotfi => AoaMode::Spotfi {
+            group_size: args.group_size,
+        },
+    };
+    let outcome = input
+        .estimate(calibration, mode)
+        .with_context(|| match &args.calibration {
+            Some(path) => format!("calibration {} does not fit the array", path.display()),
+            None => "cannot estimate the AoA".into(),
+        })?;
+    if let Some(ambiguity) = &outcome.ambiguity {
         eprintln!("warning: {ambiguity}");
     }
-    let records = input.records();
-    let correction = match_chain_curvature(
-        records.iter().copied(),
-        &mut estimator,
-        args.calibration.is_some(),
-    )?;
+    let correction = &outcome.correction;
     if let (Some(measured), Some(prior)) = (correction.measured_rad, correction.prior_rad) {
         eprintln!(
             "chain curvature (φ0 − 2φ1 + φ2) measured on the log: {:.1}° ({} {:.1}°, moved by \
@@ -275,13 +181,7 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
             correction.applied_rad.to_degrees()
         );
     }
-    let mode = match args.mode {
-        Mode::Music => AoaMode::Music,
-        Mode::Spotfi => AoaMode::Spotfi {
-            group_size: args.group_size,
-        },
-    };
-    let (rows, summary) = estimate_log(records.iter().copied(), &estimator, mode)?;
+    let (rows, summary) = (&outcome.rows, &outcome.summary);
 
     let sink: Box<dyn Write> = match &args.out {
         Some(p) => {
@@ -293,13 +193,13 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     match args.format {
         RowFormat::Csv => {
             let mut w = csv::Writer::from_writer(&mut sink);
-            for row in &rows {
+            for row in rows {
                 w.serialize(row)?;
             }
             w.flush()?;
         }
         RowFormat::Jsonl => {
-            for row in &rows {
+            for row in rows {
                 serde_json::to_writer(&mut sink, row)?;
                 writeln!(sink)?;
             }
@@ -308,7 +208,7 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     sink.flush()?;
 
     let file = &args.input.file;
-    input.report_log_skips(file);
+    report_log_skips(&input, file);
     eprintln!(
         "{}: {} packets, {} with AoA, {} no credible peak, {} skipped",
         file.display(),
@@ -338,6 +238,7 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
         );
     }
     if let Some(png) = &args.plot {
+        let records = input.records();
         let record = records.get(args.plot_packet).with_context(|| {
             format!(
                 "--plot-packet {}: the log has {} records",
@@ -345,7 +246,7 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
                 records.len()
             )
         })?;
-        plot_spectrum(&estimator, record, args.plot_packet, png)?;
+        plot_spectrum(&outcome.estimator, record, args.plot_packet, png)?;
         eprintln!(
             "packet {} spectrum drawn to {}",
             args.plot_packet,
@@ -395,7 +296,7 @@ fn plot_spectrum(est: &AoaEstimator, record: &CsiRecord, index: usize, png: &Pat
 
 /// `wins calibrate`.
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
-    let input = Input::open(&args.input)?;
+    let input = open_input(&args.input)?;
     let file = &args.input.file;
     let (geometry, freq, config) = (input.geometry, input.center_freq_hz, &input.config);
     let (mut calibration, report, source) = match (&input.source, args.aoa_deg) {
@@ -404,7 +305,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
             let (c, r) = calibrate(records, deg.to_radians(), geometry, freq, config)?;
             (c, r, format!("static capture {} at {deg}°", file.display()))
         }
-        (Source::Dataset { dataset, ap }, None) => {
+        (AoaSource::Dataset { dataset, ap }, None) => {
             let truth = Truth::load(file)
                 .with_context(|| format!("{} has no usable truth/", file.display()))?;
             let name = &dataset.aps[*ap].name;
@@ -421,7 +322,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
             let (c, r) = calibrate_with(paired.pairs, geometry, freq, config)?;
             (c, r, format!("truth of {} ({name})", file.display()))
         }
-        (Source::Log(_), None) => bail!(
+        (AoaSource::Log(_), None) => bail!(
             "{} is a log: give the known angle with --aoa-deg, or a dataset directory with truth",
             file.display()
         ),
@@ -437,7 +338,7 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         })?;
     calibration.save(&args.out)?;
 
-    input.report_log_skips(file);
+    report_log_skips(&input, file);
     println!("calibration from {}", calibration.source);
     println!("chain  offset (deg)  spread (deg)");
     for (m, offset) in calibration.phase_offsets_rad.iter().enumerate() {

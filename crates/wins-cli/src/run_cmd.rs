@@ -7,10 +7,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use wins::figures::RunFigures;
 use wins::rig::ChainCalibration;
+use wins::run::folder::{FolderRun, run_into_folder};
 use wins::run::replay::Evaluation;
-use wins::run::run_dir::{RunDir, RunInputs, RunManifest};
+use wins::run::run_dir::{RunDir, RunInputs};
 use wins::sim::{self, Scenario};
-use wins::{Config, RunOptions, RunOutput, run_dataset_into};
+use wins::{Config, RunOptions, RunOutput};
 
 use crate::draw::draw_run;
 
@@ -115,8 +116,9 @@ pub fn load_config(path: Option<&Path>) -> Result<Config> {
     })
 }
 
-/// Runs `inputs` into the checked folder `dir`: the data files, the figures, then the manifest
-/// last. A truth that cannot be read fails the command once everything else is written.
+/// Runs `inputs` into the checked folder `dir` ([`run_into_folder`]): the data files, the
+/// figures, then the manifest last. A truth that cannot be read fails the command once
+/// everything else is written.
 fn process(
     dir: &RunDir,
     inputs: &RunInputs<'_>,
@@ -124,37 +126,25 @@ fn process(
     options: &RunOptions,
     plots: bool,
 ) -> Result<()> {
-    let run = run_dataset_into(inputs.dataset, config, options, dir.path())?;
+    let mut figures = |_: &RunOutput, out: &Path| -> Result<Vec<PathBuf>, String> {
+        if !plots {
+            return Ok(Vec::new());
+        }
+        let figures = figures_of(out, inputs.dataset, config).map_err(|e| format!("{e:#}"))?;
+        draw_run(out, &figures).map_err(|e| format!("{e:#}"))
+    };
+    let FolderRun { run, written } = run_into_folder(dir, inputs, config, options, &mut figures)?;
     for w in &run.warnings {
         eprintln!("warning: {w}");
     }
-    let out = dir.path();
-    let mut manifest = RunManifest::new(inputs, config, options.no_calibration);
-    dir.start(&manifest)?;
-    let mut written = run
-        .write(out)
-        .with_context(|| format!("writing {}", out.display()))?;
     let mut stdout = std::io::stdout().lock();
     summary(&mut stdout, &run)?;
     if let Some(m) = &run.metrics {
         write!(stdout, "{}", m.report())?;
     }
-    if plots {
-        let figures = figures_of(out, inputs.dataset, config)?;
-        let drawn = draw_run(out, &figures)?;
-        for p in &drawn {
-            writeln!(stdout, "wrote {}", p.display())?;
-        }
-        written.extend(drawn);
-    }
     for p in &written {
-        if p.extension().is_none_or(|e| e != "png") {
-            writeln!(stdout, "wrote {}", p.display())?;
-        }
+        writeln!(stdout, "wrote {}", p.display())?;
     }
-    manifest.record(&run);
-    let manifest_path = dir.finish(&manifest, &written)?;
-    writeln!(stdout, "wrote {}", manifest_path.display())?;
     if let Evaluation::Failed(why) = &run.evaluation {
         anyhow::bail!("evaluation failed: {why}");
     }

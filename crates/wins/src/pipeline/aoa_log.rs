@@ -3,6 +3,8 @@
 //! rows with a status and counted in the summary. Also pairs a dataset's records with the truth
 //! AoA, for calibrating on a capture with a reference system (or the simulator's truth).
 
+pub mod input;
+
 use std::collections::BTreeMap;
 
 use serde::Serialize;

@@ -13,6 +13,7 @@
 
 pub mod coverage;
 pub mod drive;
+pub mod folder;
 pub mod output;
 pub mod replay;
 pub mod run_dir;
