@@ -9,7 +9,7 @@ use clap::ValueEnum;
 use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
 use wins::csi::intel5300::{CsiRecord, SkipReason};
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::input::{AoaInput, AoaSource, AoaSpec};
+use wins::pipeline::aoa_log::input::{AoaInput, AoaInputError, AoaSource, AoaSpec};
 use wins::pipeline::aoa_log::{AoaMode, truth_pairs};
 use wins::rig::ChainCalibration;
 use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
@@ -124,7 +124,13 @@ fn open_input(args: &InputArgs) -> Result<AoaInput> {
         spacing_m: args.spacing_m,
         config,
     };
-    Ok(AoaInput::open(&spec)?)
+    AoaInput::open(&spec).map_err(|e| match e {
+        AoaInputError::Options(why) => anyhow::anyhow!(
+            "{why} (--ap NAME names a dataset's AP; --channel, --center-freq-hz and --spacing-m \
+             describe a log)"
+        ),
+        other => other.into(),
+    })
 }
 
 /// Prints the log's lost byte ranges (non-CSI records are only counted).

@@ -190,7 +190,7 @@ fn bad_input_fails_with_a_message_and_no_panic() {
         &["120", "outside [-90°, 90°]"],
     );
     failure(&["calibrate", s(&log), "--out", s(&calib)], &["--aoa-deg"]);
-    failure(&["aoa", s(&ds)], &["give --ap (ap0)"]);
+    failure(&["aoa", s(&ds)], &["name its AP (ap0)", "--ap NAME"]);
     failure(&["aoa", s(&ds), "--ap", "ap9"], &["no AP \"ap9\""]);
     failure(
         &["aoa", s(&log), "--mode", "spotfi", "--group-size", "1"],
@@ -302,7 +302,7 @@ fn guards_refuse_what_would_give_wrong_angles() {
     );
     failure(
         &["aoa", s(&log), "--channel", "200"],
-        &["--channel 200 is not a Wi-Fi channel"],
+        &["channel 200 is not a Wi-Fi channel", "--channel"],
     );
     failure(
         &[

@@ -590,6 +590,7 @@ fn fc_session(
 /// pymavlink plays the flight controller (HIGHRES_IMU out and ODOMETRY in on one connection),
 /// `wins replay --only csi` the CSI from the same instant.
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn pymavlink_plays_the_flight_controller() {
     let Some(python) = python("pymavlink as the flight controller") else {
         return;
@@ -662,6 +663,7 @@ const INJECTED: u64 = 5;
 /// counts, the unsigned, wrongly signed and replayed ones pymavlink slips in, none of which
 /// reaches the estimator.
 #[test]
+#[ignore = "heavy: run by `cargo test --release -- --ignored` (CI runs it)"]
 fn pymavlink_plays_a_signing_flight_controller() {
     let Some(python) = python("pymavlink as a signing flight controller") else {
         return;

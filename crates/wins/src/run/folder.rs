@@ -34,6 +34,10 @@ pub enum FolderError {
     Extra(String),
 }
 
+/// What a caller adds to a run folder (the figures): given the run and the folder, the files it
+/// wrote, or why it could not.
+pub type Extra<'a> = dyn FnMut(&RunOutput, &Path) -> Result<Vec<PathBuf>, String> + 'a;
+
 /// A run folder made ([`run_into_folder`]).
 #[derive(Debug)]
 pub struct FolderRun {
@@ -52,7 +56,7 @@ pub fn run_into_folder(
     inputs: &RunInputs<'_>,
     config: &Config,
     options: &RunOptions,
-    extra: &mut dyn FnMut(&RunOutput, &Path) -> Result<Vec<PathBuf>, String>,
+    extra: &mut Extra<'_>,
 ) -> Result<FolderRun, FolderError> {
     let run = run_dataset_into(inputs.dataset, config, options, dir.path())?;
     let path = dir.path().to_path_buf();

@@ -209,8 +209,9 @@ fn evaluation_failed(run: &mut RunOutput, path: &Path, e: &dyn std::error::Error
     run.evaluation = Evaluation::Failed(why);
 }
 
-/// An error's text followed by its causes', `: `-separated (a cause already in the text once).
-fn with_causes(e: &dyn std::error::Error) -> String {
+/// An error's text followed by its causes', `: `-separated (a cause already in the text once):
+/// how every front end (the CLI, Python) words an error.
+pub fn with_causes(e: &dyn std::error::Error) -> String {
     let mut text = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {

@@ -29,6 +29,7 @@
 //! ```
 
 mod bfee;
+mod columns;
 mod export;
 mod framing;
 mod layout;
@@ -40,6 +41,7 @@ mod summary;
 mod writer;
 
 pub use bfee::unpack_reference;
+pub use columns::CsiColumns;
 pub use export::{ExportFormat, ExportStats, export};
 pub use framing::{FramingError, MAX_UNFRAMED, Skip, SkipReason};
 pub use layout::{CODE_CSI, CODE_FRAME, CSI_PREFIX, HEADER_LEN, LEN_FIELD, packed_csi_len};

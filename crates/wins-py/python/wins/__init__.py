@@ -1,0 +1,328 @@
+"""wins from Python: Intel 5300 CSI logs to numpy, per-packet AoA, WINS runs, simulated flights.
+
+Everything here calls the Rust library the ``wins`` command line calls, with the same settings
+(``wins.default_config()`` prints them); an error of wins is raised as ``wins.WinsError`` with
+its message.
+
+>>> import wins
+>>> log = wins.read_csi("capture.dat")            # doctest: +SKIP
+>>> log.csi.shape                                  # (packets, 30, nrx, ntx), as csiread's
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, Iterator, List, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _wins
+from ._wins import WinsError, __version__
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+__all__ = [
+    "Aoa",
+    "CsiData",
+    "Run",
+    "Sweep",
+    "WinsError",
+    "__version__",
+    "aoa",
+    "default_config",
+    "iter_csi",
+    "load_run",
+    "load_sweep",
+    "read_csi",
+    "run",
+    "scenarios",
+    "simulate",
+]
+
+
+@dataclass
+class CsiData:
+    """The CSI records of an Intel 5300 log, as csiread's ``Intel`` reader gives them.
+
+    ``csi`` is ``(count, 30, nrx, ntx)`` complex128, the raw CSI after the antenna permutation
+    (zero where a packet has fewer chains or streams); the other arrays hold one value per
+    packet (``perm`` three, 0-based). ``timestamp_ns`` is the NIC clock unwrapped across
+    ``timestamp_low``'s wraps, ``offset`` each record's byte offset, ``skipped`` every byte
+    range that was not a CSI record: ``(offset, length, reason)``.
+    """
+
+    count: int
+    nrx: int
+    ntx: int
+    csi: np.ndarray
+    timestamp_low: np.ndarray
+    timestamp_ns: np.ndarray
+    offset: np.ndarray
+    bfee_count: np.ndarray
+    Nrx: np.ndarray
+    Ntx: np.ndarray
+    rssi_a: np.ndarray
+    rssi_b: np.ndarray
+    rssi_c: np.ndarray
+    noise: np.ndarray
+    agc: np.ndarray
+    perm: np.ndarray
+    rate: np.ndarray
+    skipped: List[Tuple[int, int, str]] = field(default_factory=list)
+
+
+def _csi_data(d: Dict[str, Any]) -> CsiData:
+    columns = {
+        name: np.frombuffer(raw, dtype=dtype).reshape(shape)
+        for name, (raw, dtype, shape) in d["columns"].items()
+    }
+    re_im = columns.pop("csi_re_im")
+    count, nrx, ntx = d["count"], d["nrx"], d["ntx"]
+    csi = re_im.astype(np.float64).view(np.complex128).reshape(count, 30, nrx, ntx)
+    scalars = {name: array.copy() for name, array in columns.items()}
+    return CsiData(count=count, nrx=nrx, ntx=ntx, csi=csi, skipped=list(d["skipped"]), **scalars)
+
+
+def read_csi(path: PathLike, nrx: int = 3, ntx: Optional[int] = None) -> CsiData:
+    """Reads a whole Intel 5300 CSI Tool log (``.dat``).
+
+    ``nrx`` and ``ntx`` size the CSI block as csiread's ``nrxnum`` and ``ntxnum`` do (``ntx``
+    defaults to the most streams a packet of the log has). Damaged stretches are skipped and
+    listed in ``skipped``; a file that cannot be read raises ``WinsError``.
+    """
+    return _csi_data(_wins.read_csi(os.fspath(path), nrx, ntx))
+
+
+def iter_csi(
+    path: PathLike, chunk: int = 10_000, nrx: int = 3, ntx: int = 3
+) -> Iterator[CsiData]:
+    """Reads a log of any size in chunks of ``chunk`` packets, with bounded memory."""
+    for d in _wins.CsiChunks(os.fspath(path), chunk, nrx, ntx):
+        yield _csi_data(d)
+
+
+def _columns(rows: List[Dict[str, Any]]) -> Dict[str, np.ndarray]:
+    """Rows of one JSON object each to one numpy array per key: numbers (None as NaN) or text."""
+    out: Dict[str, np.ndarray] = {}
+    for key in rows[0].keys() if rows else []:
+        values = [r.get(key) for r in rows]
+        present = [v for v in values if v is not None]
+        if present and all(isinstance(v, bool) for v in present):
+            out[key] = np.array(values, dtype=bool if len(present) == len(values) else object)
+        elif all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
+            kind = np.int64 if all(isinstance(v, int) for v in values) else np.float64
+            out[key] = np.array([math.nan if v is None else v for v in values], dtype=kind)
+        else:
+            out[key] = np.array(["" if v is None else str(v) for v in values], dtype=object)
+    return out
+
+
+@dataclass
+class Aoa:
+    """Per-packet AoA as ``wins aoa`` gives it: one array per column of its CSV (``aoa_deg``,
+    ``tof_ns``, ``status``, ``reason``, …; NaN where a packet gave none), the counts, and the
+    warnings ``wins aoa`` prints."""
+
+    rows: Dict[str, np.ndarray]
+    summary: Dict[str, Any]
+    warnings: List[str]
+
+
+def aoa(
+    path: PathLike,
+    ap: Optional[str] = None,
+    *,
+    channel: Optional[int] = None,
+    center_freq_hz: Optional[float] = None,
+    spacing_m: Optional[float] = None,
+    config: Optional[PathLike] = None,
+    calibration: Optional[PathLike] = None,
+    mode: str = "music",
+    group_size: int = 10,
+) -> Aoa:
+    """The AoA of every packet of a log (or of AP ``ap`` of a dataset folder), with the
+    settings of ``wins aoa`` (``config``: a settings file; ``mode``: ``"music"`` or
+    ``"spotfi"``)."""
+    rows, summary, warnings = _wins.aoa(
+        os.fspath(path),
+        ap,
+        channel,
+        center_freq_hz,
+        spacing_m,
+        None if config is None else os.fspath(config),
+        None if calibration is None else os.fspath(calibration),
+        mode,
+        group_size,
+    )
+    return Aoa(rows=_columns(json.loads(rows)), summary=json.loads(summary), warnings=warnings)
+
+
+@dataclass
+class Run:
+    """A run folder's content (``wins run`` writes it; docs in the README, "Outputs").
+
+    ``t`` (s), ``p_b_in_w`` ``(n, 3)`` and ``q_xyzw`` ``(n, 4)`` are ``trajectory.tum``;
+    ``covariance`` is ``(n, 6, 6)`` over x, y, z, rx, ry, rz (NaN where a pose has none);
+    ``aps`` maps each AP's name to its position and its 3 × 3 covariance (NaN when not given);
+    ``metrics`` is ``metrics.json`` (``None`` without a truth), ``stats`` ``stats.json``.
+    """
+
+    out: Path
+    t: np.ndarray
+    p_b_in_w: np.ndarray
+    q_xyzw: np.ndarray
+    covariance: np.ndarray
+    aps: Dict[str, Tuple[np.ndarray, np.ndarray]]
+    stats: Dict[str, Any]
+    metrics: Optional[Dict[str, Any]]
+    warnings: List[str] = field(default_factory=list)
+    evaluation: str = ""
+
+
+def _tum(path: Path) -> np.ndarray:
+    rows = np.loadtxt(path, comments="#", ndmin=2)
+    return rows.reshape(-1, 8)
+
+
+_COVARIANCE_AXES = ["x", "y", "z", "rx", "ry", "rz"]
+
+
+def _covariance(path: Path, n: int) -> np.ndarray:
+    out = np.full((n, 6, 6), math.nan)
+    if not path.is_file():
+        return out
+    with open(path, newline="") as f:
+        for k, row in enumerate(csv.DictReader(f)):
+            if k >= n:
+                break
+            for i, a in enumerate(_COVARIANCE_AXES):
+                for j in range(i, 6):
+                    cell = row.get(f"c_{a}_{_COVARIANCE_AXES[j]}", "")
+                    value = float(cell) if cell else math.nan
+                    out[k, i, j] = out[k, j, i] = value
+    return out
+
+
+def _aps(path: Path) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    out: Dict[str, Tuple[np.ndarray, np.ndarray]] = {}
+    if not path.is_file():
+        return out
+    with open(path, newline="") as f:
+        for row in csv.DictReader(f):
+            p = np.array([float(row[k]) for k in ("x_m", "y_m", "z_m")])
+            c = np.full((3, 3), math.nan)
+            for i, a in enumerate("xyz"):
+                for j in range(i, 3):
+                    cell = row.get(f"c_{a}_{'xyz'[j]}") or ""
+                    c[i, j] = c[j, i] = float(cell) if cell else math.nan
+            out[row["name"]] = (p, c)
+    return out
+
+
+def load_run(out: PathLike) -> Run:
+    """Loads a run folder written by ``wins run`` (or by :func:`run`)."""
+    out = Path(out)
+    if not (out / "run.json").is_file():
+        raise WinsError(f"{out} is not a run folder (it has no run.json)")
+    tum = _tum(out / "trajectory.tum")
+    metrics_path = out / "metrics.json"
+    return Run(
+        out=out,
+        t=tum[:, 0],
+        p_b_in_w=tum[:, 1:4],
+        q_xyzw=tum[:, 4:8],
+        covariance=_covariance(out / "covariance.csv", len(tum)),
+        aps=_aps(out / "aps.csv"),
+        stats=json.loads((out / "stats.json").read_text()),
+        metrics=json.loads(metrics_path.read_text()) if metrics_path.is_file() else None,
+    )
+
+
+def run(
+    dataset: PathLike,
+    out: PathLike,
+    *,
+    config: Optional[PathLike] = None,
+    calibration: Optional[PathLike] = None,
+    no_calibration: bool = False,
+) -> Run:
+    """Runs WINS on a dataset folder into the run folder ``out``, as ``wins run --no-plots``
+    does (the same files, the same checks of ``out``), and loads it."""
+    done = _wins.run(
+        os.fspath(dataset),
+        os.fspath(out),
+        None if config is None else os.fspath(config),
+        None if calibration is None else os.fspath(calibration),
+        no_calibration,
+    )
+    result = load_run(out)
+    result.warnings = list(done["warnings"])
+    result.evaluation = done["evaluation"]
+    return result
+
+
+def simulate(
+    out: PathLike,
+    scenario: Optional[str] = None,
+    *,
+    family: Optional[str] = None,
+    seed: Optional[int] = None,
+    duration_s: Optional[float] = None,
+    airborne: bool = False,
+) -> str:
+    """Simulates a built-in flight (``scenario``, default ``"paper-circle"``) or a family's
+    drawn flight (``family="room"``, ``seed``) into the dataset folder ``out``, as
+    ``wins simulate`` does; returns its summary."""
+    return _wins.simulate(os.fspath(out), scenario, family, seed, duration_s, airborne)
+
+
+def scenarios() -> List[Tuple[str, str]]:
+    """The built-in flights and the families (``"family:room"``), with their descriptions."""
+    return list(_wins.scenarios())
+
+
+def default_config() -> str:
+    """The shipped settings (TOML), as ``wins config`` prints them."""
+    return _wins.default_config()
+
+
+@dataclass
+class Sweep:
+    """A sweep folder (``wins sweep`` writes it): ``runs`` one array per column of
+    ``runs.csv`` (NaN or ``""`` where a run has no value), ``summary`` ``summary.json``."""
+
+    runs: Dict[str, np.ndarray]
+    summary: Dict[str, Any]
+
+
+def _cell(text: str) -> Any:
+    if text == "":
+        return None
+    if text in ("true", "false"):
+        return text == "true"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def load_sweep(folder: PathLike) -> Sweep:
+    """Loads a sweep folder's ``runs.csv`` and ``summary.json``."""
+    folder = Path(folder)
+    runs_csv = folder / "runs.csv"
+    if not runs_csv.is_file():
+        raise WinsError(f"{folder} is not a sweep folder (it has no runs.csv)")
+    with open(runs_csv, newline="") as f:
+        rows = [{k: _cell(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    summary_path = folder / "summary.json"
+    summary = json.loads(summary_path.read_text()) if summary_path.is_file() else {}
+    return Sweep(runs=_columns(rows), summary=summary)

@@ -1,0 +1,176 @@
+"""`import wins` against csiread on every real capture, and against the `wins` command line.
+
+Run from the repository root after `pip install ./crates/wins-py csiread pytest`:
+`pytest crates/wins-py/tests`. The real captures come from `data/intel5300/` and from
+`../shared/data/intel5300/` (`WINS_SHARED_DATA=DIR` points elsewhere); the command line is
+`target/release/wins` (`WINS_BIN=FILE`). Under CI a missing one fails instead of skipping.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import wins
+
+REPO = Path(__file__).resolve().parents[3]
+SHARED = Path(os.environ.get("WINS_SHARED_DATA", REPO.parent / "shared" / "data"))
+WINS_BIN = Path(os.environ.get("WINS_BIN", REPO / "target" / "release" / "wins"))
+IN_CI = bool(os.environ.get("CI"))
+
+
+def missing(what: str) -> None:
+    """A missing input fails under CI and skips (saying so) elsewhere."""
+    if IN_CI:
+        pytest.fail(f"{what} is missing (CI runs every test)")
+    pytest.skip(f"{what} is missing")
+
+
+def captures() -> list[Path]:
+    found = sorted((REPO / "data" / "intel5300").glob("*.dat"))
+    shared = SHARED / "intel5300"
+    if shared.is_dir():
+        found += sorted(shared.rglob("*.dat"))
+    return found
+
+
+def cli(*args: str) -> subprocess.CompletedProcess:
+    if not WINS_BIN.is_file():
+        missing(f"the wins binary {WINS_BIN} (cargo build --release -p wins-cli)")
+    done = subprocess.run([str(WINS_BIN), *args], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    return done
+
+
+def test_the_shared_captures_are_there() -> None:
+    if not (SHARED / "intel5300").is_dir():
+        missing(f"the shared captures {SHARED / 'intel5300'}")
+    assert len(captures()) > 10
+
+
+@pytest.mark.parametrize("path", captures(), ids=lambda p: p.name)
+def test_every_real_capture_reads_as_csiread_reads_it(path: Path) -> None:
+    csiread = pytest.importorskip("csiread")
+    ours = wins.read_csi(path)
+    theirs = csiread.Intel(str(path), nrxnum=3, ntxnum=ours.ntx, if_report=False)
+    theirs.read()
+    assert ours.count == theirs.count
+    assert ours.csi.shape == theirs.csi.shape
+    assert ours.csi.dtype == theirs.csi.dtype
+    # Bit-exact: the same raw CSI, every entry.
+    assert np.array_equal(ours.csi, theirs.csi)
+    for name in ["timestamp_low", "bfee_count", "Nrx", "Ntx", "rssi_a", "rssi_b", "rssi_c",
+                 "noise", "agc", "perm", "rate"]:
+        a, b = getattr(ours, name), getattr(theirs, name)
+        assert a.dtype == b.dtype, name
+        assert np.array_equal(a, b), name
+
+
+def test_chunks_are_the_whole_log() -> None:
+    path = max(captures(), key=lambda p: p.stat().st_size)
+    whole = wins.read_csi(path, ntx=3)
+    chunks = list(wins.iter_csi(path, chunk=97, ntx=3))
+    assert sum(c.count for c in chunks) == whole.count
+    assert all(c.count <= 97 for c in chunks)
+    assert np.array_equal(np.concatenate([c.csi for c in chunks]), whole.csi)
+    assert np.array_equal(np.concatenate([c.timestamp_ns for c in chunks]), whole.timestamp_ns)
+
+
+def test_a_damaged_log_is_read_around_the_damage(tmp_path: Path) -> None:
+    path = captures()[0]
+    data = path.read_bytes()
+    damaged = tmp_path / "damaged.dat"
+    middle = len(data) // 2
+    damaged.write_bytes(data[:middle] + b"\xff" * 999 + data[middle:])
+    ours = wins.read_csi(damaged)
+    clean = wins.read_csi(path)
+    assert clean.count - 1 <= ours.count <= clean.count
+    assert sum(length for _, length, _ in ours.skipped) >= 999
+
+
+def test_errors_are_wins_errors_with_the_reason(tmp_path: Path) -> None:
+    with pytest.raises(wins.WinsError, match="No such file"):
+        wins.read_csi(tmp_path / "absent.dat")
+    text = tmp_path / "notes.txt"
+    text.write_text("not a capture\n" * 100)
+    with pytest.raises(wins.WinsError, match="no CSI records"):
+        wins.aoa(text)
+    with pytest.raises(wins.WinsError, match="1 to 3"):
+        wins.read_csi(captures()[0], nrx=4)
+    with pytest.raises(wins.WinsError, match="no-such-flight"):
+        wins.simulate(tmp_path / "x", "no-such-flight")
+    with pytest.raises(wins.WinsError, match="run.json"):
+        wins.load_run(tmp_path)
+
+
+def test_aoa_is_what_wins_aoa_writes(tmp_path: Path) -> None:
+    path = REPO / "data" / "intel5300" / "csiread_sample_0x5_64_3000.dat"
+    if not path.is_file():
+        path = captures()[-1]
+    ours = wins.aoa(path)
+    out = tmp_path / "aoa.csv"
+    cli("aoa", str(path), "--out", str(out))
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == len(ours.rows["aoa_deg"]) == ours.summary["packets"]
+    cli_aoa = np.array([float(r["aoa_deg"]) if r["aoa_deg"] else math.nan for r in rows])
+    assert np.allclose(ours.rows["aoa_deg"], cli_aoa, equal_nan=True, rtol=0, atol=1e-9)
+    assert [r["status"] for r in rows] == list(ours.rows["status"])
+
+
+def test_a_run_is_what_wins_run_writes(tmp_path: Path) -> None:
+    dataset = tmp_path / "dataset"
+    summary = wins.simulate(dataset, "paper-circle", seed=3, duration_s=20)
+    assert "packets" in summary
+    ours = wins.run(dataset, tmp_path / "py")
+    cli("run", str(dataset), "--out", str(tmp_path / "cli"), "--no-plots")
+    theirs = wins.load_run(tmp_path / "cli")
+    assert len(ours.t) > 100
+    assert np.array_equal(ours.t, theirs.t)
+    assert np.array_equal(ours.p_b_in_w, theirs.p_b_in_w)
+    assert np.array_equal(ours.q_xyzw, theirs.q_xyzw)
+    assert np.array_equal(ours.covariance, theirs.covariance, equal_nan=True)
+    assert ours.covariance.shape == (len(ours.t), 6, 6)
+    assert np.all(ours.covariance[:, [0, 1, 2], [0, 1, 2]] > 0)
+    assert set(ours.aps) == {"ap0"}
+    position, covariance = ours.aps["ap0"]
+    assert position.shape == (3,) and np.all(np.linalg.eigvalsh(covariance) > 0)
+    assert ours.metrics is not None and ours.metrics["ate_rmse_m"] < 2.0
+    assert ours.evaluation == "ok"
+    assert ours.stats["packets"]["per_ap"][0]["name"] == "ap0"
+    # The folder rules of `wins run`: the dataset is never an output.
+    with pytest.raises(wins.WinsError, match="dataset"):
+        wins.run(dataset, dataset)
+
+
+def test_a_family_flight_and_a_sweep_load(tmp_path: Path) -> None:
+    drawn = tmp_path / "room"
+    wins.simulate(drawn, family="room", seed=4, duration_s=20)
+    assert (drawn / "dataset.toml").is_file() and (drawn / "truth").is_dir()
+    assert ("family:room" in [name for name, _ in wins.scenarios()])
+    sweep = tmp_path / "sweep"
+    cli("sweep", "--scenario", "paper-circle", "--seeds", "1..2", "--duration-s", "20",
+        "--out", str(sweep))
+    loaded = wins.load_sweep(sweep)
+    assert list(loaded.runs["seed"]) == [1, 2]
+    assert loaded.runs["scenario"][0] == "paper-circle"
+    assert loaded.summary
+
+
+def test_the_settings_are_the_shipped_ones() -> None:
+    shipped = (REPO / "configs" / "default.toml").read_text()
+    assert wins.default_config() == shipped
+    assert wins.__version__
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _no_leftovers(tmp_path_factory: pytest.TempPathFactory):
+    yield
+    shutil.rmtree(tmp_path_factory.getbasetemp(), ignore_errors=True)
