@@ -164,6 +164,19 @@ def test_a_family_flight_and_a_sweep_load(tmp_path: Path) -> None:
     assert loaded.summary
 
 
+def test_the_readme_example_runs_as_written(tmp_path: Path, monkeypatch, capsys) -> None:
+    readme = (REPO / "README.md").read_text()
+    section = readme.split("## From Python", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    if not (REPO / "target" / "demo" / "run" / "run.json").is_file():
+        missing("target/demo/run (the README's first command, `wins demo`)")
+    monkeypatch.chdir(REPO)
+    exec(compile(code, "README.md", "exec"), {})
+    printed = capsys.readouterr().out
+    assert "(26, 30, 3, 2) complex128" in printed
+    assert ", 6, 6)" in printed
+
+
 def test_the_settings_are_the_shipped_ones() -> None:
     shipped = (REPO / "configs" / "default.toml").read_text()
     assert wins.default_config() == shipped
