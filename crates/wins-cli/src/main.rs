@@ -223,8 +223,16 @@ fn config(args: ConfigArgs) -> Result<()> {
 fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
     let stdout = io::stdout();
     let mut out = stdout.lock();
+    let mut empty = Vec::new();
     for (i, path) in files.iter().enumerate() {
         let summary = LogSummary::from_path(path)?;
+        if summary.csi_records == 0 {
+            empty.push(format!(
+                "{}: no CSI records: {}",
+                path.display(),
+                intel5300::why_no_records(path)
+            ));
+        }
         if json {
             let value = serde_json::json!({ "file": path, "summary": summary });
             writeln!(out, "{value}")?;
@@ -236,6 +244,9 @@ fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
             write!(out, "{summary}")?;
         }
     }
+    if !empty.is_empty() {
+        anyhow::bail!("{}", empty.join("\n"));
+    }
     Ok(())
 }
 
@@ -245,6 +256,10 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
         wins::io_safety::refuse_same_file(file, p)?;
     }
     let input = File::open(file).with_context(|| format!("cannot open {}", file.display()))?;
+    // Another format is named before the output is made.
+    if let Ok(Some(found @ intel5300::Identified::Foreign(_))) = intel5300::identify(file) {
+        anyhow::bail!("{}: {}", file.display(), found.describe());
+    }
     let format = match format {
         Format::Jsonl => ExportFormat::Jsonl,
         Format::Csv => ExportFormat::Csv,
@@ -265,6 +280,13 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
         stats.unscalable
     );
     warn_lost(&stats.lost);
+    if stats.records == 0 {
+        anyhow::bail!(
+            "{}: no CSI records: {}",
+            file.display(),
+            intel5300::why_no_records(file)
+        );
+    }
     Ok(())
 }
 

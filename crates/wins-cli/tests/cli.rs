@@ -89,6 +89,29 @@ fn corrupt_and_missing_input() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("cannot read no/such/file.dat"), "{err}");
+
+    // A capture of another format is named for what it is, and no output is made for it.
+    let mut pcap = vec![0xd4, 0xc3, 0xb2, 0xa1, 2, 0, 4, 0];
+    pcap.extend((0..4000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8));
+    let pcap_path = dir.join("nexmon.pcap");
+    std::fs::write(&pcap_path, &pcap).expect("write");
+    let exported = dir.join("nexmon.jsonl");
+    let pcap_arg = pcap_path.to_str().expect("utf-8 path");
+    let out = wins(&[
+        "csi",
+        "export",
+        pcap_arg,
+        "-o",
+        exported.to_str().expect("utf-8"),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("a pcap capture"), "{err}");
+    assert!(!exported.exists());
+    let out = wins(&["csi", "info", pcap_arg]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no CSI records: a pcap capture"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

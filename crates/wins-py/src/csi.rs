@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use wins::Config;
-use wins::csi::intel5300::{CsiColumns, Event, LogReader, ReadError, Skip};
+use wins::csi::intel5300::{CsiColumns, Event, LogReader, ReadError, Skip, why_no_records};
 use wins::io_safety::open_regular;
 use wins::pipeline::aoa_log::AoaMode;
 use wins::pipeline::aoa_log::input::{AoaInput, AoaSpec};
@@ -119,6 +119,13 @@ pub fn read_csi(
             Ok((columns, skips, bytes))
         })
         .map_err(raise)?;
+    if columns.count() == 0 {
+        return Err(raise_text(format!(
+            "{}: no CSI records ({bytes} bytes): {}",
+            path.display(),
+            why_no_records(&path)
+        )));
+    }
     let out = columns_dict(py, &columns, &skips)?;
     out.set_item("bytes", bytes)?;
     Ok(out.unbind())

@@ -102,6 +102,10 @@ def test_errors_are_wins_errors_with_the_reason(tmp_path: Path) -> None:
     text.write_text("not a capture\n" * 100)
     with pytest.raises(wins.WinsError, match="no CSI records"):
         wins.aoa(text)
+    pcap = tmp_path / "nexmon.pcap"
+    pcap.write_bytes(bytes([0xD4, 0xC3, 0xB2, 0xA1]) + bytes(range(256)) * 16)
+    with pytest.raises(wins.WinsError, match="no CSI records.*a pcap capture"):
+        wins.read_csi(pcap)
     with pytest.raises(wins.WinsError, match="1 to 3"):
         wins.read_csi(captures()[0], nrx=4)
     with pytest.raises(wins.WinsError, match="no-such-flight"):

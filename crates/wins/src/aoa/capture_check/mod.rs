@@ -6,9 +6,8 @@
 //!
 //! The measurements stream over the log (`measure`), so a long capture takes bounded memory
 //! except for two phases per packet; a file that is not a CSI Tool log is named for what it is
-//! (`identify`), and the verdicts' thresholds are in `verdicts`.
+//! (`crate::csi::intel5300::identify`), and the verdicts' thresholds are in `verdicts`.
 
-mod identify;
 mod measure;
 mod phases;
 #[cfg(test)]
@@ -23,7 +22,7 @@ use serde::Serialize;
 use crate::csi::intel5300::{Event, LogReader, LogSummary, ReadError};
 use crate::rig::ChainCalibration;
 
-pub use identify::{Identified, identify, identify_bytes};
+pub use crate::csi::intel5300::{Identified, identify, identify_bytes};
 
 /// Interquartile range of the phases between two chains about the value most packets share, on
 /// the quarter-turn grid the 5300's steps fall on, rad (0 when empty).

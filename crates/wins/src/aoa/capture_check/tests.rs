@@ -1,7 +1,7 @@
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-use super::identify::{Identified, identify_bytes};
 use super::measure::spread;
+use crate::csi::intel5300::{Identified, identify_bytes};
 
 /// `n` angles about `mean` with a deterministic scatter of ±`half_width`.
 fn around(mean: f64, half_width: f64, n: usize) -> Vec<f64> {

@@ -1,10 +1,10 @@
 //! The findings of a capture check, from its measurements, each with the threshold that decides
 //! it and the reason for it.
 
-use super::identify::Identified;
 use super::measure::{CHAINS, GAP_S, Measurements};
 use super::phases;
 use super::{CheckOptions, Finding, Verdict, finding, pct};
+use crate::csi::intel5300::Identified;
 use crate::csi::intel5300::{DEFAULT_NOISE_DBM, LogSummary};
 
 /// A chain this far under the strongest, in CSI power over the band, is suspect: antennas a few

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use super::{AoaLogError, AoaLogSummary, AoaMode, PacketAoa, estimate_log, match_chain_curvature};
 use crate::aoa::estimator::{AoaError, AoaEstimator};
 use crate::aoa::{AoaConfig, Correction};
-use crate::csi::intel5300::{CsiLog, CsiRecord, ReadError, Skip, read_log};
+use crate::csi::intel5300::{CsiLog, CsiRecord, ReadError, Skip, read_log, why_no_records};
 use crate::dataset::{Dataset, DatasetError};
 use crate::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
 use crate::rig::channel::wifi_channel_hz;
@@ -39,6 +39,9 @@ pub enum AoaInputError {
     /// The options do not fit the input.
     #[error("{0}")]
     Options(String),
+    /// The log holds no CSI record (what it is instead, when recognized).
+    #[error("{0}")]
+    NoRecords(String),
     /// The log cannot be read.
     #[error(transparent)]
     Read(#[from] ReadError),
@@ -131,12 +134,11 @@ impl AoaInput {
             })?;
             let log = read_log(file)?;
             if log.records.is_empty() {
-                return Err(options(format!(
-                    "{}: no CSI records ({} bytes; {} stretches skipped): not an Intel 5300 CSI \
-                     Tool log, or one with no packets",
+                return Err(AoaInputError::NoRecords(format!(
+                    "{}: no CSI records ({} bytes): {}",
                     file.display(),
                     log.bytes,
-                    log.skips.len()
+                    why_no_records(file)
                 )));
             }
             return Ok(Self {

@@ -5,7 +5,7 @@
 use std::io::{self, Read};
 use std::path::Path;
 
-use crate::csi::intel5300::{CODE_CSI, CODE_FRAME, HEADER_LEN, LEN_FIELD, packed_csi_len};
+use super::layout::{CODE_CSI, CODE_FRAME, HEADER_LEN, LEN_FIELD, packed_csi_len};
 
 /// Bytes read to identify a file: enough for a few hundred records.
 const SAMPLE_BYTES: u64 = 1 << 16;
@@ -49,6 +49,15 @@ impl Identified {
                  Tool does not write (a timestamp, often)"
             ),
         }
+    }
+}
+
+/// Why the file at `path` gave no CSI record, in words: what it is when it is recognized
+/// ([`identify`]), else that none of its bytes frame as CSI Tool records.
+pub fn why_no_records(path: &Path) -> String {
+    match identify(path) {
+        Ok(Some(found)) => found.describe(),
+        _ => "none of its bytes frame as Intel 5300 CSI Tool records".into(),
     }
 }
 
