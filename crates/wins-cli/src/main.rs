@@ -4,13 +4,15 @@
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use wins::config::DEFAULT_TOML;
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
+use wins::csi::nexmon::pcap::looks_like_pcap;
+use wins::csi::nexmon::{NexmonSummary, read_nexmon};
 use wins::sim::family::{FAMILIES, Family};
 use wins::sim::{self, Scenario};
 
@@ -225,6 +227,23 @@ fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
     let mut out = stdout.lock();
     let mut empty = Vec::new();
     for (i, path) in files.iter().enumerate() {
+        if i > 0 && !json {
+            writeln!(out)?;
+        }
+        if is_pcap(path) {
+            let summary = NexmonSummary::of(&read_nexmon(path)?);
+            if json {
+                let value = serde_json::json!({ "file": path, "nexmon": summary });
+                writeln!(out, "{value}")?;
+            } else {
+                writeln!(out, "{:<12}{}", "file", path.display())?;
+                write!(out, "{summary}")?;
+            }
+            if summary.packets == 0 {
+                empty.push(format!("{}: no Nexmon CSI packets", path.display()));
+            }
+            continue;
+        }
         let summary = LogSummary::from_path(path)?;
         if summary.csi_records == 0 {
             empty.push(format!(
@@ -237,9 +256,6 @@ fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
             let value = serde_json::json!({ "file": path, "summary": summary });
             writeln!(out, "{value}")?;
         } else {
-            if i > 0 {
-                writeln!(out)?;
-            }
             writeln!(out, "{:<12}{}", "file", path.display())?;
             write!(out, "{summary}")?;
         }
@@ -288,6 +304,14 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
         );
     }
     Ok(())
+}
+
+/// Whether the file at `path` starts as a pcap capture (Nexmon's format).
+fn is_pcap(path: &Path) -> bool {
+    let mut head = [0u8; 4];
+    File::open(path)
+        .and_then(|mut f| io::Read::read_exact(&mut f, &mut head))
+        .is_ok_and(|()| looks_like_pcap(&head))
 }
 
 /// One warning per byte range of a log that was lost (corrupt or cut), with its offset.

@@ -111,8 +111,58 @@ fn corrupt_and_missing_input() {
     let out = wins(&["csi", "info", pcap_arg]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no CSI records: a pcap capture"), "{err}");
+    assert!(err.contains("link type"), "{err}");
+
+    // A Nexmon capture is summarized: two packets (cores 0 and 1) of one frame.
+    let nexmon = dir.join("two.pcap");
+    std::fs::write(&nexmon, nexmon_capture()).expect("write");
+    let out = wins(&["csi", "info", nexmon.to_str().expect("utf-8")]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("2 packets, 1 frames"), "{text}");
+    assert!(
+        text.contains("0,1: 1") && text.contains("channel     6: 2"),
+        "{text}"
+    );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A little-endian pcap of two Nexmon packets (old header, cores 0 and 1, channel 6, 20 MHz).
+fn nexmon_capture() -> Vec<u8> {
+    let mut out = vec![0xd4, 0xc3, 0xb2, 0xa1, 2, 0, 4, 0];
+    out.extend([0u8; 8]);
+    out.extend(65535u32.to_le_bytes());
+    out.extend(1u32.to_le_bytes());
+    for core in [0u16, 1] {
+        let mut payload = 0x1111_1111u32.to_le_bytes().to_vec();
+        payload.extend([0x6c, 0xb7, 0x49, 5, 0x3e, 0xf4]);
+        payload.extend((3586u16 << 4).to_le_bytes());
+        payload.extend((core << 8).to_le_bytes());
+        payload.extend(0x1006u16.to_le_bytes());
+        payload.extend(0x006au16.to_le_bytes());
+        payload.extend((0..64u32).flat_map(|k| (k << 18 | 5).to_le_bytes()));
+        let mut frame = vec![0u8; 12];
+        frame.extend([0x08, 0x00, 0x45, 0, 0, 0, 0, 0, 0, 0, 64, 17]);
+        frame.extend([0u8; 10]);
+        frame.extend([0x15, 0x7c, 0x15, 0x7c]);
+        frame.extend((8 + payload.len() as u16).to_be_bytes());
+        frame.extend([0, 0]);
+        frame.extend(payload);
+        for v in [
+            1_611_581_394,
+            149_783 + u32::from(core),
+            frame.len() as u32,
+            frame.len() as u32,
+        ] {
+            out.extend(v.to_le_bytes());
+        }
+        out.extend(frame);
+    }
+    out
 }
 
 #[test]

@@ -34,6 +34,7 @@ fn _wins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(csi::read_csi, m)?)?;
     m.add_class::<csi::CsiChunks>()?;
+    m.add_function(wrap_pyfunction!(csi::read_nexmon, m)?)?;
     m.add_function(wrap_pyfunction!(csi::aoa, m)?)?;
     m.add_function(wrap_pyfunction!(runs::run, m)?)?;
     m.add_function(wrap_pyfunction!(runs::simulate, m)?)?;

@@ -50,9 +50,11 @@ def cli(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_the_shared_captures_are_there() -> None:
-    if not (SHARED / "intel5300").is_dir():
-        missing(f"the shared captures {SHARED / 'intel5300'}")
+    for card in ["intel5300", "nexmon"]:
+        if not (SHARED / card).is_dir():
+            missing(f"the shared captures {SHARED / card}")
     assert len(captures()) > 10
+    assert len(nexmon_captures()) == 3
 
 
 @pytest.mark.parametrize("path", captures(), ids=lambda p: p.name)
@@ -71,6 +73,30 @@ def test_every_real_capture_reads_as_csiread_reads_it(path: Path) -> None:
         a, b = getattr(ours, name), getattr(theirs, name)
         assert a.dtype == b.dtype, name
         assert np.array_equal(a, b), name
+
+
+def nexmon_captures() -> list[Path]:
+    return sorted((SHARED / "nexmon").glob("*.pcap")) if (SHARED / "nexmon").is_dir() else []
+
+
+@pytest.mark.parametrize("path", nexmon_captures(), ids=lambda p: p.name)
+def test_every_nexmon_capture_reads_as_csiread_reads_it(path: Path) -> None:
+    csiread = pytest.importorskip("csiread")
+    ours = wins.read_nexmon(path)
+    theirs = csiread.Nexmon(str(path), chip="4366c0", bw=20, if_report=False)
+    theirs.read()
+    assert ours.count == theirs.count
+    assert np.array_equal(ours.csi, theirs.csi)
+    for name in ["sec", "usec", "caplen", "wirelen", "magic", "src_addr", "seq", "core",
+                 "spatial", "chan_spec"]:
+        assert np.array_equal(getattr(ours, name), getattr(theirs, name)), name
+    # The frames group each frame's cores: none holds a core twice.
+    for f in np.unique(ours.frame):
+        cores = ours.core[ours.frame == f]
+        assert len(set(cores)) == len(cores)
+    exact = wins.read_nexmon(path, exact=True)
+    ratio = np.abs(exact.csi[0]).max() / max(np.abs(ours.csi[0]).max(), 1)
+    assert ratio == 2.0 ** (42 - ours.float_shift[0])
 
 
 def test_chunks_are_the_whole_log() -> None:

@@ -29,6 +29,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 __all__ = [
     "Aoa",
     "CsiData",
+    "NexmonData",
     "Run",
     "Sweep",
     "WinsError",
@@ -39,6 +40,7 @@ __all__ = [
     "load_run",
     "load_sweep",
     "read_csi",
+    "read_nexmon",
     "run",
     "scenarios",
     "simulate",
@@ -104,6 +106,57 @@ def iter_csi(
     """Reads a log of any size in chunks of ``chunk`` packets, with bounded memory."""
     for d in _wins.CsiChunks(os.fspath(path), chunk, nrx, ntx):
         yield _csi_data(d)
+
+
+@dataclass
+class NexmonData:
+    """The CSI packets of a Nexmon (nexmon_csi) pcap capture, one row per packet (one receive
+    core and spatial stream of a received frame), with csiread's ``Nexmon`` names: ``sec``,
+    ``usec``, ``caplen``, ``wirelen``, ``magic``, ``src_addr`` ``(n, 6)``, ``seq``, ``core``,
+    ``spatial``, ``chan_spec``, and ``csi`` ``(n, bins)`` complex128 in FFT-bin order, autoscaled
+    as csiread decodes it (``float_shift`` per packet) or exact (``exact=True``). Besides:
+    ``channel``, ``bandwidth_mhz``, ``chip``, ``rssi`` (dBm, NaN with the old header) and
+    ``frame``, the received frame each packet belongs to (its cores grouped)."""
+
+    count: int
+    csi: np.ndarray
+    sec: np.ndarray
+    usec: np.ndarray
+    caplen: np.ndarray
+    wirelen: np.ndarray
+    magic: np.ndarray
+    src_addr: np.ndarray
+    seq: np.ndarray
+    core: np.ndarray
+    spatial: np.ndarray
+    chan_spec: np.ndarray
+    channel: np.ndarray
+    bandwidth_mhz: np.ndarray
+    chip: np.ndarray
+    rssi: np.ndarray
+    float_shift: np.ndarray
+    frame: np.ndarray
+    other_records: int = 0
+    tail: Optional[str] = None
+
+
+def read_nexmon(path: PathLike, exact: bool = False) -> NexmonData:
+    """Reads a Nexmon capture (a pcap of nexmon_csi's UDP packets; both header versions, either
+    byte order). ``exact=False`` decodes the CSI as csiread does (each packet autoscaled);
+    ``exact=True`` gives the chip's exact values, as nexcsi does."""
+    d = _wins.read_nexmon(os.fspath(path), exact)
+    columns = {
+        name: np.frombuffer(raw, dtype=dtype).reshape(shape).copy()
+        for name, (raw, dtype, shape) in d["columns"].items()
+    }
+    re_im = columns.pop("csi_re_im")
+    csi = re_im.view(np.complex128).reshape(d["count"], d["bins"])
+    rssi = columns.pop("rssi").astype(np.float64)
+    rssi[rssi == float(np.iinfo(np.int64).min)] = math.nan
+    return NexmonData(
+        count=d["count"], csi=csi, rssi=rssi, other_records=d["other_records"], tail=d["tail"],
+        **columns,
+    )
 
 
 def _columns(rows: List[Dict[str, Any]]) -> Dict[str, np.ndarray]:

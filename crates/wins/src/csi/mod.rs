@@ -1,7 +1,8 @@
-//! Channel state information: types shared by every CSI source, the Intel 5300 log format, and
-//! sanitization (SpotFi Algorithm 1).
+//! Channel state information: types shared by every CSI source, the Intel 5300 log format, the
+//! Nexmon capture format, and sanitization (SpotFi Algorithm 1).
 
 pub mod intel5300;
+pub mod nexmon;
 pub mod sanitize;
 pub(crate) mod subcarriers;
 

@@ -25,6 +25,7 @@ mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
 mod live_session;
+mod nexmon_real;
 mod observability;
 mod pipeline_flights;
 mod pipeline_run;

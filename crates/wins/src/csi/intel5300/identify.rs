@@ -94,7 +94,7 @@ fn magic(head: &[u8]) -> Option<&'static str> {
         || starts(&[0xa1, 0xb2, 0x3c, 0x4d])
     {
         return Some(
-            "a pcap capture (Nexmon writes its CSI as UDP packets in one; wins does not read it yet)",
+            "a pcap capture (Nexmon writes its CSI as UDP packets in one: `wins csi info` reads it; the AoA and the estimator do not take it yet)",
         );
     }
     if starts(&[0x0a, 0x0d, 0x0d, 0x0a]) {

@@ -1,0 +1,45 @@
+//! The packets of one received frame grouped: nexmon_csi sends one packet per receive core and
+//! spatial stream. Retransmissions keep the sequence number, so a run of equal sequence numbers
+//! can hold several frames: a frame ends when a (core, stream) it already has comes again, or the
+//! sequence number or the transmitter changes. Packets can be lost, so a frame may lack cores;
+//! [`NexmonFrame::cores`] says which it has.
+
+use super::NexmonPacket;
+
+/// The packets of one received frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NexmonFrame<'a> {
+    /// Its packets, in file order, one per (core, stream).
+    pub packets: Vec<&'a NexmonPacket>,
+}
+
+impl NexmonFrame<'_> {
+    /// The cores it has, in increasing order.
+    pub fn cores(&self) -> Vec<u8> {
+        let mut cores: Vec<u8> = self.packets.iter().map(|p| p.core()).collect();
+        cores.sort_unstable();
+        cores.dedup();
+        cores
+    }
+}
+
+/// The frames of `packets` (module doc), in file order.
+pub fn frames(packets: &[NexmonPacket]) -> Vec<NexmonFrame<'_>> {
+    let mut out: Vec<NexmonFrame<'_>> = Vec::new();
+    for p in packets {
+        let joins = out.last().is_some_and(|f| {
+            let first = f.packets[0];
+            first.seq == p.seq
+                && first.transmitter == p.transmitter
+                && !f
+                    .packets
+                    .iter()
+                    .any(|q| (q.core(), q.spatial_stream()) == (p.core(), p.spatial_stream()))
+        });
+        match out.last_mut() {
+            Some(f) if joins => f.packets.push(p),
+            _ => out.push(NexmonFrame { packets: vec![p] }),
+        }
+    }
+    out
+}
