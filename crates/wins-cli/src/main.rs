@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use wins::config::DEFAULT_TOML;
+use wins::csi::feitcsi::{FeitCapture, FeitSummary, looks_like_feitcsi, read_feitcsi};
 use wins::csi::intel5300::{self, ExportFormat, LogSummary};
 use wins::csi::nexmon::pcap::looks_like_pcap;
 use wins::csi::nexmon::{NexmonSummary, read_nexmon};
@@ -244,6 +245,17 @@ fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
             }
             continue;
         }
+        if let Some(capture) = feitcsi_file(path)? {
+            let summary = FeitSummary::of(&capture);
+            if json {
+                let value = serde_json::json!({ "file": path, "feitcsi": summary });
+                writeln!(out, "{value}")?;
+            } else {
+                writeln!(out, "{:<12}{}", "file", path.display())?;
+                write!(out, "{summary}")?;
+            }
+            continue;
+        }
         let summary = LogSummary::from_path(path)?;
         if summary.csi_records == 0 {
             empty.push(format!(
@@ -304,6 +316,20 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
         );
     }
     Ok(())
+}
+
+/// The FeitCSI file at `path`, when it starts as one.
+fn feitcsi_file(path: &Path) -> Result<Option<FeitCapture>> {
+    let mut head = Vec::new();
+    File::open(path)
+        .and_then(|f| io::Read::read_to_end(&mut io::Read::take(f, 1 << 16), &mut head))
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    if !looks_like_feitcsi(&head) {
+        return Ok(None);
+    }
+    Ok(Some(read_feitcsi(path).with_context(|| {
+        format!("cannot read {}", path.display())
+    })?))
 }
 
 /// Whether the file at `path` starts as a pcap capture (Nexmon's format).

@@ -128,6 +128,33 @@ fn corrupt_and_missing_input() {
         text.contains("0,1: 1") && text.contains("channel     6: 2"),
         "{text}"
     );
+
+    // A FeitCSI file is summarized: three HT20 records of 2 chains × 56 subcarriers.
+    let mut feit = Vec::new();
+    for _ in 0..3 {
+        let mut header = vec![0u8; 272];
+        header[..4].copy_from_slice(&448u32.to_le_bytes());
+        header[46] = 2;
+        header[47] = 1;
+        header[52..56].copy_from_slice(&56u32.to_le_bytes());
+        header[92..96].copy_from_slice(&(2u32 << 8 | 3 << 14 | 7).to_le_bytes());
+        feit.extend(header);
+        feit.extend([1u8, 0, 255, 255].repeat(112));
+    }
+    let feit_path = dir.join("ax210.csi");
+    std::fs::write(&feit_path, feit).expect("write");
+    let out = wins(&["csi", "info", feit_path.to_str().expect("utf-8")]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("FeitCSI") && text.contains("2x1x56: 3"),
+        "{text}"
+    );
+    assert!(text.contains("HT 20 MHz: 3"), "{text}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

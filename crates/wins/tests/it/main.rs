@@ -16,6 +16,7 @@ mod capture_check;
 mod chain_offsets;
 mod data;
 mod dataset_fuzz;
+mod feitcsi_real;
 mod fusion_ekf;
 mod fusion_nonlinear;
 mod fusion_wins;
