@@ -6,7 +6,6 @@
 use libfuzzer_sys::fuzz_target;
 use wins::csi::nexmon::frames::frames;
 use wins::csi::nexmon::parse_nexmon;
-use wins::csi::nexmon::pcap::{GLOBAL_HEADER_LEN, PcapTail, RECORD_HEADER_LEN};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&mode, rest)) = data.split_first() else {
@@ -23,17 +22,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(capture) = parse_nexmon(&bytes) else {
         return;
     };
-    let packets: u64 = capture
-        .packets
-        .iter()
-        .map(|p| (RECORD_HEADER_LEN as u64) + u64::from(p.caplen))
-        .sum();
-    let tail = match &capture.tail {
-        Some(PcapTail::Cut { len, .. } | PcapTail::Oversized { len, .. }) => *len,
-        None => 0,
-    };
-    let total = GLOBAL_HEADER_LEN as u64 + packets + capture.other_bytes + tail;
-    assert_eq!(total, bytes.len() as u64);
+    assert_eq!(capture.bytes_accounted(), bytes.len() as u64);
     for p in &capture.packets {
         let (values, _) = p.csi_autoscaled();
         assert_eq!(values.len(), p.words.len());

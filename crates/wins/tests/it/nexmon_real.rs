@@ -7,7 +7,6 @@ use std::path::Path;
 
 use serde::Deserialize;
 use wins::csi::nexmon::frames::frames;
-use wins::csi::nexmon::pcap::{PcapTail, RECORD_HEADER_LEN};
 use wins::csi::nexmon::{NexmonCapture, parse_nexmon, read_nexmon};
 
 use super::data::shared_data;
@@ -166,16 +165,7 @@ fn frames_are_made_of_their_cores_and_a_lost_packet_leaves_one_short() {
 
 /// Every byte of `capture` (of `len` bytes) is in a packet, another record, or the tail.
 fn accounted(capture: &NexmonCapture, len: usize) -> bool {
-    let packets: u64 = capture
-        .packets
-        .iter()
-        .map(|p| (RECORD_HEADER_LEN as u64) + u64::from(p.caplen))
-        .sum();
-    let tail = match &capture.tail {
-        Some(PcapTail::Cut { len, .. } | PcapTail::Oversized { len, .. }) => *len,
-        None => 0,
-    };
-    24 + packets + capture.other_bytes + tail == len as u64
+    capture.bytes_accounted() == len as u64 && capture.bytes == len as u64
 }
 
 #[test]

@@ -126,6 +126,23 @@ pub struct NexmonCapture {
     pub bytes: u64,
 }
 
+impl NexmonCapture {
+    /// The bytes its parts account for: the global header, the CSI packets' records, the other
+    /// records and the tail; equal to [`NexmonCapture::bytes`] for every capture read.
+    pub fn bytes_accounted(&self) -> u64 {
+        let packets: u64 = self
+            .packets
+            .iter()
+            .map(|p| pcap::RECORD_HEADER_LEN as u64 + u64::from(p.caplen))
+            .sum();
+        let tail = match &self.tail {
+            Some(PcapTail::Cut { len, .. } | PcapTail::Oversized { len, .. }) => *len,
+            None => 0,
+        };
+        pcap::GLOBAL_HEADER_LEN as u64 + packets + self.other_bytes + tail
+    }
+}
+
 /// Why a capture cannot be read.
 #[derive(Debug, thiserror::Error)]
 pub enum NexmonError {
