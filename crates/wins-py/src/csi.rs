@@ -29,7 +29,7 @@ fn chains(n: usize, what: &str) -> PyResult<usize> {
 }
 
 /// Little-endian bytes of `values`.
-fn le_bytes<T: Copy, const N: usize>(values: &[T], to: fn(T) -> [u8; N]) -> Vec<u8> {
+pub(crate) fn le_bytes<T: Copy, const N: usize>(values: &[T], to: fn(T) -> [u8; N]) -> Vec<u8> {
     values.iter().flat_map(|&v| to(v)).collect()
 }
 
@@ -255,101 +255,4 @@ pub fn aoa(
     let rows = serde_json::to_string(&outcome.rows).map_err(raise)?;
     let summary = serde_json::to_string(&outcome.summary).map_err(raise)?;
     Ok((rows, summary, warnings))
-}
-
-/// Reads a Nexmon capture (see python/wins/__init__.py, `read_nexmon`): one row per CSI packet,
-/// the CSI autoscaled as csiread gives it (or exact), and each packet's frame.
-#[pyfunction]
-#[pyo3(signature = (path, exact = false))]
-pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<PyDict>> {
-    let capture = py
-        .detach(|| wins::csi::nexmon::read_nexmon(&path))
-        .map_err(raise)?;
-    let packets = &capture.packets;
-    if packets.is_empty() {
-        return Err(raise_text(format!(
-            "{}: no Nexmon CSI packets ({} records of other traffic)",
-            path.display(),
-            capture.other_records
-        )));
-    }
-    let bins = packets.iter().map(|p| p.words.len()).max().unwrap_or(0);
-    let n = packets.len();
-    let out = PyDict::new(py);
-    out.set_item("count", n)?;
-    out.set_item("bins", bins)?;
-    let columns = PyDict::new(py);
-    let column = |name: &str, f: &dyn Fn(&wins::csi::nexmon::NexmonPacket) -> i64| {
-        let values: Vec<i64> = packets.iter().map(f).collect();
-        columns.set_item(
-            name,
-            (
-                PyBytes::new(py, &le_bytes(&values, i64::to_le_bytes)),
-                "<i8",
-                vec![n],
-            ),
-        )
-    };
-    column("sec", &|p| i64::from(p.ts_sec))?;
-    column("usec", &|p| i64::from(p.ts_frac))?;
-    column("caplen", &|p| i64::from(p.caplen))?;
-    column("wirelen", &|p| i64::from(p.wirelen))?;
-    column("magic", &|p| i64::from(p.magic))?;
-    column("seq", &|p| i64::from(p.seq))?;
-    column("core", &|p| i64::from(p.core()))?;
-    column("spatial", &|p| i64::from(p.spatial_stream()))?;
-    column("chan_spec", &|p| i64::from(p.chanspec))?;
-    column("channel", &|p| i64::from(p.channel()))?;
-    column("bandwidth_mhz", &|p| i64::from(p.bandwidth_mhz()))?;
-    column("chip", &|p| i64::from(p.chip))?;
-    column("rssi", &|p| p.rssi_dbm.map_or(i64::MIN, i64::from))?;
-    column("float_shift", &|p| i64::from(p.csi_autoscaled().1))?;
-    let mut frame = vec![0i64; n];
-    for (k, f) in wins::csi::nexmon::frames::frames(packets)
-        .iter()
-        .enumerate()
-    {
-        for p in &f.packets {
-            frame[p.index] = k as i64;
-        }
-    }
-    columns.set_item(
-        "frame",
-        (
-            PyBytes::new(py, &le_bytes(&frame, i64::to_le_bytes)),
-            "<i8",
-            vec![n],
-        ),
-    )?;
-    let macs: Vec<u8> = packets.iter().flat_map(|p| p.transmitter).collect();
-    columns.set_item("src_addr", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
-    let mut csi = vec![0f64; n * bins * 2];
-    for (row, p) in csi.chunks_mut(bins * 2).zip(packets) {
-        let values: Vec<(f64, f64)> = if exact {
-            p.csi_exact().iter().map(|c| (c.re, c.im)).collect()
-        } else {
-            p.csi_autoscaled()
-                .0
-                .iter()
-                .map(|c| (c.re as f64, c.im as f64))
-                .collect()
-        };
-        for (slot, (re, im)) in row.chunks_mut(2).zip(values) {
-            slot[0] = re;
-            slot[1] = im;
-        }
-    }
-    columns.set_item(
-        "csi_re_im",
-        (
-            PyBytes::new(py, &le_bytes(&csi, f64::to_le_bytes)),
-            "<f8",
-            vec![n, bins, 2],
-        ),
-    )?;
-    out.set_item("columns", columns)?;
-    let tail = capture.tail.as_ref().map(ToString::to_string);
-    out.set_item("other_records", capture.other_records)?;
-    out.set_item("tail", tail)?;
-    Ok(out.unbind())
 }

@@ -3,6 +3,7 @@
 //! the `wins` library as the command line does; every error is raised as `wins.WinsError` with
 //! the library's message and its causes.
 
+mod cards;
 mod csi;
 mod runs;
 
@@ -34,7 +35,8 @@ fn _wins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(csi::read_csi, m)?)?;
     m.add_class::<csi::CsiChunks>()?;
-    m.add_function(wrap_pyfunction!(csi::read_nexmon, m)?)?;
+    m.add_function(wrap_pyfunction!(cards::read_nexmon, m)?)?;
+    m.add_function(wrap_pyfunction!(cards::read_feitcsi, m)?)?;
     m.add_function(wrap_pyfunction!(csi::aoa, m)?)?;
     m.add_function(wrap_pyfunction!(runs::run, m)?)?;
     m.add_function(wrap_pyfunction!(runs::simulate, m)?)?;

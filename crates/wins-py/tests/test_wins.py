@@ -9,6 +9,7 @@ Run from the repository root after `pip install ./crates/wins-py csiread pytest`
 from __future__ import annotations
 
 import csv
+import json
 import math
 import os
 import shutil
@@ -97,6 +98,25 @@ def test_every_nexmon_capture_reads_as_csiread_reads_it(path: Path) -> None:
     exact = wins.read_nexmon(path, exact=True)
     ratio = np.abs(exact.csi[0]).max() / max(np.abs(ours.csi[0]).max(), 1)
     assert ratio == 2.0 ** (42 - ours.float_shift[0])
+
+
+@pytest.mark.parametrize("name", ["csikit_HT20_2452", "csikit_HESU80_5500"])
+def test_every_feitcsi_file_reads_as_csikit_reads_it(name: str) -> None:
+    folder = SHARED / "feitcsi"
+    if not folder.is_dir():
+        missing(f"the shared captures {folder}")
+    ours = wins.read_feitcsi(folder / f"{name}.csi")
+    refs = [json.loads(line) for line in (folder / f"{name}.csikit_ref.jsonl").read_text().splitlines()]
+    assert ours.count == len(refs)
+    for k, r in enumerate(refs):
+        ref = np.array(r["csi"], dtype=np.float64)
+        assert np.array_equal(ours.csi[k], ref[..., 0] + 1j * ref[..., 1]), k
+        assert (ours.mcs[k], ours.width_mhz[k], ours.format[k]) == (
+            r["mcs"], r["channel_width_mhz"], r["rate_format"])
+        assert (ours.rssi1[k], ours.rssi2[k], ours.ftm_clock[k]) == (
+            r["rssi1"], r["rssi2"], r["ftm_clock"])
+        mac = ":".join(f"{b:02x}" for b in ours.source_mac[k])
+        assert mac == r["source_mac"]
 
 
 def test_chunks_are_the_whole_log() -> None:

@@ -29,6 +29,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 __all__ = [
     "Aoa",
     "CsiData",
+    "FeitData",
     "NexmonData",
     "Run",
     "Sweep",
@@ -40,6 +41,7 @@ __all__ = [
     "load_run",
     "load_sweep",
     "read_csi",
+    "read_feitcsi",
     "read_nexmon",
     "run",
     "scenarios",
@@ -155,6 +157,48 @@ def read_nexmon(path: PathLike, exact: bool = False) -> NexmonData:
     rssi[rssi == float(np.iinfo(np.int64).min)] = math.nan
     return NexmonData(
         count=d["count"], csi=csi, rssi=rssi, other_records=d["other_records"], tail=d["tail"],
+        **columns,
+    )
+
+
+@dataclass
+class FeitData:
+    """The records of a FeitCSI file (Intel AX200/AX210): ``csi`` ``(records, subcarriers, rx,
+    tx)`` complex128 (zero where a record has fewer), and one value per record of its header:
+    ``ftm_clock``, ``mu_clock``, ``num_rx``, ``num_tx``, ``num_subcarriers``, ``rssi1``, ``rssi2``,
+    ``source_mac`` ``(records, 6)``, ``rate_flags`` and from them ``mcs``, ``width_mhz`` and
+    ``format`` (``"HT"``, ``"HE"``, …). The file holds neither the carrier nor the subcarrier
+    indices."""
+
+    count: int
+    csi: np.ndarray
+    offset: np.ndarray
+    ftm_clock: np.ndarray
+    mu_clock: np.ndarray
+    num_rx: np.ndarray
+    num_tx: np.ndarray
+    num_subcarriers: np.ndarray
+    rssi1: np.ndarray
+    rssi2: np.ndarray
+    rate_flags: np.ndarray
+    mcs: np.ndarray
+    width_mhz: np.ndarray
+    source_mac: np.ndarray
+    format: np.ndarray
+    tail: Optional[str] = None
+
+
+def read_feitcsi(path: PathLike) -> FeitData:
+    """Reads a FeitCSI file (Intel AX200/AX210) as FeitCSI documents its records."""
+    d = _wins.read_feitcsi(os.fspath(path))
+    columns = {
+        name: np.frombuffer(raw, dtype=dtype).reshape(shape).copy()
+        for name, (raw, dtype, shape) in d["columns"].items()
+    }
+    re_im = columns.pop("csi_re_im")
+    csi = re_im.astype(np.float64).view(np.complex128).reshape(re_im.shape[:-1])
+    return FeitData(
+        count=d["count"], csi=csi, format=np.array(d["format"], dtype=object), tail=d["tail"],
         **columns,
     )
 

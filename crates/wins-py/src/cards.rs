@@ -1,0 +1,204 @@
+//! The captures of other cards than the Intel 5300: Nexmon pcaps (`read_nexmon`) and FeitCSI
+//! files (`read_feitcsi`), as columns the Python half turns into numpy arrays.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+
+use crate::csi::le_bytes;
+use crate::{raise, raise_text};
+
+/// Reads a Nexmon capture (see python/wins/__init__.py, `read_nexmon`): one row per CSI packet,
+/// the CSI autoscaled as csiread gives it (or exact), and each packet's frame.
+#[pyfunction]
+#[pyo3(signature = (path, exact = false))]
+pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<PyDict>> {
+    let capture = py
+        .detach(|| wins::csi::nexmon::read_nexmon(&path))
+        .map_err(raise)?;
+    let packets = &capture.packets;
+    if packets.is_empty() {
+        return Err(raise_text(format!(
+            "{}: no Nexmon CSI packets ({} records of other traffic)",
+            path.display(),
+            capture.other_records
+        )));
+    }
+    let bins = packets.iter().map(|p| p.words.len()).max().unwrap_or(0);
+    let n = packets.len();
+    let out = PyDict::new(py);
+    out.set_item("count", n)?;
+    out.set_item("bins", bins)?;
+    let columns = PyDict::new(py);
+    let column = |name: &str, f: &dyn Fn(&wins::csi::nexmon::NexmonPacket) -> i64| {
+        let values: Vec<i64> = packets.iter().map(f).collect();
+        columns.set_item(
+            name,
+            (
+                PyBytes::new(py, &le_bytes(&values, i64::to_le_bytes)),
+                "<i8",
+                vec![n],
+            ),
+        )
+    };
+    column("sec", &|p| i64::from(p.ts_sec))?;
+    column("usec", &|p| i64::from(p.ts_frac))?;
+    column("caplen", &|p| i64::from(p.caplen))?;
+    column("wirelen", &|p| i64::from(p.wirelen))?;
+    column("magic", &|p| i64::from(p.magic))?;
+    column("seq", &|p| i64::from(p.seq))?;
+    column("core", &|p| i64::from(p.core()))?;
+    column("spatial", &|p| i64::from(p.spatial_stream()))?;
+    column("chan_spec", &|p| i64::from(p.chanspec))?;
+    column("channel", &|p| i64::from(p.channel()))?;
+    column("bandwidth_mhz", &|p| i64::from(p.bandwidth_mhz()))?;
+    column("chip", &|p| i64::from(p.chip))?;
+    column("rssi", &|p| p.rssi_dbm.map_or(i64::MIN, i64::from))?;
+    column("float_shift", &|p| i64::from(p.csi_autoscaled().1))?;
+    let mut frame = vec![0i64; n];
+    for (k, f) in wins::csi::nexmon::frames::frames(packets)
+        .iter()
+        .enumerate()
+    {
+        for p in &f.packets {
+            frame[p.index] = k as i64;
+        }
+    }
+    columns.set_item(
+        "frame",
+        (
+            PyBytes::new(py, &le_bytes(&frame, i64::to_le_bytes)),
+            "<i8",
+            vec![n],
+        ),
+    )?;
+    let macs: Vec<u8> = packets.iter().flat_map(|p| p.transmitter).collect();
+    columns.set_item("src_addr", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
+    let mut csi = vec![0f64; n * bins * 2];
+    for (row, p) in csi.chunks_mut(bins * 2).zip(packets) {
+        let values: Vec<(f64, f64)> = if exact {
+            p.csi_exact().iter().map(|c| (c.re, c.im)).collect()
+        } else {
+            p.csi_autoscaled()
+                .0
+                .iter()
+                .map(|c| (c.re as f64, c.im as f64))
+                .collect()
+        };
+        for (slot, (re, im)) in row.chunks_mut(2).zip(values) {
+            slot[0] = re;
+            slot[1] = im;
+        }
+    }
+    columns.set_item(
+        "csi_re_im",
+        (
+            PyBytes::new(py, &le_bytes(&csi, f64::to_le_bytes)),
+            "<f8",
+            vec![n, bins, 2],
+        ),
+    )?;
+    out.set_item("columns", columns)?;
+    let tail = capture.tail.as_ref().map(ToString::to_string);
+    out.set_item("other_records", capture.other_records)?;
+    out.set_item("tail", tail)?;
+    Ok(out.unbind())
+}
+
+/// Reads a FeitCSI file (see python/wins/__init__.py, `read_feitcsi`): one row per record, the
+/// CSI in a `records × subcarriers × rx × tx` block (zero where a record has fewer).
+#[pyfunction]
+pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
+    let capture = py
+        .detach(|| wins::csi::feitcsi::read_feitcsi(&path))
+        .map_err(raise)?;
+    let records = &capture.records;
+    if records.is_empty() {
+        let why = capture
+            .tail
+            .as_ref()
+            .map_or("empty".to_string(), |t| t.2.clone());
+        return Err(raise_text(format!(
+            "{}: no FeitCSI records: {why}",
+            path.display()
+        )));
+    }
+    let n = records.len();
+    let nsc = records
+        .iter()
+        .map(|r| r.num_subcarriers as usize)
+        .max()
+        .unwrap_or(0);
+    let nrx = records
+        .iter()
+        .map(|r| usize::from(r.num_rx))
+        .max()
+        .unwrap_or(0);
+    let ntx = records
+        .iter()
+        .map(|r| usize::from(r.num_tx))
+        .max()
+        .unwrap_or(0);
+    let out = PyDict::new(py);
+    out.set_item("count", n)?;
+    out.set_item("shape", (nsc, nrx, ntx))?;
+    let columns = PyDict::new(py);
+    let column = |name: &str, f: &dyn Fn(&wins::csi::feitcsi::FeitRecord) -> i64| {
+        let values: Vec<i64> = records.iter().map(f).collect();
+        columns.set_item(
+            name,
+            (
+                PyBytes::new(py, &le_bytes(&values, i64::to_le_bytes)),
+                "<i8",
+                vec![n],
+            ),
+        )
+    };
+    column("offset", &|r| r.offset as i64)?;
+    column("ftm_clock", &|r| i64::from(r.ftm_clock))?;
+    column("mu_clock", &|r| i64::from(r.mu_clock))?;
+    column("num_rx", &|r| i64::from(r.num_rx))?;
+    column("num_tx", &|r| i64::from(r.num_tx))?;
+    column("num_subcarriers", &|r| i64::from(r.num_subcarriers))?;
+    column("rssi1", &|r| i64::from(r.rssi[0]))?;
+    column("rssi2", &|r| i64::from(r.rssi[1]))?;
+    column("rate_flags", &|r| i64::from(r.rate_flags))?;
+    column("mcs", &|r| i64::from(r.mcs()))?;
+    column("width_mhz", &|r| i64::from(r.width_mhz()))?;
+    let macs: Vec<u8> = records.iter().flat_map(|r| r.source_mac).collect();
+    columns.set_item("source_mac", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
+    let mut csi = vec![0i16; n * nsc * nrx * ntx * 2];
+    for (block, r) in csi.chunks_mut(nsc * nrx * ntx * 2).zip(records) {
+        for sc in 0..nsc {
+            for rx in 0..nrx {
+                for tx in 0..ntx {
+                    if let Some(c) = r.csi_at(rx, tx, sc) {
+                        let at = ((sc * nrx + rx) * ntx + tx) * 2;
+                        block[at] = c.re;
+                        block[at + 1] = c.im;
+                    }
+                }
+            }
+        }
+    }
+    columns.set_item(
+        "csi_re_im",
+        (
+            PyBytes::new(py, &le_bytes(&csi, i16::to_le_bytes)),
+            "<i2",
+            vec![n, nsc, nrx, ntx, 2],
+        ),
+    )?;
+    out.set_item("columns", columns)?;
+    let formats: Vec<&str> = records.iter().map(|r| r.format().name()).collect();
+    out.set_item("format", formats)?;
+    out.set_item(
+        "tail",
+        capture
+            .tail
+            .as_ref()
+            .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}")),
+    )?;
+    Ok(out.unbind())
+}
