@@ -4,16 +4,14 @@
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use wins::config::DEFAULT_TOML;
-use wins::csi::feitcsi::{FeitCapture, FeitSummary, looks_like_feitcsi, read_feitcsi};
-use wins::csi::intel5300::{self, ExportFormat, LogSummary};
-use wins::csi::nexmon::pcap::looks_like_pcap;
-use wins::csi::nexmon::{NexmonSummary, read_nexmon};
+use wins::csi::capture::CaptureSummary;
+use wins::csi::intel5300::{self, ExportFormat};
 use wins::sim::family::{FAMILIES, Family};
 use wins::sim::{self, Scenario};
 
@@ -228,46 +226,15 @@ fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
     let mut out = stdout.lock();
     let mut empty = Vec::new();
     for (i, path) in files.iter().enumerate() {
-        if i > 0 && !json {
-            writeln!(out)?;
-        }
-        if is_pcap(path) {
-            let summary = NexmonSummary::of(&read_nexmon(path)?);
-            if json {
-                let value = serde_json::json!({ "file": path, "nexmon": summary });
-                writeln!(out, "{value}")?;
-            } else {
-                writeln!(out, "{:<12}{}", "file", path.display())?;
-                write!(out, "{summary}")?;
-            }
-            if summary.packets == 0 {
-                empty.push(format!("{}: no Nexmon CSI packets", path.display()));
-            }
-            continue;
-        }
-        if let Some(capture) = feitcsi_file(path)? {
-            let summary = FeitSummary::of(&capture);
-            if json {
-                let value = serde_json::json!({ "file": path, "feitcsi": summary });
-                writeln!(out, "{value}")?;
-            } else {
-                writeln!(out, "{:<12}{}", "file", path.display())?;
-                write!(out, "{summary}")?;
-            }
-            continue;
-        }
-        let summary = LogSummary::from_path(path)?;
-        if summary.csi_records == 0 {
-            empty.push(format!(
-                "{}: no CSI records: {}",
-                path.display(),
-                intel5300::why_no_records(path)
-            ));
-        }
+        let summary = CaptureSummary::of_path(path)?;
+        empty.extend(summary.why_empty(path));
         if json {
-            let value = serde_json::json!({ "file": path, "summary": summary });
+            let value = serde_json::json!({ "file": path, summary.json_key(): summary.to_json()? });
             writeln!(out, "{value}")?;
         } else {
+            if i > 0 {
+                writeln!(out)?;
+            }
             writeln!(out, "{:<12}{}", "file", path.display())?;
             write!(out, "{summary}")?;
         }
@@ -316,28 +283,6 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
         );
     }
     Ok(())
-}
-
-/// The FeitCSI file at `path`, when it starts as one.
-fn feitcsi_file(path: &Path) -> Result<Option<FeitCapture>> {
-    let mut head = Vec::new();
-    File::open(path)
-        .and_then(|f| io::Read::read_to_end(&mut io::Read::take(f, 1 << 16), &mut head))
-        .with_context(|| format!("cannot read {}", path.display()))?;
-    if !looks_like_feitcsi(&head) {
-        return Ok(None);
-    }
-    Ok(Some(read_feitcsi(path).with_context(|| {
-        format!("cannot read {}", path.display())
-    })?))
-}
-
-/// Whether the file at `path` starts as a pcap capture (Nexmon's format).
-fn is_pcap(path: &Path) -> bool {
-    let mut head = [0u8; 4];
-    File::open(path)
-        .and_then(|mut f| io::Read::read_exact(&mut f, &mut head))
-        .is_ok_and(|()| looks_like_pcap(&head))
 }
 
 /// One warning per byte range of a log that was lost (corrupt or cut), with its offset.
