@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use crate::csi::le_bytes;
+use crate::csi::{le_bytes, put_i64};
 use crate::{raise, raise_text};
 
 /// Reads a Nexmon capture (see python/wins/__init__.py, `read_nexmon`): one row per CSI packet,
@@ -32,14 +32,11 @@ pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<Py
     out.set_item("bins", bins)?;
     let columns = PyDict::new(py);
     let column = |name: &str, f: &dyn Fn(&wins::csi::nexmon::NexmonPacket) -> i64| {
-        let values: Vec<i64> = packets.iter().map(f).collect();
-        columns.set_item(
+        put_i64(
+            &columns,
             name,
-            (
-                PyBytes::new(py, &le_bytes(&values, i64::to_le_bytes)),
-                "<i8",
-                vec![n],
-            ),
+            &packets.iter().map(f).collect::<Vec<_>>(),
+            vec![n],
         )
     };
     column("sec", &|p| i64::from(p.ts_sec))?;
@@ -65,14 +62,7 @@ pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<Py
             frame[p.index] = k as i64;
         }
     }
-    columns.set_item(
-        "frame",
-        (
-            PyBytes::new(py, &le_bytes(&frame, i64::to_le_bytes)),
-            "<i8",
-            vec![n],
-        ),
-    )?;
+    put_i64(&columns, "frame", &frame, vec![n])?;
     let macs: Vec<u8> = packets.iter().flat_map(|p| p.transmitter).collect();
     columns.set_item("src_addr", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
     let mut csi = vec![0f64; n * bins * 2];
@@ -145,14 +135,11 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     out.set_item("shape", (nsc, nrx, ntx))?;
     let columns = PyDict::new(py);
     let column = |name: &str, f: &dyn Fn(&wins::csi::feitcsi::FeitRecord) -> i64| {
-        let values: Vec<i64> = records.iter().map(f).collect();
-        columns.set_item(
+        put_i64(
+            &columns,
             name,
-            (
-                PyBytes::new(py, &le_bytes(&values, i64::to_le_bytes)),
-                "<i8",
-                vec![n],
-            ),
+            &records.iter().map(f).collect::<Vec<_>>(),
+            vec![n],
         )
     };
     column("offset", &|r| r.offset as i64)?;
@@ -193,12 +180,6 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     out.set_item("columns", columns)?;
     let formats: Vec<&str> = records.iter().map(|r| r.format().name()).collect();
     out.set_item("format", formats)?;
-    out.set_item(
-        "tail",
-        capture
-            .tail
-            .as_ref()
-            .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}")),
-    )?;
+    out.set_item("tail", capture.lost())?;
     Ok(out.unbind())
 }

@@ -33,6 +33,17 @@ pub(crate) fn le_bytes<T: Copy, const N: usize>(values: &[T], to: fn(T) -> [u8; 
     values.iter().flat_map(|&v| to(v)).collect()
 }
 
+/// Sets `columns[name]` to the numpy description of `values`: `(bytes, "<i8", shape)`.
+pub(crate) fn put_i64(
+    columns: &Bound<'_, PyDict>,
+    name: &str,
+    values: &[i64],
+    shape: Vec<usize>,
+) -> PyResult<()> {
+    let bytes = PyBytes::new(columns.py(), &le_bytes(values, i64::to_le_bytes));
+    columns.set_item(name, (bytes, "<i8", shape))
+}
+
 /// The columns as a dict: each field `(bytes, numpy dtype, shape)`, the CSI as int8 pairs.
 fn columns_dict<'py>(
     py: Python<'py>,
@@ -48,7 +59,6 @@ fn columns_dict<'py>(
     let put = |name: &str, bytes: Vec<u8>, dtype: &str, shape: Vec<usize>| {
         columns.set_item(name, (PyBytes::new(py, &bytes), dtype, shape))
     };
-    let i64s = |v: &[i64]| le_bytes(v, i64::to_le_bytes);
     put(
         "offset",
         le_bytes(&c.offset, u64::to_le_bytes),
@@ -61,18 +71,18 @@ fn columns_dict<'py>(
         "<u4",
         vec![n],
     )?;
-    put("timestamp_ns", i64s(&c.timestamp_ns), "<i8", vec![n])?;
-    put("bfee_count", i64s(&c.bfee_count), "<i8", vec![n])?;
-    put("Nrx", i64s(&c.nrx_of), "<i8", vec![n])?;
-    put("Ntx", i64s(&c.ntx_of), "<i8", vec![n])?;
+    put_i64(&columns, "timestamp_ns", &c.timestamp_ns, vec![n])?;
+    put_i64(&columns, "bfee_count", &c.bfee_count, vec![n])?;
+    put_i64(&columns, "Nrx", &c.nrx_of, vec![n])?;
+    put_i64(&columns, "Ntx", &c.ntx_of, vec![n])?;
     for (name, rssi) in ["rssi_a", "rssi_b", "rssi_c"].iter().zip(&c.rssi) {
-        put(name, i64s(rssi), "<i8", vec![n])?;
+        put_i64(&columns, name, rssi, vec![n])?;
     }
-    put("noise", i64s(&c.noise), "<i8", vec![n])?;
-    put("agc", i64s(&c.agc), "<i8", vec![n])?;
+    put_i64(&columns, "noise", &c.noise, vec![n])?;
+    put_i64(&columns, "agc", &c.agc, vec![n])?;
     let perm: Vec<i64> = c.perm.iter().flatten().copied().collect();
-    put("perm", i64s(&perm), "<i8", vec![n, 3])?;
-    put("rate", i64s(&c.rate), "<i8", vec![n])?;
+    put_i64(&columns, "perm", &perm, vec![n, 3])?;
+    put_i64(&columns, "rate", &c.rate, vec![n])?;
     let csi = PyBytes::new_with(py, c.csi_re_im.len(), |buf| {
         for (b, v) in buf.iter_mut().zip(&c.csi_re_im) {
             *b = v.to_le_bytes()[0];

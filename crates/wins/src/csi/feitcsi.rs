@@ -152,6 +152,15 @@ pub struct FeitCapture {
     pub bytes: u64,
 }
 
+impl FeitCapture {
+    /// What was not read at the end of the file, in words (`None`: all of it was read).
+    pub fn lost(&self) -> Option<String> {
+        self.tail
+            .as_ref()
+            .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}"))
+    }
+}
+
 /// Reads the FeitCSI file at `path` (a regular file).
 pub fn read_feitcsi(path: &Path) -> std::io::Result<FeitCapture> {
     let mut bytes = Vec::new();
@@ -265,10 +274,7 @@ impl FeitSummary {
         let mut s = Self {
             bytes: capture.bytes,
             records: capture.records.len() as u64,
-            tail: capture
-                .tail
-                .as_ref()
-                .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}")),
+            tail: capture.lost(),
             ..Self::default()
         };
         for r in &capture.records {
