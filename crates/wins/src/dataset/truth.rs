@@ -292,11 +292,7 @@ impl Truth {
             .transpose()
             .map_err(|e| parse_err("truth.toml", e.to_string()))?;
         let poses = read_tum(open("poses.tum")?).map_err(|e| parse_err("poses.tum", e))?;
-        let aps: Vec<ApRow> = csv_or_empty(&dir, "aps.csv")?;
-        let mut packets = Vec::with_capacity(aps.len());
-        for ap in &aps {
-            packets.push(csv_or_empty(&dir, &packets_file(&ap.name))?);
-        }
+        let (aps, packets) = aps_and_packets(&dir)?;
         let imu_biases = csv_or_empty(&dir, "imu_biases.csv")?;
         Ok(Self {
             poses,
@@ -355,11 +351,7 @@ impl Truth {
         {
             poses.push(p);
         }
-        let aps: Vec<ApRow> = csv_or_empty(dir, "aps.csv")?;
-        let mut packets = Vec::with_capacity(aps.len());
-        for ap in &aps {
-            packets.push(csv_or_empty(dir, &packets_file(&ap.name))?);
-        }
+        let (aps, packets) = aps_and_packets(dir)?;
         Ok(Self {
             poses,
             aps,
@@ -368,6 +360,16 @@ impl Truth {
             info: None,
         })
     }
+}
+
+/// The truth folder `dir`'s APs and each one's packet rows (none without `aps.csv`).
+fn aps_and_packets(dir: &Path) -> Result<(Vec<ApRow>, Vec<Vec<PacketRow>>), TruthError> {
+    let aps: Vec<ApRow> = csv_or_empty(dir, "aps.csv")?;
+    let packets = aps
+        .iter()
+        .map(|ap| csv_or_empty(dir, &packets_file(&ap.name)))
+        .collect::<Result<_, _>>()?;
+    Ok((aps, packets))
 }
 
 /// The bytes of `dir/name`, or `None` when there is no such file.

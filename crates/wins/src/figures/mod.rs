@@ -240,23 +240,20 @@ impl RunFigures {
         options: &EvalOptions,
     ) -> Result<(Self, Option<String>), FigureError> {
         let trajectory = run_dir.join(TRAJECTORY_FILE);
-        let alone = |why: String| {
-            Self::from_files(&trajectory, Some(dataset), None, options).map(|f| (f, Some(why)))
+        let alone = |why: Option<String>| {
+            Self::from_files(&trajectory, Some(dataset), None, options).map(|f| (f, why))
         };
         let truth_dir = dataset.join(TRUTH_DIR);
         if !truth_dir.is_dir() {
-            return Ok((
-                Self::from_files(&trajectory, Some(dataset), None, options)?,
-                None,
-            ));
+            return alone(None);
         }
         let times: Vec<Timestamp> = read::poses(&trajectory)?.iter().map(|p| p.t).collect();
         let truth = match Truth::load_dir_near(&truth_dir, &times, TRUTH_DRAWN_EVERY_NS) {
             Ok(t) => t,
-            Err(e) => return alone(format!("the truth cannot be read: {e}")),
+            Err(e) => return alone(Some(format!("the truth cannot be read: {e}"))),
         };
         match Self::from_files(&trajectory, Some(dataset), Some(&truth), options) {
-            Err(FigureError::Align(e)) => alone(e.to_string()),
+            Err(FigureError::Align(e)) => alone(Some(e.to_string())),
             other => other.map(|f| (f, None)),
         }
     }
