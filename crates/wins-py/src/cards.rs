@@ -52,7 +52,6 @@ pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<Py
     column("bandwidth_mhz", &|p| i64::from(p.bandwidth_mhz()))?;
     column("chip", &|p| i64::from(p.chip))?;
     column("rssi", &|p| p.rssi_dbm.map_or(i64::MIN, i64::from))?;
-    column("float_shift", &|p| i64::from(p.csi_autoscaled().1))?;
     let mut frame = vec![0i64; n];
     for (k, f) in wins::csi::nexmon::frames::frames(packets)
         .iter()
@@ -65,13 +64,16 @@ pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<Py
     put_i64(&columns, "frame", &frame, vec![n])?;
     let macs: Vec<u8> = packets.iter().flat_map(|p| p.transmitter).collect();
     columns.set_item("src_addr", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
+    // Each packet decoded once: its autoscaled values and shift (and its exact values if asked).
     let mut csi = vec![0f64; n * bins * 2];
+    let mut shifts = Vec::with_capacity(n);
     for (row, p) in csi.chunks_mut(bins * 2).zip(packets) {
+        let (autoscaled, shift) = p.csi_autoscaled();
+        shifts.push(i64::from(shift));
         let values: Vec<(f64, f64)> = if exact {
             p.csi_exact().iter().map(|c| (c.re, c.im)).collect()
         } else {
-            p.csi_autoscaled()
-                .0
+            autoscaled
                 .iter()
                 .map(|c| (c.re as f64, c.im as f64))
                 .collect()
@@ -81,6 +83,7 @@ pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<Py
             slot[1] = im;
         }
     }
+    put_i64(&columns, "float_shift", &shifts, vec![n])?;
     columns.set_item(
         "csi_re_im",
         (
