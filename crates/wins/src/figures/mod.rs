@@ -153,9 +153,17 @@ impl RunFigures {
         truth: Option<&Truth>,
         options: &EvalOptions,
     ) -> Result<Self, FigureError> {
-        let files = RunFiles::read(trajectory, dataset)?;
+        Self::of_files(&RunFiles::read(trajectory, dataset)?, truth, options)
+    }
+
+    /// [`RunFigures::from_files`] of the files read.
+    fn of_files(
+        files: &RunFiles,
+        truth: Option<&Truth>,
+        options: &EvalOptions,
+    ) -> Result<Self, FigureError> {
         let aligned = match truth {
-            Some(t) => Some(against_truth::Aligned::new(&files, t, options)?),
+            Some(t) => Some(against_truth::Aligned::new(files, t, options)?),
             None => None,
         };
         let rotation = aligned
@@ -239,20 +247,19 @@ impl RunFigures {
         dataset: &Path,
         options: &EvalOptions,
     ) -> Result<(Self, Option<String>), FigureError> {
-        let trajectory = run_dir.join(TRAJECTORY_FILE);
-        let alone = |why: Option<String>| {
-            Self::from_files(&trajectory, Some(dataset), None, options).map(|f| (f, why))
-        };
+        // The run's files are read once; the truth's poses near the estimate's.
+        let files = RunFiles::read(&run_dir.join(TRAJECTORY_FILE), Some(dataset))?;
+        let alone = |why: Option<String>| Self::of_files(&files, None, options).map(|f| (f, why));
         let truth_dir = dataset.join(TRUTH_DIR);
         if !truth_dir.is_dir() {
             return alone(None);
         }
-        let times: Vec<Timestamp> = read::poses(&trajectory)?.iter().map(|p| p.t).collect();
+        let times: Vec<Timestamp> = files.poses.iter().map(|p| p.t).collect();
         let truth = match Truth::load_dir_near(&truth_dir, &times, TRUTH_DRAWN_EVERY_NS) {
             Ok(t) => t,
             Err(e) => return alone(Some(format!("the truth cannot be read: {e}"))),
         };
-        match Self::from_files(&trajectory, Some(dataset), Some(&truth), options) {
+        match Self::of_files(&files, Some(&truth), options) {
             Err(FigureError::Align(e)) => alone(Some(e.to_string())),
             other => other.map(|f| (f, None)),
         }

@@ -85,7 +85,7 @@ fn open(path: &Path) -> Result<BufReader<File>, FigureError> {
 impl RunFiles {
     /// Reads `trajectory` and the files beside it, and the barometer of `dataset`.
     pub(super) fn read(trajectory: &Path, dataset: Option<&Path>) -> Result<Self, FigureError> {
-        let poses = poses(trajectory)?;
+        let poses = read_tum(open(trajectory)?).map_err(|e| bad(trajectory, e))?;
         let beside = |name: &str| Some(trajectory.with_file_name(name)).filter(|p| p.is_file());
         let covariances = match beside(COVARIANCE_FILE) {
             Some(path) => read_position_covariance(open(&path)?)
@@ -125,11 +125,6 @@ impl RunFiles {
             baro,
         })
     }
-}
-
-/// The poses of the TUM file `trajectory`.
-pub(super) fn poses(trajectory: &Path) -> Result<Vec<Pose>, FigureError> {
-    read_tum(open(trajectory)?).map_err(|e| bad(trajectory, e))
 }
 
 /// `aoa.csv` per AP: fed packets at their AoA, dropped ones at theirs or at the predicted one.
