@@ -126,6 +126,10 @@ enum CsiCommand {
         /// Print the summary as JSON (one object per file, with every lost region).
         #[arg(long)]
         json: bool,
+        /// Read the files as this format instead of the one their first bytes say:
+        /// intel5300, nexmon, feitcsi, picoscenes or atheros.
+        #[arg(long)]
+        format: Option<wins::csi::format::CaptureFormat>,
     },
     /// Is a capture usable for AoA? Antennas, signal, clipping, chain phases, calibration,
     /// bandwidth and channel, packet rate and gaps, each with a verdict and what to do.
@@ -190,7 +194,11 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Csi { command } => match command {
-            CsiCommand::Info { files, json } => csi_info(&files, json),
+            CsiCommand::Info {
+                files,
+                json,
+                format,
+            } => csi_info(&files, json, format),
             CsiCommand::Check(args) => check_cmd::check(args),
             CsiCommand::Stats(args) => check_cmd::stats(args),
             CsiCommand::Export { file, format, out } => csi_export(&file, format, out),
@@ -221,12 +229,16 @@ fn config(args: ConfigArgs) -> Result<()> {
     Ok(())
 }
 
-fn csi_info(files: &[PathBuf], json: bool) -> Result<()> {
+fn csi_info(
+    files: &[PathBuf],
+    json: bool,
+    format: Option<wins::csi::format::CaptureFormat>,
+) -> Result<()> {
     let stdout = io::stdout();
     let mut out = stdout.lock();
     let mut empty = Vec::new();
     for (i, path) in files.iter().enumerate() {
-        let summary = CaptureSummary::of_path(path)?;
+        let summary = CaptureSummary::of_path(path, format)?;
         empty.extend(summary.why_empty(path));
         if json {
             let value = serde_json::json!({ "file": path, summary.json_key(): summary.to_json()? });

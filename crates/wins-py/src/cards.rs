@@ -120,17 +120,17 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     let n = records.len();
     let nsc = records
         .iter()
-        .map(|r| r.num_subcarriers as usize)
+        .map(|r| r.header.num_subcarriers as usize)
         .max()
         .unwrap_or(0);
     let nrx = records
         .iter()
-        .map(|r| usize::from(r.num_rx))
+        .map(|r| usize::from(r.header.num_rx))
         .max()
         .unwrap_or(0);
     let ntx = records
         .iter()
-        .map(|r| usize::from(r.num_tx))
+        .map(|r| usize::from(r.header.num_tx))
         .max()
         .unwrap_or(0);
     let out = PyDict::new(py);
@@ -146,17 +146,17 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
         )
     };
     column("offset", &|r| r.offset as i64)?;
-    column("ftm_clock", &|r| i64::from(r.ftm_clock))?;
-    column("mu_clock", &|r| i64::from(r.mu_clock))?;
-    column("num_rx", &|r| i64::from(r.num_rx))?;
-    column("num_tx", &|r| i64::from(r.num_tx))?;
-    column("num_subcarriers", &|r| i64::from(r.num_subcarriers))?;
-    column("rssi1", &|r| i64::from(r.rssi[0]))?;
-    column("rssi2", &|r| i64::from(r.rssi[1]))?;
-    column("rate_flags", &|r| i64::from(r.rate_flags))?;
-    column("mcs", &|r| i64::from(r.mcs()))?;
-    column("width_mhz", &|r| i64::from(r.width_mhz()))?;
-    let macs: Vec<u8> = records.iter().flat_map(|r| r.source_mac).collect();
+    column("ftm_clock", &|r| i64::from(r.header.ftm_clock))?;
+    column("mu_clock", &|r| i64::from(r.header.mu_clock))?;
+    column("num_rx", &|r| i64::from(r.header.num_rx))?;
+    column("num_tx", &|r| i64::from(r.header.num_tx))?;
+    column("num_subcarriers", &|r| i64::from(r.header.num_subcarriers))?;
+    column("rssi1", &|r| i64::from(r.header.rssi[0]))?;
+    column("rssi2", &|r| i64::from(r.header.rssi[1]))?;
+    column("rate_flags", &|r| i64::from(r.header.rate_flags))?;
+    column("mcs", &|r| i64::from(r.header.mcs()))?;
+    column("width_mhz", &|r| i64::from(r.header.width_mhz()))?;
+    let macs: Vec<u8> = records.iter().flat_map(|r| r.header.source_mac).collect();
     columns.set_item("source_mac", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
     let mut csi = vec![0i16; n * nsc * nrx * ntx * 2];
     for (block, r) in csi.chunks_mut(nsc * nrx * ntx * 2).zip(records) {
@@ -181,7 +181,7 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
         ),
     )?;
     out.set_item("columns", columns)?;
-    let formats: Vec<&str> = records.iter().map(|r| r.format().name()).collect();
+    let formats: Vec<&str> = records.iter().map(|r| r.header.format().name()).collect();
     out.set_item("format", formats)?;
     out.set_item("tail", capture.lost())?;
     Ok(out.unbind())

@@ -1,18 +1,17 @@
-//! Which card's tool wrote a capture, told from its first bytes (a pcap: Nexmon; a FeitCSI
-//! record header: an AX200/AX210; anything else is read as an Intel 5300 CSI Tool log), and its
-//! summary as `wins csi info` prints it.
+//! A capture's summary as `wins csi info` prints it, in the format its first bytes say
+//! ([`CaptureFormat::detect`]; a file no format recognizes is read as an Intel 5300 CSI Tool
+//! log, whose reader names what it is) or the one the user names.
 
 use std::fmt;
-use std::io::{self, Read};
+use std::io;
 use std::path::Path;
 
-use super::feitcsi::{FeitSummary, looks_like_feitcsi, read_feitcsi};
+use super::atheros::{AtherosSummary, read_atheros};
+use super::feitcsi::{FeitSummary, read_feitcsi};
+use super::format::CaptureFormat;
 use super::intel5300::{LogSummary, ReadError, why_no_records};
-use super::nexmon::pcap::looks_like_pcap;
 use super::nexmon::{NexmonError, NexmonSummary, read_nexmon};
-
-/// Bytes read to tell the format.
-const HEAD_BYTES: u64 = 1 << 16;
+use super::picoscenes::{PicoSummary, read_picoscenes};
 
 /// A capture's summary, by the format it is in.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,6 +22,10 @@ pub enum CaptureSummary {
     Nexmon(NexmonSummary),
     /// A FeitCSI file.
     FeitCsi(FeitSummary),
+    /// A PicoScenes file.
+    PicoScenes(PicoSummary),
+    /// An Atheros CSI Tool log.
+    Atheros(AtherosSummary),
 }
 
 /// Why a capture cannot be summarized.
@@ -45,25 +48,31 @@ pub enum CaptureError {
 }
 
 impl CaptureSummary {
-    /// The summary of the capture at `path`, in the format its first bytes say (module doc).
-    pub fn of_path(path: &Path) -> Result<Self, CaptureError> {
+    /// The summary of the capture at `path`, in `format` or else the one its first bytes say.
+    pub fn of_path(path: &Path, format: Option<CaptureFormat>) -> Result<Self, CaptureError> {
         let io = |source| CaptureError::Io {
             path: path.display().to_string(),
             source,
         };
-        let mut head = Vec::new();
-        crate::io_safety::open_regular(path)
-            .and_then(|f| f.take(HEAD_BYTES).read_to_end(&mut head))
-            .map_err(io)?;
-        if looks_like_pcap(&head) {
-            return Ok(Self::Nexmon(NexmonSummary::of(&read_nexmon(path)?)));
-        }
-        if looks_like_feitcsi(&head) {
-            return Ok(Self::FeitCsi(FeitSummary::of(
-                &read_feitcsi(path).map_err(io)?,
-            )));
-        }
-        Ok(Self::Intel5300(Box::new(LogSummary::from_path(path)?)))
+        let format = match format {
+            Some(f) => f,
+            None => CaptureFormat::of_path(path)
+                .map_err(io)?
+                .unwrap_or(CaptureFormat::Intel5300),
+        };
+        Ok(match format {
+            CaptureFormat::Nexmon => Self::Nexmon(NexmonSummary::of(&read_nexmon(path)?)),
+            CaptureFormat::FeitCsi => {
+                Self::FeitCsi(FeitSummary::of(&read_feitcsi(path).map_err(io)?))
+            }
+            CaptureFormat::PicoScenes => {
+                Self::PicoScenes(PicoSummary::of(&read_picoscenes(path).map_err(io)?))
+            }
+            CaptureFormat::Atheros => {
+                Self::Atheros(AtherosSummary::of(&read_atheros(path, None).map_err(io)?))
+            }
+            CaptureFormat::Intel5300 => Self::Intel5300(Box::new(LogSummary::from_path(path)?)),
+        })
     }
 
     /// The key its JSON goes under beside the file's name (`summary` for an Intel 5300 log).
@@ -72,6 +81,8 @@ impl CaptureSummary {
             Self::Intel5300(_) => "summary",
             Self::Nexmon(_) => "nexmon",
             Self::FeitCsi(_) => "feitcsi",
+            Self::PicoScenes(_) => "picoscenes",
+            Self::Atheros(_) => "atheros",
         }
     }
 
@@ -81,6 +92,8 @@ impl CaptureSummary {
             Self::Intel5300(s) => serde_json::to_value(s.as_ref()),
             Self::Nexmon(s) => serde_json::to_value(s),
             Self::FeitCsi(s) => serde_json::to_value(s),
+            Self::PicoScenes(s) => serde_json::to_value(s),
+            Self::Atheros(s) => serde_json::to_value(s),
         }
     }
 
@@ -95,6 +108,21 @@ impl CaptureSummary {
             Self::Nexmon(s) if s.packets == 0 => {
                 Some(format!("{}: no Nexmon CSI packets", path.display()))
             }
+            Self::FeitCsi(s) if s.records == 0 => Some(format!(
+                "{}: no FeitCSI records: {}",
+                path.display(),
+                s.tail.as_deref().unwrap_or("empty")
+            )),
+            Self::PicoScenes(s) if s.with_csi == 0 => Some(format!(
+                "{}: no PicoScenes frame with CSI: {}",
+                path.display(),
+                s.tail.as_deref().unwrap_or("no CSI segment")
+            )),
+            Self::Atheros(s) if s.with_csi == 0 => Some(format!(
+                "{}: no Atheros record with CSI: {}",
+                path.display(),
+                s.tail.as_deref().unwrap_or("no record holds CSI")
+            )),
             _ => None,
         }
     }
@@ -106,6 +134,8 @@ impl fmt::Display for CaptureSummary {
             Self::Intel5300(s) => write!(f, "{s}"),
             Self::Nexmon(s) => write!(f, "{s}"),
             Self::FeitCsi(s) => write!(f, "{s}"),
+            Self::PicoScenes(s) => write!(f, "{s}"),
+            Self::Atheros(s) => write!(f, "{s}"),
         }
     }
 }

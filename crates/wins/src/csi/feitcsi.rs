@@ -1,9 +1,7 @@
-//! FeitCSI files (Intel AX200/AX210): records of a 272-byte header and the CSI, as FeitCSI
-//! documents them ("CSI format"). Header, little-endian: the CSI's size @0, the FTM clock @8,
-//! receive chains @46, transmit streams @47, subcarriers @52, the two chains' RSSI @60 and @64,
-//! the transmitter @68, a microsecond clock @88 (as CSIKit reads it), the rate flags @92. The CSI:
-//! `int16` real then imaginary per value, receive chain, then transmit stream, then subcarrier
-//! (fastest). The carrier frequency and the subcarrier indices are not in the file.
+//! FeitCSI files (Intel AX200/AX210): records of the 272-byte Intel CSI header
+//! ([`IntelCsiHeader`]) and the CSI, as FeitCSI documents them ("CSI format"). The CSI: `int16`
+//! real then imaginary per value, receive chain, then transmit stream, then subcarrier (fastest).
+//! The carrier frequency and the subcarrier indices are not in the file.
 //!
 //! Every byte is in a record or in the reported tail: a record whose CSI size does not match its
 //! shape, or that the end of the file cuts, ends the reading there. Notes on the format and on
@@ -13,131 +11,26 @@ use std::path::Path;
 
 use num_complex::Complex;
 
-use crate::csi::intel5300::MacAddress;
+use super::iwlmvm::{IWL_HEADER_LEN, IntelCsiHeader, csi_values};
 
 /// Bytes of a record's header.
-pub const FEIT_HEADER_LEN: usize = 272;
-/// Most receive chains or transmit streams a record may claim.
-const MAX_CHAINS: u8 = 4;
-/// Most subcarriers a record may claim (a 320 MHz EHT channel has 3 984 tones).
-const MAX_SUBCARRIERS: u32 = 4096;
-
-/// The frame format of bits 8–10 of the rate flags.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FeitFormat {
-    /// 802.11b.
-    Cck,
-    /// 802.11a/g.
-    LegacyOfdm,
-    /// 802.11n.
-    Ht,
-    /// 802.11ac.
-    Vht,
-    /// 802.11ax.
-    He,
-    /// 802.11be.
-    Eht,
-    /// Another value.
-    Other(u8),
-}
-
-impl FeitFormat {
-    /// Its name as CSIKit prints it (`"HT"`, `"HE"`, …).
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Cck => "CCK",
-            Self::LegacyOfdm => "LEGACY_OFDM",
-            Self::Ht => "HT",
-            Self::Vht => "VHT",
-            Self::He => "HE",
-            Self::Eht => "EHT",
-            Self::Other(_) => "OTHER",
-        }
-    }
-}
+pub const FEIT_HEADER_LEN: usize = IWL_HEADER_LEN;
 
 /// One FeitCSI record.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FeitRecord {
     /// Byte offset of its header.
     pub offset: u64,
-    /// The FTM clock (3.125 ns ticks, wrapping at 2³²).
-    pub ftm_clock: u32,
-    /// Receive chains.
-    pub num_rx: u8,
-    /// Transmit streams.
-    pub num_tx: u8,
-    /// Subcarriers.
-    pub num_subcarriers: u32,
-    /// RSSI of chains 1 and 2 (positive numbers, as the file holds them).
-    pub rssi: [u32; 2],
-    /// The transmitter.
-    pub source_mac: MacAddress,
-    /// The microsecond clock CSIKit reads @88.
-    pub mu_clock: u32,
-    /// The raw rate flags.
-    pub rate_flags: u32,
+    /// Its header.
+    pub header: IntelCsiHeader,
     /// The CSI, receive chain, transmit stream, subcarrier (fastest).
     pub csi: Vec<Complex<i16>>,
 }
 
 impl FeitRecord {
-    /// MCS (bits 0–3).
-    pub fn mcs(&self) -> u8 {
-        (self.rate_flags & 0xf) as u8
-    }
-
-    /// The frame format (bits 8–10).
-    pub fn format(&self) -> FeitFormat {
-        match (self.rate_flags >> 8) & 7 {
-            0 => FeitFormat::Cck,
-            1 => FeitFormat::LegacyOfdm,
-            2 => FeitFormat::Ht,
-            3 => FeitFormat::Vht,
-            4 => FeitFormat::He,
-            5 => FeitFormat::Eht,
-            other => FeitFormat::Other(other as u8),
-        }
-    }
-
-    /// Channel width, MHz (`20 << n`, n from bits 11–13).
-    pub fn width_mhz(&self) -> u32 {
-        20 << ((self.rate_flags >> 11) & 7)
-    }
-
-    /// Whether antenna A (bit 14) and B (bit 15) received it.
-    pub fn antennas(&self) -> (bool, bool) {
-        (
-            self.rate_flags & (1 << 14) != 0,
-            self.rate_flags & (1 << 15) != 0,
-        )
-    }
-
-    /// LDPC coding (bit 16).
-    pub fn ldpc(&self) -> bool {
-        self.rate_flags & (1 << 16) != 0
-    }
-
-    /// Spatial streams: 2 with bit 17, else 1.
-    pub fn spatial_streams(&self) -> u8 {
-        if self.rate_flags & (1 << 17) != 0 {
-            2
-        } else {
-            1
-        }
-    }
-
-    /// Beamformed (bit 19).
-    pub fn beamforming(&self) -> bool {
-        self.rate_flags & (1 << 19) != 0
-    }
-
     /// The value of chain `rx`, stream `tx`, subcarrier `sc`.
     pub fn csi_at(&self, rx: usize, tx: usize, sc: usize) -> Option<Complex<i16>> {
-        let (ntx, nsc) = (usize::from(self.num_tx), self.num_subcarriers as usize);
-        (tx < ntx && sc < nsc)
-            .then(|| self.csi.get((rx * ntx + tx) * nsc + sc).copied())
-            .flatten()
+        self.header.csi_at(&self.csi, rx, tx, sc)
     }
 }
 
@@ -192,25 +85,16 @@ pub fn parse_feitcsi(bytes: &[u8]) -> FeitCapture {
 
 /// The record at the start of `rest` and its length, or why there is none.
 fn record(rest: &[u8], offset: u64) -> Result<(FeitRecord, usize), String> {
-    let h = rest
-        .get(..FEIT_HEADER_LEN)
-        .ok_or_else(|| format!("a header cut by the end of the file ({} bytes)", rest.len()))?;
-    let u32_at = |i: usize| u32::from_le_bytes([h[i], h[i + 1], h[i + 2], h[i + 3]]);
-    let (csi_size, num_rx, num_tx, num_subcarriers) = (u32_at(0), h[46], h[47], u32_at(52));
-    if !(1..=MAX_CHAINS).contains(&num_rx)
-        || !(1..=MAX_CHAINS).contains(&num_tx)
-        || !(1..=MAX_SUBCARRIERS).contains(&num_subcarriers)
-    {
+    let header = IntelCsiHeader::parse(rest)
+        .map_err(|why| why.replace("not an Intel CSI header", "not a FeitCSI header"))?;
+    let values = header.values();
+    if header.csi_size as usize != values * 4 {
         return Err(format!(
-            "not a FeitCSI header: {num_rx} receive chains, {num_tx} streams, {num_subcarriers} \
-             subcarriers"
-        ));
-    }
-    let values = usize::from(num_rx) * usize::from(num_tx) * num_subcarriers as usize;
-    if csi_size as usize != values * 4 {
-        return Err(format!(
-            "a CSI size of {csi_size} bytes, where {num_rx} × {num_tx} × {num_subcarriers} \
-             values take {}",
+            "a CSI size of {} bytes, where {} × {} × {} values take {}",
+            header.csi_size,
+            header.num_rx,
+            header.num_tx,
+            header.num_subcarriers,
             values * 4
         ));
     }
@@ -218,26 +102,10 @@ fn record(rest: &[u8], offset: u64) -> Result<(FeitRecord, usize), String> {
     let data = rest
         .get(FEIT_HEADER_LEN..end)
         .ok_or_else(|| format!("a record cut by the end of the file ({} bytes)", rest.len()))?;
-    let csi = data
-        .chunks_exact(4)
-        .map(|v| {
-            Complex::new(
-                i16::from_le_bytes([v[0], v[1]]),
-                i16::from_le_bytes([v[2], v[3]]),
-            )
-        })
-        .collect();
     let record = FeitRecord {
         offset,
-        ftm_clock: u32_at(8),
-        num_rx,
-        num_tx,
-        num_subcarriers,
-        rssi: [u32_at(60), u32_at(64)],
-        source_mac: [h[68], h[69], h[70], h[71], h[72], h[73]],
-        mu_clock: u32_at(88),
-        rate_flags: u32_at(92),
-        csi,
+        header,
+        csi: csi_values(data),
     };
     Ok((record, end))
 }
@@ -278,11 +146,12 @@ impl FeitSummary {
             ..Self::default()
         };
         for r in &capture.records {
-            let shape = format!("{}x{}x{}", r.num_rx, r.num_tx, r.num_subcarriers);
+            let h = &r.header;
+            let shape = format!("{}x{}x{}", h.num_rx, h.num_tx, h.num_subcarriers);
             *s.shapes.entry(shape).or_default() += 1;
-            let format = format!("{} {} MHz", r.format().name(), r.width_mhz());
+            let format = format!("{} {} MHz", h.format().name(), h.width_mhz());
             *s.formats.entry(format).or_default() += 1;
-            let mac: Vec<String> = r.source_mac.iter().map(|b| format!("{b:02x}")).collect();
+            let mac: Vec<String> = h.source_mac.iter().map(|b| format!("{b:02x}")).collect();
             *s.transmitters.entry(mac.join(":")).or_default() += 1;
         }
         s

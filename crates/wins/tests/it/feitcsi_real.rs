@@ -52,7 +52,8 @@ fn every_record_equals_csikit_field_by_field() {
             (records, records),
             "{name}"
         );
-        for (r, x) in capture.records.iter().zip(&refs) {
+        for (rec, x) in capture.records.iter().zip(&refs) {
+            let r = &rec.header;
             let at = format!("{name} record {}", x.index);
             let values = u32::from(r.num_rx) * u32::from(r.num_tx) * r.num_subcarriers;
             assert_eq!(values * 4, x.csi_size, "{at}");
@@ -83,7 +84,7 @@ fn every_record_equals_csikit_field_by_field() {
             for (sc, per_rx) in x.csi.iter().enumerate() {
                 for (rx, per_tx) in per_rx.iter().enumerate() {
                     for (tx, &[re, im]) in per_tx.iter().enumerate() {
-                        let ours = r.csi_at(rx, tx, sc).unwrap();
+                        let ours = rec.csi_at(rx, tx, sc).unwrap();
                         assert_eq!((ours.re, ours.im), (re, im), "{at} sc {sc} rx {rx} tx {tx}");
                     }
                 }

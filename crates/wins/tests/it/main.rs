@@ -11,8 +11,10 @@
 
 mod aoa_accuracy;
 mod aoa_real;
+mod atheros_real;
 mod bounds;
 mod capture_check;
+mod capture_formats;
 mod chain_offsets;
 mod data;
 mod dataset_fuzz;
@@ -28,6 +30,7 @@ mod intel5300_roundtrip;
 mod live_session;
 mod nexmon_real;
 mod observability;
+mod picoscenes_real;
 mod pipeline_flights;
 mod pipeline_run;
 mod pymavlink;

@@ -5,6 +5,10 @@
 use std::io::{self, Read};
 use std::path::Path;
 
+use crate::csi::atheros::looks_like_atheros;
+use crate::csi::feitcsi::looks_like_feitcsi;
+use crate::csi::picoscenes::looks_like_picoscenes;
+
 use super::layout::{CODE_CSI, CODE_FRAME, HEADER_LEN, LEN_FIELD, packed_csi_len};
 
 /// Bytes read to identify a file: enough for a few hundred records.
@@ -78,6 +82,11 @@ pub fn identify_bytes(head: &[u8]) -> Option<Identified> {
     if let Some(extra) = longer_csi_records(head) {
         return Some(Identified::LongerCsiRecords { extra });
     }
+    if looks_like_atheros(head) {
+        return Some(Identified::Foreign(
+            "an Atheros CSI Tool log (`wins csi info` reads it; the AoA and the estimator do not take it yet)",
+        ));
+    }
     (1..=MAX_PREFIX)
         .find(|&p| {
             walk(head, p).is_some_and(|w| w.records >= MIN_RECORDS && w.csi_extra == Some(0))
@@ -95,6 +104,16 @@ fn magic(head: &[u8]) -> Option<&'static str> {
     {
         return Some(
             "a pcap capture (Nexmon writes its CSI as UDP packets in one: `wins csi info` reads it; the AoA and the estimator do not take it yet)",
+        );
+    }
+    if looks_like_picoscenes(head) {
+        return Some(
+            "a PicoScenes file (`wins csi info` reads it; the AoA and the estimator do not take it yet)",
+        );
+    }
+    if looks_like_feitcsi(head) {
+        return Some(
+            "a FeitCSI file of an Intel AX200/AX210 (`wins csi info` reads it; the AoA and the estimator do not take it yet)",
         );
     }
     if starts(&[0x0a, 0x0d, 0x0d, 0x0a]) {
@@ -172,4 +191,10 @@ fn longer_csi_records(head: &[u8]) -> Option<usize> {
         .then_some(w.csi_extra)
         .flatten()
         .filter(|&e| e > 0)
+}
+
+/// Whether `head`, a file's first bytes, frames from its first byte as CSI Tool records (up
+/// to the sample's end) and holds at least one.
+pub fn looks_like_csi_tool(head: &[u8]) -> bool {
+    walk(head, 0).is_some_and(|w| w.records >= 1)
 }

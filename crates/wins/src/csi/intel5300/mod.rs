@@ -45,7 +45,7 @@ pub use bfee::unpack_reference;
 pub use columns::CsiColumns;
 pub use export::{ExportFormat, ExportStats, export};
 pub use framing::{FramingError, MAX_UNFRAMED, Skip, SkipReason};
-pub use identify::{Identified, identify, identify_bytes, why_no_records};
+pub use identify::{Identified, identify, identify_bytes, looks_like_csi_tool, why_no_records};
 pub use layout::{CODE_CSI, CODE_FRAME, CSI_PREFIX, HEADER_LEN, LEN_FIELD, packed_csi_len};
 pub use rate::{Modulation, RateFlags};
 pub use reader::{

@@ -22,8 +22,7 @@ pub enum Event {
     Skipped(Skip),
 }
 
-/// A transmitter's 48-bit MAC address, as sent on the air.
-pub type MacAddress = [u8; 6];
+pub use crate::csi::MacAddress;
 
 /// Offset of the transmitter address (`addr2`) in a 0xC1 frame record: its framing (length and
 /// code, 3 bytes), then the 802.11 header's frame control (2), duration (2) and receiver address

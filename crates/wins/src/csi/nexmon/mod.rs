@@ -21,7 +21,7 @@ use std::path::Path;
 use num_complex::Complex;
 
 use self::pcap::{PcapError, PcapTail, PcapWalk};
-use crate::csi::intel5300::MacAddress;
+use crate::csi::MacAddress;
 
 /// Nexmon's UDP destination port.
 pub const NEXMON_PORT: u16 = 5500;
