@@ -8,6 +8,7 @@ pub mod format;
 pub mod intel5300;
 pub mod iwlmvm;
 pub mod nexmon;
+pub mod packet;
 pub mod picoscenes;
 pub mod sanitize;
 pub(crate) mod subcarriers;

@@ -44,7 +44,10 @@ fn every_real_capture_is_told_for_its_format() {
                 path.display()
             );
             let summary = CaptureSummary::of_path(&path, None).unwrap();
-            assert_eq!(summary.json_key() == "summary", format == CaptureFormat::Intel5300);
+            assert_eq!(
+                summary.json_key() == "summary",
+                format == CaptureFormat::Intel5300
+            );
             assert_eq!(summary.why_empty(&path), None, "{}", path.display());
         }
     }
@@ -73,7 +76,10 @@ fn a_format_forced_on_the_wrong_file_reads_nothing_and_says_why() {
         assert!(why.contains(says), "{format}: {why}");
     }
     // Read as an Intel 5300 log, each names what it is.
-    for (path, says) in [(&pico, "a PicoScenes file"), (&ath, "an Atheros CSI Tool log")] {
+    for (path, says) in [
+        (&pico, "a PicoScenes file"),
+        (&ath, "an Atheros CSI Tool log"),
+    ] {
         let summary = CaptureSummary::of_path(path, Some(CaptureFormat::Intel5300)).unwrap();
         let why = summary.why_empty(path).expect("nothing read");
         assert!(why.contains(says), "{why}");

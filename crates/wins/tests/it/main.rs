@@ -30,6 +30,7 @@ mod intel5300_roundtrip;
 mod live_session;
 mod nexmon_real;
 mod observability;
+mod packets_real;
 mod picoscenes_real;
 mod pipeline_flights;
 mod pipeline_run;

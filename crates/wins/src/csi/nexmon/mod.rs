@@ -43,6 +43,8 @@ pub struct NexmonPacket {
     pub ts_sec: u32,
     /// Capture time, the sub-second part in µs (ns for a nanosecond pcap).
     pub ts_frac: u32,
+    /// Capture time, ns since the epoch (`ts_sec` and `ts_frac` in one).
+    pub time_ns: i64,
     /// Bytes captured.
     pub caplen: u32,
     /// Bytes on the wire.
@@ -182,6 +184,7 @@ pub fn read_nexmon(path: &Path) -> Result<NexmonCapture, NexmonError> {
 /// [`read_nexmon`] of a capture held in memory.
 pub fn parse_nexmon(bytes: &[u8]) -> Result<NexmonCapture, PcapError> {
     let mut walk = PcapWalk::new(bytes)?;
+    let frac_ns = if walk.header().nanoseconds { 1 } else { 1000 };
     let mut capture = NexmonCapture {
         bytes: bytes.len() as u64,
         ..NexmonCapture::default()
@@ -193,6 +196,8 @@ pub fn parse_nexmon(bytes: &[u8]) -> Result<NexmonCapture, PcapError> {
                 offset: record.offset,
                 ts_sec: record.ts_sec,
                 ts_frac: record.ts_frac,
+                time_ns: i64::from(record.ts_sec) * 1_000_000_000
+                    + i64::from(record.ts_frac) * frac_ns,
                 caplen: record.caplen,
                 wirelen: record.wirelen,
                 ..p
@@ -254,6 +259,7 @@ fn packet(frame: &[u8]) -> Option<NexmonPacket> {
         offset: 0,
         ts_sec: 0,
         ts_frac: 0,
+        time_ns: 0,
         caplen: 0,
         wirelen: 0,
         magic,
