@@ -7,10 +7,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
+use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::{CsiRecord, SkipReason};
 use wins::dataset::truth::Truth;
+use wins::pipeline::aoa_log::capture::estimate_capture;
 use wins::pipeline::aoa_log::input::{AoaInput, AoaInputError, AoaSource, AoaSpec};
-use wins::pipeline::aoa_log::{AoaMode, truth_pairs};
+use wins::pipeline::aoa_log::{AoaLogSummary, AoaMode, PacketAoa, truth_pairs};
 use wins::rig::ChainCalibration;
 use wins_plot::{HeatMap, Marker, MarkerStyle, heat_map_png};
 
@@ -21,8 +23,9 @@ const PLOT_HEIGHT: u32 = 600;
 /// The input and the array: shared by `aoa` and `calibrate`.
 #[derive(clap::Args)]
 pub struct InputArgs {
-    /// Intel 5300 `.dat` log, or a dataset directory (then --ap names the AP; the channel and the
-    /// array come from its dataset.toml).
+    /// A capture (an Intel 5300 `.dat` log, a Nexmon pcap, a FeitCSI, PicoScenes or Atheros
+    /// file), or a dataset directory (then --ap names the AP; the channel and the array come
+    /// from its dataset.toml).
     file: PathBuf,
     /// AP of a dataset directory.
     #[arg(long)]
@@ -33,13 +36,17 @@ pub struct InputArgs {
     /// Wi-Fi channel of a `.dat` log instead of --center-freq-hz: 1–14 (2.4 GHz) or 32–177 (5 GHz).
     #[arg(long, value_name = "N")]
     channel: Option<u32>,
-    /// Antenna spacing of a `.dat` log's 3-antenna array, m [default: half a wavelength].
+    /// Antenna spacing of a capture's array, m [default: half a wavelength].
     #[arg(long, value_name = "M")]
     spacing_m: Option<f64>,
     /// Settings, TOML (the `[aoa]` table of the configuration file of `wins run`; see
     /// `wins config`).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
+    /// Read the file as this capture format instead of the one its first bytes say: intel5300,
+    /// nexmon, feitcsi, picoscenes or atheros.
+    #[arg(long, value_name = "FORMAT")]
+    csi_format: Option<CaptureFormat>,
 }
 
 /// `wins aoa`.
@@ -152,6 +159,15 @@ fn report_log_skips(input: &AoaInput, label: &Path) {
 
 /// `wins aoa`.
 pub fn aoa(args: AoaArgs) -> Result<()> {
+    let file = &args.input.file;
+    let format = match args.input.csi_format {
+        Some(f) => Some(f),
+        None if file.is_file() => CaptureFormat::of_path(file).ok().flatten(),
+        None => None,
+    };
+    if let Some(format) = format.filter(|f| *f != CaptureFormat::Intel5300) {
+        return aoa_capture(&args, format);
+    }
     let input = open_input(&args.input)?;
     let calibration = match &args.calibration {
         Some(path) => Some(ChainCalibration::load(path)?),
@@ -188,44 +204,10 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
         );
     }
     let (rows, summary) = (&outcome.rows, &outcome.summary);
-
-    let sink: Box<dyn Write> = match &args.out {
-        Some(p) => {
-            Box::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)
-        }
-        None => Box::new(io::stdout().lock()),
-    };
-    let mut sink = BufWriter::new(sink);
-    match args.format {
-        RowFormat::Csv => {
-            let mut w = csv::Writer::from_writer(&mut sink);
-            for row in rows {
-                w.serialize(row)?;
-            }
-            w.flush()?;
-        }
-        RowFormat::Jsonl => {
-            for row in rows {
-                serde_json::to_writer(&mut sink, row)?;
-                writeln!(sink)?;
-            }
-        }
-    }
-    sink.flush()?;
-
+    write_rows(rows, args.format, args.out.as_deref())?;
     let file = &args.input.file;
     report_log_skips(&input, file);
-    eprintln!(
-        "{}: {} packets, {} with AoA, {} no credible peak, {} skipped",
-        file.display(),
-        summary.packets,
-        summary.with_aoa,
-        summary.no_credible_peak,
-        summary.skipped()
-    );
-    for (reason, n) in &summary.skipped_by_reason {
-        eprintln!("  skipped {n}: {reason}");
-    }
+    print_summary(file, summary);
     if summary.groups > 0 {
         let failed: usize = summary.groups_without_direct_path.values().sum();
         eprintln!(
@@ -368,4 +350,94 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
     }
     println!("written to {}", args.out.display());
     Ok(())
+}
+
+/// `wins aoa` on a capture of another card than the Intel 5300.
+fn aoa_capture(args: &AoaArgs, format: CaptureFormat) -> Result<()> {
+    if matches!(args.mode, Mode::Spotfi) || args.plot.is_some() {
+        bail!(
+            "--mode spotfi and --plot take Intel 5300 logs and datasets; {} is {}",
+            args.input.file.display(),
+            format.describe()
+        );
+    }
+    let calibration = match &args.calibration {
+        Some(path) => Some(ChainCalibration::load(path)?),
+        None => None,
+    };
+    let spec = AoaSpec {
+        file: args.input.file.clone(),
+        ap: args.input.ap.clone(),
+        channel: args.input.channel,
+        center_freq_hz: args.input.center_freq_hz,
+        spacing_m: args.input.spacing_m,
+        config: match &args.input.config {
+            Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
+            None => AoaConfig::default(),
+        },
+    };
+    let out = estimate_capture(&spec, format, calibration)?;
+    write_rows(&out.rows, args.format, args.out.as_deref())?;
+    eprintln!(
+        "{}: {}, {} antennas {:.4} m apart at {:.3} GHz",
+        args.input.file.display(),
+        format.describe(),
+        out.geometry.num_antennas,
+        out.geometry.spacing_m,
+        out.center_freq_hz / 1e9
+    );
+    if let Some(lost) = &out.lost {
+        eprintln!("  not read: {lost}");
+    }
+    print_summary(&args.input.file, &out.summary);
+    if args.calibration.is_none() {
+        eprintln!(
+            "warning: uncalibrated chains: the phase step between chains is not measured, so \
+             angles are offset on real hardware (see wins calibrate)"
+        );
+    }
+    Ok(())
+}
+
+/// Writes the rows as CSV or JSON Lines to `out` (standard output if absent).
+fn write_rows(rows: &[PacketAoa], format: RowFormat, out: Option<&Path>) -> Result<()> {
+    let sink: Box<dyn Write> = match out {
+        Some(p) => {
+            Box::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)
+        }
+        None => Box::new(io::stdout().lock()),
+    };
+    let mut sink = BufWriter::new(sink);
+    match format {
+        RowFormat::Csv => {
+            let mut w = csv::Writer::from_writer(&mut sink);
+            for row in rows {
+                w.serialize(row)?;
+            }
+            w.flush()?;
+        }
+        RowFormat::Jsonl => {
+            for row in rows {
+                serde_json::to_writer(&mut sink, row)?;
+                writeln!(sink)?;
+            }
+        }
+    }
+    sink.flush()?;
+    Ok(())
+}
+
+/// Prints the run's counts.
+fn print_summary(file: &Path, summary: &AoaLogSummary) {
+    eprintln!(
+        "{}: {} packets, {} with AoA, {} no credible peak, {} skipped",
+        file.display(),
+        summary.packets,
+        summary.with_aoa,
+        summary.no_credible_peak,
+        summary.skipped()
+    );
+    for (reason, n) in &summary.skipped_by_reason {
+        eprintln!("  skipped {n}: {reason}");
+    }
 }

@@ -155,6 +155,26 @@ fn corrupt_and_missing_input() {
         "{text}"
     );
     assert!(text.contains("HT 20 MHz: 3"), "{text}");
+
+    // `wins aoa` takes it: the file has no carrier, so one must be given.
+    let feit_arg = feit_path.to_str().expect("utf-8");
+    let out = wins(&["aoa", feit_arg]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("does not say its carrier"), "{err}");
+    let out = wins(&["aoa", feit_arg, "--channel", "9"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(text.lines().count(), 4, "{text}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("FeitCSI") && err.contains("2 antennas"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -3,6 +3,7 @@
 //! rows with a status and counted in the summary. Also pairs a dataset's records with the truth
 //! AoA, for calibrating on a capture with a reference system (or the simulator's truth).
 
+pub mod capture;
 pub mod input;
 
 use std::collections::BTreeMap;

@@ -110,7 +110,14 @@ fn per_packet_aoa_is_as_stable_as_the_raw_csi_on_every_cards_static_captures() {
 }
 
 /// (file, packets, chains, subcarriers, streams, carrier MHz)
-type Expected = (&'static str, usize, &'static [u8], usize, usize, Option<f64>);
+type Expected = (
+    &'static str,
+    usize,
+    &'static [u8],
+    usize,
+    usize,
+    Option<f64>,
+);
 
 #[test]
 fn every_real_capture_becomes_packets_with_its_cards_shape() {
@@ -194,5 +201,60 @@ fn every_real_capture_becomes_packets_with_its_cards_shape() {
     assert_eq!(
         pico.iter().filter(|p| p.subcarriers.len() == 48).count(),
         107
+    );
+}
+
+#[test]
+fn wins_aoa_takes_every_cards_capture() {
+    use wins::pipeline::aoa_log::capture::estimate_capture;
+    use wins::pipeline::aoa_log::input::{AoaInputError, AoaSpec};
+    let Some(shared) = shared_data() else { return };
+    for (file, format, packets) in [
+        ("atheros/csiread_ath_csi_1.dat", CaptureFormat::Atheros, 401),
+        (
+            "picoscenes/csikit_picoscenes_ax200_example.csi",
+            CaptureFormat::PicoScenes,
+            885,
+        ),
+        (
+            "nexmon/mutrack_D4_CSI_2G_20M_AP2_tr1.pcap",
+            CaptureFormat::Nexmon,
+            247,
+        ),
+    ] {
+        let spec = AoaSpec {
+            file: shared.join(file),
+            ..AoaSpec::default()
+        };
+        let out = estimate_capture(&spec, format, None).unwrap();
+        assert_eq!(
+            (out.rows.len(), out.summary.packets),
+            (packets, packets),
+            "{file}"
+        );
+        // Every packet of the array's chain count has an angle; the others are skipped with
+        // the reason (D4's frames that lost a core).
+        let full = out.geometry.num_antennas;
+        assert_eq!(
+            out.summary.with_aoa + out.summary.skipped(),
+            packets,
+            "{file}: {:?}",
+            out.summary
+        );
+        assert!(
+            out.summary.with_aoa * 10 >= packets * 9,
+            "{file}: {:?}",
+            out.summary
+        );
+        assert!(full >= 2, "{file}");
+    }
+    let feit = AoaSpec {
+        file: shared.join("feitcsi/csikit_HT20_2452.csi"),
+        ..AoaSpec::default()
+    };
+    let err = estimate_capture(&feit, CaptureFormat::FeitCsi, None).unwrap_err();
+    assert!(
+        matches!(&err, AoaInputError::Options(why) if why.contains("does not say its carrier")),
+        "{err}"
     );
 }

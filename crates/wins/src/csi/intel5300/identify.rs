@@ -84,7 +84,7 @@ pub fn identify_bytes(head: &[u8]) -> Option<Identified> {
     }
     if looks_like_atheros(head) {
         return Some(Identified::Foreign(
-            "an Atheros CSI Tool log (`wins csi info` reads it; the AoA and the estimator do not take it yet)",
+            "an Atheros CSI Tool log (`wins csi info` and `wins aoa` read it; the estimator does not take it yet)",
         ));
     }
     (1..=MAX_PREFIX)
@@ -108,12 +108,12 @@ fn magic(head: &[u8]) -> Option<&'static str> {
     }
     if looks_like_picoscenes(head) {
         return Some(
-            "a PicoScenes file (`wins csi info` reads it; the AoA and the estimator do not take it yet)",
+            "a PicoScenes file (`wins csi info` and `wins aoa` read it; the estimator does not take it yet)",
         );
     }
     if looks_like_feitcsi(head) {
         return Some(
-            "a FeitCSI file of an Intel AX200/AX210 (`wins csi info` reads it; the AoA and the estimator do not take it yet)",
+            "a FeitCSI file of an Intel AX200/AX210 (`wins csi info` and `wins aoa` read it; the estimator does not take it yet)",
         );
     }
     if starts(&[0x0a, 0x0d, 0x0d, 0x0a]) {

@@ -1,0 +1,147 @@
+//! Per-packet AoA of a capture from a card other than the Intel 5300 (Nexmon, FeitCSI,
+//! PicoScenes, Atheros): its packets ([`read_packets`]) on the card's own subcarriers and
+//! chains, MUSIC per packet ([`crate::aoa::PacketAoa`]), one row per packet in the layout of the
+//! 5300's ([`super::PacketAoa`]). The array is as many antennas as the packets have chains,
+//! half a wavelength apart unless told; the carrier is the file's unless told (FeitCSI files do
+//! not carry it). Packets of another chain count than the array are skipped and counted.
+
+use std::collections::BTreeMap;
+
+use super::input::{AoaInputError, AoaSpec};
+use super::{AoaLogSummary, PacketAoa as AoaRow};
+use crate::aoa::PacketAoa;
+use crate::csi::format::CaptureFormat;
+use crate::csi::packet::{CsiPacket, read_packets};
+use crate::pipeline::stats::PacketStatus;
+use crate::rig::array::half_wavelength_m;
+use crate::rig::channel::wifi_channel_hz;
+use crate::rig::{ArrayGeometry, ChainCalibration};
+
+/// What an AoA run over a capture gives.
+#[derive(Debug)]
+pub struct CaptureAoa {
+    /// The capture's format.
+    pub format: CaptureFormat,
+    /// One row per packet, in order.
+    pub rows: Vec<AoaRow>,
+    /// The counts (packets the reader could not make, by reason, among the skipped).
+    pub summary: AoaLogSummary,
+    /// The array used.
+    pub geometry: ArrayGeometry,
+    /// The carrier used, Hz.
+    pub center_freq_hz: f64,
+    /// What the reader could not read, in words.
+    pub lost: Option<String>,
+}
+
+/// The AoA of every packet of the capture `spec.file` in `format` (module doc), with
+/// `calibration` (one phase offset per chain) when given.
+pub fn estimate_capture(
+    spec: &AoaSpec,
+    format: CaptureFormat,
+    calibration: Option<ChainCalibration>,
+) -> Result<CaptureAoa, AoaInputError> {
+    let options = AoaInputError::Options;
+    if spec.ap.is_some() {
+        return Err(options("an AP is for a dataset directory".into()));
+    }
+    let (_, read) = read_packets(&spec.file, Some(format))
+        .map_err(|e| AoaInputError::NoRecords(e.to_string()))?;
+    let Some(first) = read.packets.first() else {
+        let why: Vec<String> = read.skipped.keys().cloned().collect();
+        return Err(AoaInputError::NoRecords(format!(
+            "{}: no packet with CSI as {} ({})",
+            spec.file.display(),
+            format.describe(),
+            read.lost
+                .clone()
+                .into_iter()
+                .chain(why)
+                .collect::<Vec<_>>()
+                .join("; ")
+        )));
+    };
+    let center_freq_hz = match (spec.channel, spec.center_freq_hz, first.carrier_hz) {
+        (Some(n), _, _) => wifi_channel_hz(n)
+            .ok_or_else(|| options(format!("channel {n} is not a Wi-Fi channel")))?,
+        (None, Some(f), _) | (None, None, Some(f)) => f,
+        (None, None, None) => {
+            return Err(options(format!(
+                "{} does not say its carrier: give --channel or --center-freq-hz",
+                format.describe()
+            )));
+        }
+    };
+    let num_antennas = read
+        .packets
+        .iter()
+        .map(CsiPacket::num_rx)
+        .max()
+        .unwrap_or(0);
+    let geometry = ArrayGeometry {
+        num_antennas,
+        spacing_m: spec
+            .spacing_m
+            .unwrap_or_else(|| half_wavelength_m(center_freq_hz)),
+    };
+    let mut aoa = PacketAoa::new(&spec.config, geometry, center_freq_hz, calibration)?;
+    let mut summary = AoaLogSummary {
+        packets: read.packets.len() + read.skipped.values().sum::<u64>() as usize,
+        skipped_by_reason: read
+            .skipped
+            .iter()
+            .map(|(k, v)| (k.clone(), *v as usize))
+            .collect(),
+        ..AoaLogSummary::default()
+    };
+    let mut rows = Vec::with_capacity(read.packets.len());
+    let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
+    for (index, p) in read.packets.iter().enumerate() {
+        let mut row = AoaRow {
+            index,
+            offset: p.offset,
+            timestamp_ns: p.clock_ns,
+            bandwidth_mhz: p.bandwidth_mhz,
+            status: PacketStatus::NoCrediblePeak,
+            reason: String::new(),
+            aoa_deg: None,
+            tof_ns: None,
+            spectrum_db: None,
+            aliases_deg: String::new(),
+            peaks: 0,
+            group: None,
+            group_aoa_deg: None,
+        };
+        match aoa.peaks(p, crate::aoa::AoaWindow::FULL) {
+            Ok(peaks) => {
+                row.peaks = peaks.len();
+                if let Some(peak) = peaks.first() {
+                    row.status = PacketStatus::Measured;
+                    row.aoa_deg = Some(peak.aoa_deg());
+                    row.tof_ns = Some(peak.tof_s * 1e9);
+                    row.spectrum_db = Some(peak.spectrum_db());
+                    summary.with_aoa += 1;
+                } else {
+                    summary.no_credible_peak += 1;
+                }
+            }
+            Err(e) => {
+                row.status = PacketStatus::Skipped;
+                row.reason = e.to_string();
+                *reasons.entry(row.reason.clone()).or_default() += 1;
+            }
+        }
+        rows.push(row);
+    }
+    for (k, v) in reasons {
+        *summary.skipped_by_reason.entry(k).or_default() += v;
+    }
+    Ok(CaptureAoa {
+        format,
+        rows,
+        summary,
+        geometry,
+        center_freq_hz,
+        lost: read.lost,
+    })
+}
