@@ -10,7 +10,7 @@ use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
 use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::{CsiRecord, SkipReason};
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::capture::estimate_capture;
+use wins::pipeline::aoa_log::capture::{estimate_capture, other_card};
 use wins::pipeline::aoa_log::input::{AoaInput, AoaInputError, AoaSource, AoaSpec};
 use wins::pipeline::aoa_log::{AoaLogSummary, AoaMode, PacketAoa, truth_pairs};
 use wins::rig::ChainCalibration;
@@ -159,13 +159,7 @@ fn report_log_skips(input: &AoaInput, label: &Path) {
 
 /// `wins aoa`.
 pub fn aoa(args: AoaArgs) -> Result<()> {
-    let file = &args.input.file;
-    let format = match args.input.csi_format {
-        Some(f) => Some(f),
-        None if file.is_file() => CaptureFormat::of_path(file).ok().flatten(),
-        None => None,
-    };
-    if let Some(format) = format.filter(|f| *f != CaptureFormat::Intel5300) {
+    if let Some(format) = other_card(&args.input.file, args.input.csi_format) {
         return aoa_capture(&args, format);
     }
     let input = open_input(&args.input)?;

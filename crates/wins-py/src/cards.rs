@@ -1,5 +1,6 @@
 //! The captures of other cards than the Intel 5300: Nexmon pcaps (`read_nexmon`) and FeitCSI
-//! files (`read_feitcsi`), as columns the Python half turns into numpy arrays.
+//! files (`read_feitcsi`), as columns the Python half turns into numpy arrays; and any card's
+//! capture as the one CSI type (`read_packets`).
 
 use std::path::PathBuf;
 
@@ -184,5 +185,53 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     let formats: Vec<&str> = records.iter().map(|r| r.header.format().name()).collect();
     out.set_item("format", formats)?;
     out.set_item("tail", capture.lost())?;
+    Ok(out.unbind())
+}
+
+/// Reads any card's capture as packets (see python/wins/__init__.py, `read_packets`): the
+/// format, one dict per packet (its CSI as little-endian float64 pairs), the skips and what
+/// was not read.
+#[pyfunction]
+#[pyo3(signature = (path, format = None))]
+pub fn read_packets(py: Python<'_>, path: PathBuf, format: Option<String>) -> PyResult<Py<PyDict>> {
+    let forced = match &format {
+        Some(name) => Some(
+            name.parse::<wins::csi::format::CaptureFormat>()
+                .map_err(raise_text)?,
+        ),
+        None => None,
+    };
+    let (format, read) = py
+        .detach(|| wins::csi::packet::read_packets(&path, forced))
+        .map_err(raise)?;
+    let out = PyDict::new(py);
+    out.set_item("format", format.name())?;
+    let packets = pyo3::types::PyList::empty(py);
+    for p in &read.packets {
+        let d = PyDict::new(py);
+        d.set_item("offset", p.offset)?;
+        d.set_item("clock_ns", p.clock_ns)?;
+        d.set_item("carrier_hz", p.carrier_hz)?;
+        d.set_item("bandwidth_mhz", p.bandwidth_mhz)?;
+        d.set_item("spacing_hz", p.spacing_hz)?;
+        d.set_item("subcarriers", p.subcarriers.clone())?;
+        d.set_item("chains", p.chains.clone())?;
+        d.set_item("num_tx", p.num_tx)?;
+        let re_im: Vec<f64> = p.csi.iter().flat_map(|c| [c.re, c.im]).collect();
+        d.set_item("csi", PyBytes::new(py, &le_bytes(&re_im, f64::to_le_bytes)))?;
+        d.set_item("rssi", p.rssi.clone())?;
+        let mac = p.transmitter.map(|m| {
+            m.iter()
+                .map(|b| format!("{b:02x}"))
+                .collect::<Vec<_>>()
+                .join(":")
+        });
+        d.set_item("transmitter", mac)?;
+        d.set_item("sequence", p.sequence)?;
+        packets.append(d)?;
+    }
+    out.set_item("packets", packets)?;
+    out.set_item("skipped", read.skipped.clone())?;
+    out.set_item("lost", read.lost.clone())?;
     Ok(out.unbind())
 }

@@ -6,9 +6,11 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use wins::Config;
+use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::{CsiColumns, Event, LogReader, ReadError, Skip, why_no_records};
 use wins::io_safety::open_regular;
 use wins::pipeline::aoa_log::AoaMode;
+use wins::pipeline::aoa_log::capture::{estimate_capture, other_card};
 use wins::pipeline::aoa_log::input::{AoaInput, AoaSpec};
 use wins::rig::ChainCalibration;
 
@@ -211,7 +213,8 @@ impl CsiChunks {
 /// summary as JSON, and the warnings.
 #[pyfunction]
 #[pyo3(signature = (path, ap = None, channel = None, center_freq_hz = None, spacing_m = None,
-                    config = None, calibration = None, mode = "music", group_size = 10))]
+                    config = None, calibration = None, mode = "music", group_size = 10,
+                    csi_format = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn aoa(
     py: Python<'_>,
@@ -224,7 +227,12 @@ pub fn aoa(
     calibration: Option<PathBuf>,
     mode: &str,
     group_size: usize,
+    csi_format: Option<String>,
 ) -> PyResult<(String, String, Vec<String>)> {
+    let forced = match &csi_format {
+        Some(name) => Some(name.parse::<CaptureFormat>().map_err(raise_text)?),
+        None => None,
+    };
     let mode = match mode {
         "music" => AoaMode::Music,
         "spotfi" => AoaMode::Spotfi { group_size },
@@ -251,6 +259,29 @@ pub fn aoa(
         spacing_m,
         config,
     };
+    if let Some(format) = other_card(&spec.file, forced) {
+        if !matches!(mode, AoaMode::Music) {
+            return Err(raise_text(format!(
+                "mode \"spotfi\" takes Intel 5300 logs and datasets; {} is {}",
+                spec.file.display(),
+                format.describe()
+            )));
+        }
+        let out = py
+            .detach(|| estimate_capture(&spec, format, calibration))
+            .map_err(raise)?;
+        let mut warnings: Vec<String> = out.lost.iter().map(|l| format!("not read: {l}")).collect();
+        if uncalibrated {
+            warnings.push(
+                "uncalibrated chains: the phase step between chains is not measured, so angles \
+                 are offset on real hardware"
+                    .into(),
+            );
+        }
+        let rows = serde_json::to_string(&out.rows).map_err(raise)?;
+        let summary = serde_json::to_string(&out.summary).map_err(raise)?;
+        return Ok((rows, summary, warnings));
+    }
     let outcome = py
         .detach(|| AoaInput::open(&spec)?.estimate(calibration, mode))
         .map_err(raise)?;

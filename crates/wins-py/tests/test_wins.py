@@ -119,6 +119,42 @@ def test_every_feitcsi_file_reads_as_csikit_reads_it(name: str) -> None:
         assert mac == r["source_mac"]
 
 
+def test_atheros_and_picoscenes_read_as_their_references_as_packets() -> None:
+    for card in ["atheros", "picoscenes"]:
+        if not (SHARED / card).is_dir():
+            missing(f"the shared captures {SHARED / card}")
+    # Atheros: the packet's CSI is the reference's [tone][rx][tx], every value.
+    log = SHARED / "atheros" / "csiread_ath_csi_1.dat"
+    ath = wins.read_packets(log)
+    refs = [json.loads(line) for line in
+            (SHARED / "atheros" / "csiread_ath_csi_1.csiread_ref.jsonl").read_text().splitlines()]
+    assert (ath.format, len(ath.packets)) == ("atheros", len(refs))
+    for p, r in zip(ath.packets, refs):
+        ref = np.array(r["csi"], dtype=np.float64)
+        assert np.array_equal(p.csi, ref[..., 0] + 1j * ref[..., 1])
+        assert (p.carrier_hz, p.transmitter) == (2437e6, r["payload_addr2"])
+        assert list(p.subcarriers) == list(range(-28, 0)) + list(range(1, 29))
+    # PicoScenes: the AX200's four HT pilots dropped, the rest as the reference holds it.
+    pico = wins.read_packets(SHARED / "picoscenes" / "csikit_picoscenes_ax200_example.csi")
+    refs = [json.loads(line) for line in (SHARED / "picoscenes" /
+            "csikit_picoscenes_ax200_example.csikit_ref.jsonl").read_text().splitlines()]
+    assert (pico.format, len(pico.packets), pico.lost) == ("picoscenes", 885, None)
+    kept = [i for i in range(56) if i not in (7, 21, 34, 48)]
+    for p, r in zip(pico.packets, refs):
+        if len(r["csi"]) != 56:
+            continue
+        ref = np.array(r["csi"], dtype=np.float64)[kept]
+        assert np.array_equal(p.csi, ref[..., 0] + 1j * ref[..., 1])
+        assert p.transmitter == r["mpdu"]["addr2"]
+    # Per-packet AoA of any card, as `wins aoa` gives it.
+    a = wins.aoa(log)
+    assert len(a.rows["aoa_deg"]) == 401 and a.summary["with_aoa"] == 401
+    with pytest.raises(wins.WinsError, match="spotfi"):
+        wins.aoa(log, mode="spotfi")
+    with pytest.raises(wins.WinsError, match="unknown CSI format"):
+        wins.read_packets(log, format="pico")
+
+
 def test_chunks_are_the_whole_log() -> None:
     path = max(captures(), key=lambda p: p.stat().st_size)
     whole = wins.read_csi(path, ntx=3)

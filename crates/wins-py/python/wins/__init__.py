@@ -31,6 +31,8 @@ __all__ = [
     "CsiData",
     "FeitData",
     "NexmonData",
+    "Packet",
+    "Packets",
     "Run",
     "Sweep",
     "WinsError",
@@ -43,6 +45,7 @@ __all__ = [
     "read_csi",
     "read_feitcsi",
     "read_nexmon",
+    "read_packets",
     "run",
     "scenarios",
     "simulate",
@@ -203,6 +206,66 @@ def read_feitcsi(path: PathLike) -> FeitData:
     )
 
 
+@dataclass
+class Packet:
+    """One packet's CSI from any card: ``csi`` ``(subcarriers, rx, tx)`` complex128, with the
+    ``subcarriers`` (indices) it belongs to, ``spacing_hz`` between them, the receive ``chains``
+    (cores), the ``carrier_hz`` (``None`` when the file does not say), ``clock_ns`` (the clock
+    the format carries, as stored), ``rssi`` per chain as the card reports it, and the
+    ``transmitter`` and ``sequence`` when the format carries them."""
+
+    offset: int
+    clock_ns: int
+    carrier_hz: Optional[float]
+    bandwidth_mhz: int
+    spacing_hz: float
+    subcarriers: np.ndarray
+    chains: List[int]
+    csi: np.ndarray
+    rssi: List[Optional[float]]
+    transmitter: Optional[str]
+    sequence: Optional[int]
+
+
+@dataclass
+class Packets:
+    """A capture's packets (``format``: ``"intel5300"``, ``"nexmon"``, ``"feitcsi"``,
+    ``"picoscenes"`` or ``"atheros"``), the records read but not made packets per reason
+    (``skipped``), and what the reader could not read (``lost``)."""
+
+    format: str
+    packets: List[Packet]
+    skipped: Dict[str, int]
+    lost: Optional[str] = None
+
+
+def read_packets(path: PathLike, format: Optional[str] = None) -> Packets:
+    """Reads any card's capture (an Intel 5300 log, a Nexmon pcap, a FeitCSI, PicoScenes or
+    Atheros CSI Tool file; told from its first bytes unless ``format`` names it) as one CSI type
+    per packet (``wins.Packet``); a Nexmon frame's cores make one packet."""
+    d = _wins.read_packets(os.fspath(path), format)
+    packets = []
+    for p in d["packets"]:
+        shape = (len(p["subcarriers"]), len(p["chains"]), p["num_tx"])
+        csi = np.frombuffer(p["csi"], dtype="<f8").copy().view(np.complex128).reshape(shape)
+        packets.append(
+            Packet(
+                offset=p["offset"],
+                clock_ns=p["clock_ns"],
+                carrier_hz=p["carrier_hz"],
+                bandwidth_mhz=p["bandwidth_mhz"],
+                spacing_hz=p["spacing_hz"],
+                subcarriers=np.array(p["subcarriers"], dtype=np.int32),
+                chains=list(p["chains"]),
+                csi=csi,
+                rssi=list(p["rssi"]),
+                transmitter=p["transmitter"],
+                sequence=p["sequence"],
+            )
+        )
+    return Packets(format=d["format"], packets=packets, skipped=dict(d["skipped"]), lost=d["lost"])
+
+
 def _columns(rows: List[Dict[str, Any]]) -> Dict[str, np.ndarray]:
     """Rows of one JSON object each to one numpy array per key: numbers (None as NaN) or text."""
     out: Dict[str, np.ndarray] = {}
@@ -241,10 +304,12 @@ def aoa(
     calibration: Optional[PathLike] = None,
     mode: str = "music",
     group_size: int = 10,
+    csi_format: Optional[str] = None,
 ) -> Aoa:
-    """The AoA of every packet of a log (or of AP ``ap`` of a dataset folder), with the
-    settings of ``wins aoa`` (``config``: a settings file; ``mode``: ``"music"`` or
-    ``"spotfi"``)."""
+    """The AoA of every packet of a capture of any card (or of AP ``ap`` of a dataset folder),
+    with the settings of ``wins aoa`` (``config``: a settings file; ``mode``: ``"music"`` or
+    ``"spotfi"``, the latter for Intel 5300 logs; ``csi_format`` forces the capture's format;
+    ``channel`` or ``center_freq_hz`` for a FeitCSI file, which does not carry its carrier)."""
     rows, summary, warnings = _wins.aoa(
         os.fspath(path),
         ap,
@@ -255,6 +320,7 @@ def aoa(
         None if calibration is None else os.fspath(calibration),
         mode,
         group_size,
+        csi_format,
     )
     return Aoa(rows=_columns(json.loads(rows)), summary=json.loads(summary), warnings=warnings)
 

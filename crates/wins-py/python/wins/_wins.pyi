@@ -16,6 +16,7 @@ class CsiChunks(Iterator[Dict[str, Any]]):
 
 def read_nexmon(path: str, exact: bool = False) -> Dict[str, Any]: ...
 def read_feitcsi(path: str) -> Dict[str, Any]: ...
+def read_packets(path: str, format: Optional[str] = None) -> Dict[str, Any]: ...
 def aoa(
     path: str,
     ap: Optional[str] = None,
@@ -26,6 +27,7 @@ def aoa(
     calibration: Optional[str] = None,
     mode: str = "music",
     group_size: int = 10,
+    csi_format: Optional[str] = None,
 ) -> Tuple[str, str, List[str]]: ...
 def run(
     dataset: str,
