@@ -220,13 +220,10 @@ pub fn read_packets(py: Python<'_>, path: PathBuf, format: Option<String>) -> Py
         let re_im: Vec<f64> = p.csi.iter().flat_map(|c| [c.re, c.im]).collect();
         d.set_item("csi", PyBytes::new(py, &le_bytes(&re_im, f64::to_le_bytes)))?;
         d.set_item("rssi", p.rssi.clone())?;
-        let mac = p.transmitter.map(|m| {
-            m.iter()
-                .map(|b| format!("{b:02x}"))
-                .collect::<Vec<_>>()
-                .join(":")
-        });
-        d.set_item("transmitter", mac)?;
+        d.set_item(
+            "transmitter",
+            p.transmitter.map(|m| wins::csi::report::mac(&m)),
+        )?;
         d.set_item("sequence", p.sequence)?;
         packets.append(d)?;
     }

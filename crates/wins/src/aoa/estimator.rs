@@ -269,7 +269,7 @@ pub fn received_csi(
 
 /// A calibration fits when it has one offset per antenna and was made for this carrier and
 /// spacing (or does not say what for).
-fn check_calibration(
+pub(crate) fn check_calibration(
     calibration: &ChainCalibration,
     geometry: ArrayGeometry,
     center_freq_hz: f64,

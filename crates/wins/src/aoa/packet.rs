@@ -15,7 +15,7 @@
 
 use num_complex::Complex64;
 
-use super::estimator::{AoaConfig, AoaError};
+use super::estimator::{AoaConfig, AoaError, check_calibration};
 use super::music::{AoaWindow, Music, MusicError};
 use super::peak::Peak;
 use crate::csi::packet::CsiPacket;
@@ -54,13 +54,7 @@ impl PacketAoa {
             .map_err(MusicError::from)?;
         let calibration =
             calibration.unwrap_or_else(|| ChainCalibration::identity(geometry.num_antennas));
-        if calibration.phase_offsets_rad.len() != geometry.num_antennas {
-            return Err(crate::rig::CalibrationError::Mismatch {
-                given: calibration.phase_offsets_rad.len(),
-                antennas: geometry.num_antennas,
-            }
-            .into());
-        }
+        check_calibration(&calibration, geometry, center_freq_hz)?;
         Ok(Self {
             config: config.clone(),
             geometry,

@@ -12,6 +12,7 @@ use std::path::Path;
 use num_complex::Complex;
 
 use super::iwlmvm::{IWL_HEADER_LEN, IntelCsiHeader, csi_values};
+use super::report::{count, counts, lost, mac, read_whole};
 
 /// Bytes of a record's header.
 pub const FEIT_HEADER_LEN: usize = IWL_HEADER_LEN;
@@ -40,7 +41,7 @@ pub struct FeitCapture {
     /// The records, in file order.
     pub records: Vec<FeitRecord>,
     /// Where the reading stopped before the end, the bytes left, and why.
-    pub tail: Option<(u64, u64, String)>,
+    pub tail: Option<super::report::Tail>,
     /// Bytes in the file.
     pub bytes: u64,
 }
@@ -48,17 +49,13 @@ pub struct FeitCapture {
 impl FeitCapture {
     /// What was not read at the end of the file, in words (`None`: all of it was read).
     pub fn lost(&self) -> Option<String> {
-        self.tail
-            .as_ref()
-            .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}"))
+        lost(self.tail.as_ref())
     }
 }
 
 /// Reads the FeitCSI file at `path` (a regular file).
 pub fn read_feitcsi(path: &Path) -> std::io::Result<FeitCapture> {
-    let mut bytes = Vec::new();
-    std::io::Read::read_to_end(&mut crate::io_safety::open_regular(path)?, &mut bytes)?;
-    Ok(parse_feitcsi(&bytes))
+    Ok(parse_feitcsi(&read_whole(path)?))
 }
 
 /// [`read_feitcsi`] of a file held in memory.
@@ -148,11 +145,10 @@ impl FeitSummary {
         for r in &capture.records {
             let h = &r.header;
             let shape = format!("{}x{}x{}", h.num_rx, h.num_tx, h.num_subcarriers);
-            *s.shapes.entry(shape).or_default() += 1;
+            count(&mut s.shapes, shape);
             let format = format!("{} {} MHz", h.format().name(), h.width_mhz());
-            *s.formats.entry(format).or_default() += 1;
-            let mac: Vec<String> = h.source_mac.iter().map(|b| format!("{b:02x}")).collect();
-            *s.transmitters.entry(mac.join(":")).or_default() += 1;
+            count(&mut s.formats, format);
+            count(&mut s.transmitters, mac(&h.source_mac));
         }
         s
     }
@@ -160,14 +156,6 @@ impl FeitSummary {
 
 impl std::fmt::Display for FeitSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let list = |m: &std::collections::BTreeMap<String, u64>| {
-            let items: Vec<String> = m.iter().map(|(k, v)| format!("{k}: {v}")).collect();
-            if items.is_empty() {
-                "-".to_string()
-            } else {
-                items.join(", ")
-            }
-        };
         writeln!(f, "{:<12}FeitCSI (Intel AX200/AX210)", "format")?;
         writeln!(f, "{:<12}{} bytes", "size", self.bytes)?;
         writeln!(f, "{:<12}{}", "records", self.records)?;
@@ -175,10 +163,10 @@ impl std::fmt::Display for FeitSummary {
             f,
             "{:<12}{} (rx x tx x subcarriers)",
             "shape",
-            list(&self.shapes)
+            counts(&self.shapes)
         )?;
-        writeln!(f, "{:<12}{}", "frames", list(&self.formats))?;
-        writeln!(f, "{:<12}{}", "transmitter", list(&self.transmitters))?;
+        writeln!(f, "{:<12}{}", "frames", counts(&self.formats))?;
+        writeln!(f, "{:<12}{}", "transmitter", counts(&self.transmitters))?;
         if let Some(t) = &self.tail {
             writeln!(f, "{:<12}{t}", "lost")?;
         }

@@ -10,6 +10,7 @@ pub mod iwlmvm;
 pub mod nexmon;
 pub mod packet;
 pub mod picoscenes;
+pub mod report;
 pub mod sanitize;
 pub(crate) mod subcarriers;
 

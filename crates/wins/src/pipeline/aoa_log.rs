@@ -253,20 +253,33 @@ fn group_failure(e: &SpotfiError) -> String {
 
 /// A row for `record` with no peak yet.
 fn empty_row(index: usize, record: &CsiRecord) -> PacketAoa {
-    PacketAoa {
+    PacketAoa::empty(
         index,
-        offset: record.offset,
-        timestamp_ns: record.timestamp.as_nanos(),
-        bandwidth_mhz: record.header.rate.bandwidth().mhz(),
-        status: PacketStatus::NoCrediblePeak,
-        reason: String::new(),
-        aoa_deg: None,
-        tof_ns: None,
-        spectrum_db: None,
-        aliases_deg: String::new(),
-        peaks: 0,
-        group: None,
-        group_aoa_deg: None,
+        record.offset,
+        record.timestamp.as_nanos(),
+        record.header.rate.bandwidth().mhz(),
+    )
+}
+
+impl PacketAoa {
+    /// The row of the packet `index` at byte `offset`, time `timestamp_ns` and width
+    /// `bandwidth_mhz`, with no peak yet.
+    pub fn empty(index: usize, offset: u64, timestamp_ns: i64, bandwidth_mhz: u32) -> Self {
+        Self {
+            index,
+            offset,
+            timestamp_ns,
+            bandwidth_mhz,
+            status: PacketStatus::NoCrediblePeak,
+            reason: String::new(),
+            aoa_deg: None,
+            tof_ns: None,
+            spectrum_db: None,
+            aliases_deg: String::new(),
+            peaks: 0,
+            group: None,
+            group_aoa_deg: None,
+        }
     }
 }
 

@@ -6,7 +6,7 @@
 use serde::Deserialize;
 use wins::csi::atheros::{ATHEROS_HEADER_LEN, ByteOrder, parse_atheros, read_atheros};
 
-use super::data::shared_data;
+use super::data::{flipped_copies, shared_data};
 
 /// One line of the `*.csiread_ref.jsonl`; `csi` is [tone][rx][tx] of [re, im].
 #[derive(Debug, Deserialize)]
@@ -184,16 +184,7 @@ fn damaged_copies_are_read_without_a_panic_and_every_byte_is_accounted_for() {
             c.tail
         );
     }
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    for _ in 0..300 {
-        let mut copy = bytes.clone();
-        for _ in 0..8 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let at = (state as usize) % copy.len();
-            copy[at] ^= (state >> 40) as u8 | 1;
-        }
+    for copy in flipped_copies(&bytes, 0x9e37_79b9_7f4a_7c15u64, 300, 8, 0) {
         let c = parse_atheros(&copy, None);
         assert_eq!(c.bytes_accounted(), copy.len() as u64);
     }

@@ -30,3 +30,28 @@ pub fn shared_data() -> Option<PathBuf> {
     );
     None
 }
+
+/// `copies` copies of `bytes`, each with `flips` bytes at or after `from` flipped (xorshift from
+/// `seed`, so every run damages the same bytes).
+pub fn flipped_copies(
+    bytes: &[u8],
+    seed: u64,
+    copies: usize,
+    flips: usize,
+    from: usize,
+) -> Vec<Vec<u8>> {
+    let mut state = seed;
+    (0..copies)
+        .map(|_| {
+            let mut copy = bytes.to_vec();
+            for _ in 0..flips {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let at = from + (state as usize) % (copy.len() - from);
+                copy[at] ^= (state >> 40) as u8 | 1;
+            }
+            copy
+        })
+        .collect()
+}

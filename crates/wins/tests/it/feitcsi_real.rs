@@ -5,7 +5,7 @@
 use serde::Deserialize;
 use wins::csi::feitcsi::{FEIT_HEADER_LEN, FeitCapture, parse_feitcsi, read_feitcsi};
 
-use super::data::shared_data;
+use super::data::{flipped_copies, shared_data};
 
 /// One line of a `*.csikit_ref.jsonl`; `csi` is [subcarrier][rx][tx] of [re, im].
 #[derive(Debug, Deserialize)]
@@ -118,16 +118,7 @@ fn damaged_copies_are_read_without_a_panic_and_every_byte_is_accounted_for() {
             c.tail
         );
     }
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    for _ in 0..300 {
-        let mut copy = bytes.clone();
-        for _ in 0..8 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let at = (state as usize) % copy.len();
-            copy[at] ^= (state >> 40) as u8 | 1;
-        }
+    for copy in flipped_copies(&bytes, 0x2545_f491_4f6c_dd1du64, 300, 8, 0) {
         let c = parse_feitcsi(&copy);
         assert!(accounted(&c, copy.len()));
     }

@@ -9,7 +9,7 @@ use serde::Deserialize;
 use wins::csi::nexmon::frames::frames;
 use wins::csi::nexmon::{NexmonCapture, parse_nexmon, read_nexmon};
 
-use super::data::shared_data;
+use super::data::{flipped_copies, shared_data};
 
 /// One line of a `*.csiread_ref.jsonl`.
 #[derive(Debug, Deserialize)]
@@ -181,16 +181,7 @@ fn damaged_copies_are_read_without_a_panic_and_every_byte_is_accounted_for() {
         assert!(c.packets.len() <= whole.packets.len());
     }
     // Bytes flipped: records still framed by the pcap headers, the damaged ones counted.
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    for _ in 0..200 {
-        let mut copy = bytes.clone();
-        for _ in 0..20 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let at = 24 + (state as usize) % (copy.len() - 24);
-            copy[at] ^= (state >> 40) as u8 | 1;
-        }
+    for copy in flipped_copies(&bytes, 0x9e37_79b9_7f4a_7c15u64, 200, 20, 24) {
         let c = parse_nexmon(&copy).unwrap();
         assert!(accounted(&c, copy.len()));
         for p in &c.packets {

@@ -106,7 +106,7 @@ pub struct AtherosCapture {
     /// The records, in file order.
     pub records: Vec<AtherosRecord>,
     /// Where the reading stopped before the end, the bytes left, and why.
-    pub tail: Option<(u64, u64, String)>,
+    pub tail: Option<crate::csi::report::Tail>,
     /// Bytes in the file.
     pub bytes: u64,
 }
@@ -114,9 +114,7 @@ pub struct AtherosCapture {
 impl AtherosCapture {
     /// What was not read at the end of the file, in words (`None`: all of it was read).
     pub fn lost(&self) -> Option<String> {
-        self.tail
-            .as_ref()
-            .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}"))
+        crate::csi::report::lost(self.tail.as_ref())
     }
 
     /// Bytes in the leading byte, the records and the tail: the file's size when every byte is
@@ -130,9 +128,7 @@ impl AtherosCapture {
 /// Reads the Atheros CSI Tool log at `path` (a regular file); `order` forces the byte order
 /// (whether a byte-order byte comes first is still told from the first record).
 pub fn read_atheros(path: &Path, order: Option<ByteOrder>) -> std::io::Result<AtherosCapture> {
-    let mut bytes = Vec::new();
-    std::io::Read::read_to_end(&mut crate::io_safety::open_regular(path)?, &mut bytes)?;
-    Ok(parse_atheros(&bytes, order))
+    Ok(parse_atheros(&crate::csi::report::read_whole(path)?, order))
 }
 
 /// The layouts a log may start with: (leading byte, byte order).

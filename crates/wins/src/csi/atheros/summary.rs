@@ -2,6 +2,8 @@
 
 use std::collections::BTreeMap;
 
+use crate::csi::report::{self, count, counts};
+
 use super::AtherosCapture;
 
 /// An Atheros CSI Tool log's summary.
@@ -47,20 +49,18 @@ impl AtherosSummary {
             span_s: 0.0,
             tail: capture.lost(),
         };
-        let add = |map: &mut BTreeMap<String, u64>, key: String| *map.entry(key).or_default() += 1;
         for r in &capture.records {
             if !r.csi.is_empty() {
                 s.with_csi += 1;
-                add(&mut s.shapes, format!("{}x{}x{}", r.nr, r.nc, r.num_tones));
+                count(&mut s.shapes, format!("{}x{}x{}", r.nr, r.nc, r.num_tones));
             }
             let width = if r.bandwidth == 1 { 40 } else { 20 };
-            add(
+            count(
                 &mut s.channels,
                 format!("{} MHz, {width} MHz wide", r.channel_mhz),
             );
             if let Some(mac) = r.transmitter() {
-                let parts: Vec<String> = mac.iter().map(|b| format!("{b:02x}")).collect();
-                add(&mut s.transmitters, parts.join(":"));
+                count(&mut s.transmitters, report::mac(&mac));
             }
             s.with_errors += u64::from(r.err_info != 0);
         }
@@ -74,14 +74,6 @@ impl AtherosSummary {
 
 impl std::fmt::Display for AtherosSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let list = |m: &BTreeMap<String, u64>| {
-            let items: Vec<String> = m.iter().map(|(k, v)| format!("{k}: {v}")).collect();
-            if items.is_empty() {
-                "-".to_string()
-            } else {
-                items.join(", ")
-            }
-        };
         let order = match self.order {
             super::ByteOrder::Little => "little-endian",
             super::ByteOrder::Big => "big-endian",
@@ -98,9 +90,14 @@ impl std::fmt::Display for AtherosSummary {
             "{:<12}{} ({} with CSI, {} with errors)",
             "records", self.records, self.with_csi, self.with_errors
         )?;
-        writeln!(f, "{:<12}{} (rx x tx x tones)", "shape", list(&self.shapes))?;
-        writeln!(f, "{:<12}{}", "channel", list(&self.channels))?;
-        writeln!(f, "{:<12}{}", "transmitter", list(&self.transmitters))?;
+        writeln!(
+            f,
+            "{:<12}{} (rx x tx x tones)",
+            "shape",
+            counts(&self.shapes)
+        )?;
+        writeln!(f, "{:<12}{}", "channel", counts(&self.channels))?;
+        writeln!(f, "{:<12}{}", "transmitter", counts(&self.transmitters))?;
         writeln!(f, "{:<12}{:.3} s", "span", self.span_s)?;
         if let Some(t) = &self.tail {
             writeln!(f, "{:<12}{t}", "lost")?;

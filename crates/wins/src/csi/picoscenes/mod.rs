@@ -85,7 +85,7 @@ pub struct PicoCapture {
     /// The frames, in file order.
     pub frames: Vec<PicoFrame>,
     /// Where the reading stopped before the end, the bytes left, and why.
-    pub tail: Option<(u64, u64, String)>,
+    pub tail: Option<crate::csi::report::Tail>,
     /// Bytes in the file.
     pub bytes: u64,
 }
@@ -93,9 +93,7 @@ pub struct PicoCapture {
 impl PicoCapture {
     /// What was not read at the end of the file, in words (`None`: all of it was read).
     pub fn lost(&self) -> Option<String> {
-        self.tail
-            .as_ref()
-            .map(|(at, len, why)| format!("offset {at}: {len} bytes not read: {why}"))
+        crate::csi::report::lost(self.tail.as_ref())
     }
 
     /// Bytes in the frames and the tail: the file's size when every byte is accounted for.
@@ -106,9 +104,7 @@ impl PicoCapture {
 
 /// Reads the PicoScenes file at `path` (a regular file).
 pub fn read_picoscenes(path: &Path) -> std::io::Result<PicoCapture> {
-    let mut bytes = Vec::new();
-    std::io::Read::read_to_end(&mut crate::io_safety::open_regular(path)?, &mut bytes)?;
-    Ok(parse_picoscenes(&bytes))
+    Ok(parse_picoscenes(&crate::csi::report::read_whole(path)?))
 }
 
 /// [`read_picoscenes`] of a file held in memory.

@@ -2,6 +2,8 @@
 
 use std::collections::BTreeMap;
 
+use crate::csi::report::{self, count, counts};
+
 use super::PicoCapture;
 
 /// A PicoScenes file's summary.
@@ -36,26 +38,24 @@ impl PicoSummary {
             tail: capture.lost(),
             ..Self::default()
         };
-        let add = |map: &mut BTreeMap<String, u64>, key: String| *map.entry(key).or_default() += 1;
         for f in &capture.frames {
             for (name, version) in &f.segments {
-                add(&mut s.segments, format!("{name} v{version}"));
+                count(&mut s.segments, format!("{name} v{version}"));
             }
             if let Some(b) = &f.rxs_basic {
-                add(&mut s.cards, format!("{:#06x}", b.device_type));
+                count(&mut s.cards, format!("{:#06x}", b.device_type));
             }
             if let Some(mac) = f.transmitter() {
-                let parts: Vec<String> = mac.iter().map(|b| format!("{b:02x}")).collect();
-                add(&mut s.transmitters, parts.join(":"));
+                count(&mut s.transmitters, report::mac(&mac));
             }
             if let Some(c) = &f.csi {
                 s.with_csi += 1;
-                add(
+                count(
                     &mut s.shapes,
                     format!("{}x{}x{}", c.num_rx, c.num_sts, c.num_tone),
                 );
                 let mhz = c.carrier_freq_hz as f64 / 1e6;
-                add(
+                count(
                     &mut s.channels,
                     format!("{mhz} MHz, {} MHz wide", c.cbw_mhz),
                 );
@@ -67,14 +67,6 @@ impl PicoSummary {
 
 impl std::fmt::Display for PicoSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let list = |m: &BTreeMap<String, u64>| {
-            let items: Vec<String> = m.iter().map(|(k, v)| format!("{k}: {v}")).collect();
-            if items.is_empty() {
-                "-".to_string()
-            } else {
-                items.join(", ")
-            }
-        };
         writeln!(f, "{:<12}PicoScenes", "format")?;
         writeln!(f, "{:<12}{} bytes", "size", self.bytes)?;
         writeln!(
@@ -82,16 +74,16 @@ impl std::fmt::Display for PicoSummary {
             "{:<12}{} ({} with CSI)",
             "frames", self.frames, self.with_csi
         )?;
-        writeln!(f, "{:<12}{}", "segments", list(&self.segments))?;
-        writeln!(f, "{:<12}{}", "card", list(&self.cards))?;
+        writeln!(f, "{:<12}{}", "segments", counts(&self.segments))?;
+        writeln!(f, "{:<12}{}", "card", counts(&self.cards))?;
         writeln!(
             f,
             "{:<12}{} (rx x streams x tones)",
             "shape",
-            list(&self.shapes)
+            counts(&self.shapes)
         )?;
-        writeln!(f, "{:<12}{}", "channel", list(&self.channels))?;
-        writeln!(f, "{:<12}{}", "transmitter", list(&self.transmitters))?;
+        writeln!(f, "{:<12}{}", "channel", counts(&self.channels))?;
+        writeln!(f, "{:<12}{}", "transmitter", counts(&self.transmitters))?;
         if let Some(t) = &self.tail {
             writeln!(f, "{:<12}{t}", "lost")?;
         }

@@ -109,21 +109,7 @@ pub fn estimate_capture(
     let mut rows = Vec::with_capacity(read.packets.len());
     let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
     for (index, p) in read.packets.iter().enumerate() {
-        let mut row = AoaRow {
-            index,
-            offset: p.offset,
-            timestamp_ns: p.clock_ns,
-            bandwidth_mhz: p.bandwidth_mhz,
-            status: PacketStatus::NoCrediblePeak,
-            reason: String::new(),
-            aoa_deg: None,
-            tof_ns: None,
-            spectrum_db: None,
-            aliases_deg: String::new(),
-            peaks: 0,
-            group: None,
-            group_aoa_deg: None,
-        };
+        let mut row = AoaRow::empty(index, p.offset, p.clock_ns, p.bandwidth_mhz);
         match aoa.peaks(p, crate::aoa::AoaWindow::FULL) {
             Ok(peaks) => {
                 row.peaks = peaks.len();
