@@ -4,7 +4,7 @@
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
@@ -140,7 +140,9 @@ enum CsiCommand {
     Stats(check_cmd::StatsArgs),
     /// Export the CSI records of a log as JSON lines (the reference files' schema) or CSV.
     Export {
-        /// Log file.
+        /// A capture of any card: an Intel 5300 log (its records as the CSI Tool holds them),
+        /// or a Nexmon, FeitCSI, PicoScenes or Atheros file (its packets: JSON Lines, or a CSV
+        /// of one row per value).
         file: PathBuf,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Jsonl)]
@@ -148,6 +150,9 @@ enum CsiCommand {
         /// Output file (standard output if absent).
         #[arg(long, short)]
         out: Option<PathBuf>,
+        /// Read the file as this capture format instead of the one its first bytes say.
+        #[arg(long, value_name = "FORMAT")]
+        csi_format: Option<wins::csi::format::CaptureFormat>,
     },
 }
 
@@ -201,7 +206,12 @@ fn run(cli: Cli) -> Result<()> {
             } => csi_info(&files, json, format),
             CsiCommand::Check(args) => check_cmd::check(args),
             CsiCommand::Stats(args) => check_cmd::stats(args),
-            CsiCommand::Export { file, format, out } => csi_export(&file, format, out),
+            CsiCommand::Export {
+                file,
+                format,
+                out,
+                csi_format,
+            } => csi_export(&file, format, out, csi_format),
         },
         Command::Simulate(args) => simulate(args),
         Command::Aoa(args) => aoa_cmd::aoa(args),
@@ -257,10 +267,18 @@ fn csi_info(
     Ok(())
 }
 
-fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()> {
+fn csi_export(
+    file: &PathBuf,
+    format: Format,
+    out: Option<PathBuf>,
+    csi_format: Option<wins::csi::format::CaptureFormat>,
+) -> Result<()> {
     if let Some(p) = &out {
         // Before anything is opened: creating the output would empty the input.
         wins::io_safety::refuse_same_file(file, p)?;
+    }
+    if let Some(card) = wins::pipeline::aoa_log::capture::other_card(file, csi_format) {
+        return export_packets(file, card, format, out);
     }
     let input = File::open(file).with_context(|| format!("cannot open {}", file.display()))?;
     // Another format is named before the output is made.
@@ -293,6 +311,51 @@ fn csi_export(file: &PathBuf, format: Format, out: Option<PathBuf>) -> Result<()
             file.display(),
             intel5300::why_no_records(file)
         );
+    }
+    Ok(())
+}
+
+/// `wins csi export` of another card's capture: its packets, read whole before the output is
+/// made.
+fn export_packets(
+    file: &Path,
+    card: wins::csi::format::CaptureFormat,
+    format: Format,
+    out: Option<PathBuf>,
+) -> Result<()> {
+    let (_, read) = wins::csi::packet::read_packets(file, Some(card))?;
+    if read.packets.is_empty() {
+        let mut why: Vec<String> = read.lost.into_iter().collect();
+        why.extend(read.skipped.keys().cloned());
+        anyhow::bail!(
+            "{}: no packet with CSI as {}: {}",
+            file.display(),
+            card.describe(),
+            why.join("; ")
+        );
+    }
+    let sink: Box<dyn Write> = match &out {
+        Some(p) => {
+            Box::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)
+        }
+        None => Box::new(io::stdout().lock()),
+    };
+    let sink = BufWriter::new(sink);
+    match format {
+        Format::Jsonl => wins::csi::packet::export::write_jsonl(&read.packets, sink)?,
+        Format::Csv => wins::csi::packet::export::write_csv(&read.packets, sink)?,
+    }
+    eprintln!(
+        "{}: {}, {} packets written",
+        file.display(),
+        card.describe(),
+        read.packets.len()
+    );
+    for (why, n) in &read.skipped {
+        eprintln!("  skipped {n}: {why}");
+    }
+    if let Some(lost) = &read.lost {
+        eprintln!("warning: not read: {lost}");
     }
     Ok(())
 }

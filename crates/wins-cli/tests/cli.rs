@@ -90,7 +90,8 @@ fn corrupt_and_missing_input() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("cannot read no/such/file.dat"), "{err}");
 
-    // A capture of another format is named for what it is, and no output is made for it.
+    // A damaged capture of another format is read as that format and refused with why, and no
+    // output is made for it.
     let mut pcap = vec![0xd4, 0xc3, 0xb2, 0xa1, 2, 0, 4, 0];
     pcap.extend((0..4000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8));
     let pcap_path = dir.join("nexmon.pcap");
@@ -106,7 +107,7 @@ fn corrupt_and_missing_input() {
     ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("a pcap capture"), "{err}");
+    assert!(err.contains("link type"), "{err}");
     assert!(!exported.exists());
     let out = wins(&["csi", "info", pcap_arg]);
     assert!(!out.status.success());
@@ -156,6 +157,30 @@ fn corrupt_and_missing_input() {
     );
     assert!(text.contains("HT 20 MHz: 3"), "{text}");
 
+    // `wins csi export` writes its packets: one CSV row per value (3 × 52 × 2 × 1 + header).
+    let csv = dir.join("ax210.csv");
+    let out = wins(&[
+        "csi",
+        "export",
+        feit_path.to_str().expect("utf-8"),
+        "--format",
+        "csv",
+        "-o",
+        csv.to_str().expect("utf-8"),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).expect("read");
+    assert_eq!(text.lines().count(), 1 + 3 * 52 * 2, "{text}");
+    assert!(
+        text.lines()
+            .nth(1)
+            .is_some_and(|l| l.ends_with(",-28,0,0,1,-1")),
+        "{text}"
+    );
     // `wins aoa` takes it: the file has no carrier, so one must be given.
     let feit_arg = feit_path.to_str().expect("utf-8");
     let out = wins(&["aoa", feit_arg]);

@@ -8,6 +8,7 @@
 //! that is not an Intel AX) is skipped and counted with its reason, never guessed.
 
 mod convert;
+pub mod export;
 pub mod tables;
 
 use std::collections::BTreeMap;
