@@ -18,6 +18,7 @@ use num_complex::Complex64;
 use super::estimator::{AoaConfig, AoaError, check_calibration};
 use super::music::{AoaWindow, Music, MusicError};
 use super::peak::Peak;
+use crate::csi::format::CaptureFormat;
 use crate::csi::packet::CsiPacket;
 use crate::csi::sanitize::sanitize;
 use crate::rig::{ArrayGeometry, ChainCalibration};
@@ -123,8 +124,43 @@ impl PacketAoa {
         Ok(music.peaks(&subspace, window))
     }
 
+    /// The other angles `packet` could equally have given for `aoa_rad`: the array's aliases
+    /// when it is wider than λ/2, and on a card whose second chain flips sign from packet to
+    /// packet ([`chains_flip_sign`], two chains) the angles whose phase step differs by π, with
+    /// their aliases. Ascending.
+    pub fn aliases_rad(&self, packet: &CsiPacket, aoa_rad: f64) -> Vec<f64> {
+        let period = self.geometry.alias_period(self.center_freq_hz);
+        let s = aoa_rad.sin();
+        let mut sines: Vec<f64> = Vec::new();
+        let flips = chains_flip_sign(packet) && self.geometry.num_antennas == 2;
+        let step = if flips { period / 2.0 } else { period };
+        if step.is_finite() && step > 0.0 {
+            let k_max = (2.0 / step).ceil() as i64;
+            sines.extend(
+                (-k_max..=k_max)
+                    .filter(|&k| k != 0)
+                    .map(|k| s + k as f64 * step)
+                    .filter(|v| v.abs() <= 1.0),
+            );
+        }
+        let mut out: Vec<f64> = sines.into_iter().map(f64::asin).collect();
+        out.sort_by(f64::total_cmp);
+        out
+    }
+
     /// The direct path of one packet by full-range MUSIC: its lowest-ToF credible peak.
     pub fn direct_path(&mut self, packet: &CsiPacket) -> Result<Option<Peak>, AoaError> {
         Ok(self.peaks(packet, AoaWindow::FULL)?.first().copied())
     }
+}
+
+/// Whether `packet`'s card flips the sign of its chains after the first from packet to packet:
+/// the Intel AX200/AX210, whose FeitCSI and PicoScenes captures both show the phase between its
+/// two chains jumping by π between packets (`../shared/data/feitcsi/README.md`; measured again in
+/// `tests/it/packets_real.rs`).
+pub fn chains_flip_sign(packet: &CsiPacket) -> bool {
+    matches!(
+        packet.format,
+        CaptureFormat::FeitCsi | CaptureFormat::PicoScenes
+    )
 }

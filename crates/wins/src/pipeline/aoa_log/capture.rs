@@ -118,6 +118,12 @@ pub fn estimate_capture(
                     row.aoa_deg = Some(peak.aoa_deg());
                     row.tof_ns = Some(peak.tof_s * 1e9);
                     row.spectrum_db = Some(peak.spectrum_db());
+                    let aliases: Vec<String> = aoa
+                        .aliases_rad(p, peak.aoa_rad)
+                        .iter()
+                        .map(|a| format!("{:.1}", a.to_degrees()))
+                        .collect();
+                    row.aliases_deg = aliases.join(";");
                     summary.with_aoa += 1;
                 } else {
                     summary.no_credible_peak += 1;
