@@ -5,9 +5,10 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use wins::aoa::capture_check::{CheckOptions, Verdict, check_capture};
+use wins::aoa::capture_check::{CheckOptions, Verdict, check_capture, check_card};
 use wins::aoa::capture_stats::capture_stats;
 use wins::csi::intel5300::read_log;
+use wins::pipeline::aoa_log::capture::other_card;
 use wins::rig::channel::wifi_channel_hz;
 use wins::rig::{ArrayGeometry, ChainCalibration};
 
@@ -40,9 +41,13 @@ impl ChannelArgs {
 /// `wins csi check`.
 #[derive(clap::Args)]
 pub struct CheckArgs {
-    /// Intel 5300 CSI Tool logs (`.dat`).
+    /// Captures: Intel 5300 CSI Tool logs (`.dat`), Nexmon pcaps, FeitCSI, PicoScenes or
+    /// Atheros CSI Tool files.
     #[arg(required = true)]
     files: Vec<PathBuf>,
+    /// Read the files as this capture format instead of the one their first bytes say.
+    #[arg(long, value_name = "FORMAT")]
+    csi_format: Option<wins::csi::format::CaptureFormat>,
     /// The capture's channel (a CSI Tool log does not record it; it sets the chains' restart
     /// step, π at 5 GHz and π/2 at 2.4 GHz).
     #[command(flatten)]
@@ -70,20 +75,36 @@ pub fn check(args: CheckArgs) -> Result<()> {
     let mut out = std::io::stdout().lock();
     let mut unusable = Vec::new();
     for (i, path) in args.files.iter().enumerate() {
-        let checked = check_capture(path, &options)?;
-        if checked.verdict() == Verdict::Bad {
+        let (verdict, json, text) = match other_card(path, args.csi_format) {
+            Some(format) => {
+                let checked = check_card(path, format)?;
+                (
+                    checked.verdict(),
+                    serde_json::to_value(&checked)?,
+                    checked.to_string(),
+                )
+            }
+            None => {
+                let checked = check_capture(path, &options)?;
+                (
+                    checked.verdict(),
+                    serde_json::to_value(&checked)?,
+                    checked.to_string(),
+                )
+            }
+        };
+        if verdict == Verdict::Bad {
             unusable.push(path.display().to_string());
         }
         if args.json {
-            let value =
-                serde_json::json!({ "file": path, "verdict": checked.verdict(), "check": checked });
+            let value = serde_json::json!({ "file": path, "verdict": verdict, "check": json });
             writeln!(out, "{value}")?;
         } else {
             if i > 0 {
                 writeln!(out)?;
             }
             writeln!(out, "{:<22} {}", "file", path.display())?;
-            write!(out, "{checked}")?;
+            write!(out, "{text}")?;
         }
     }
     if !unusable.is_empty() {

@@ -258,3 +258,60 @@ fn wins_aoa_takes_every_cards_capture() {
         "{err}"
     );
 }
+
+#[test]
+fn wins_csi_check_gives_every_cards_capture_the_verdict_its_raw_csi_calls_for() {
+    use wins::aoa::capture_check::{Verdict, check_card};
+    let Some(shared) = shared_data() else { return };
+    let topic = |c: &wins::aoa::capture_check::CardCheck, t: &str| {
+        c.findings
+            .iter()
+            .find(|f| f.topic == t)
+            .map(|f| (f.verdict, f.measured.clone()))
+            .unwrap()
+    };
+    // The AX200 flips its second chain's sign: a warning that names it, not a refusal.
+    for (file, format) in [
+        (
+            "picoscenes/csikit_picoscenes_ax200_example.csi",
+            CaptureFormat::PicoScenes,
+        ),
+        ("feitcsi/csikit_HT20_2452.csi", CaptureFormat::FeitCsi),
+    ] {
+        let c = check_card(&shared.join(file), format).unwrap();
+        let (verdict, measured) = topic(&c, "chain phases");
+        assert_eq!(verdict, Verdict::Warning, "{file}: {c}");
+        assert!(measured.contains("off by 180°"), "{measured}");
+        assert_ne!(c.verdict(), Verdict::Bad, "{file}: {c}");
+    }
+    // Nexmon D4 is static with steady chains; its packets come slowly and with gaps.
+    let c = check_card(
+        &shared.join("nexmon/mutrack_D4_CSI_2G_20M_AP2_tr1.pcap"),
+        CaptureFormat::Nexmon,
+    )
+    .unwrap();
+    assert_eq!(topic(&c, "chain phases").0, Verdict::Good, "{c}");
+    assert_eq!(topic(&c, "packets").0, Verdict::Warning, "{c}");
+    // The Atheros log: three chains within 4 dB, nothing clipped, usable.
+    let c = check_card(
+        &shared.join("atheros/csiread_ath_csi_1.dat"),
+        CaptureFormat::Atheros,
+    )
+    .unwrap();
+    assert_eq!(
+        (
+            topic(&c, "antennas").0,
+            topic(&c, "clipping").0,
+            c.verdict()
+        ),
+        (Verdict::Good, Verdict::Good, Verdict::Good),
+        "{c}"
+    );
+    // Read as the wrong format: no packet, and a bad verdict on the file saying so.
+    let c = check_card(
+        &shared.join("atheros/csiread_ath_csi_1.dat"),
+        CaptureFormat::PicoScenes,
+    )
+    .unwrap();
+    assert_eq!((c.packets, c.verdict()), (0, Verdict::Bad), "{c}");
+}

@@ -142,6 +142,8 @@ pub(super) struct Spread {
     pub stepped: f64,
     /// Whether any packet is a quarter turn off (else only half turns).
     pub quarter_steps: bool,
+    /// Share of the packets an odd number of quarter turns off the mean.
+    pub quarter_share: f64,
     /// Index of the first packet off the mean by a step.
     pub first_step: Option<usize>,
 }
@@ -180,6 +182,8 @@ pub(super) fn spread(angles: &[f64]) -> Option<Spread> {
         iqr_rad: q(0.75) - q(0.25),
         stepped: steps.iter().filter(|&&k| off_main(k)).count() as f64 / angles.len() as f64,
         quarter_steps: (0..4).any(|k| counts[k] > 0 && (k + 4 - main) % 2 == 1),
+        quarter_share: steps.iter().filter(|&&k| (k + 4 - main) % 2 == 1).count() as f64
+            / angles.len() as f64,
         first_step: steps.iter().position(|&k| off_main(k)),
     })
 }

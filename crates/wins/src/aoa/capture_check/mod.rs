@@ -8,6 +8,7 @@
 //! except for two phases per packet; a file that is not a CSI Tool log is named for what it is
 //! (`crate::csi::intel5300::identify`), and the verdicts' thresholds are in `verdicts`.
 
+mod cards;
 mod measure;
 mod phases;
 #[cfg(test)]
@@ -21,6 +22,8 @@ use serde::Serialize;
 
 use crate::csi::intel5300::{Event, LogReader, LogSummary, ReadError};
 use crate::rig::ChainCalibration;
+
+pub use cards::{CardCheck, check_card};
 
 pub use crate::csi::intel5300::{Identified, identify, identify_bytes};
 
@@ -91,34 +94,46 @@ impl CaptureCheck {
     /// The worst verdict of the findings that could be measured ([`Verdict::Unknown`] when none
     /// could); a capture is usable for AoA unless it is [`Verdict::Bad`].
     pub fn verdict(&self) -> Verdict {
-        self.findings
-            .iter()
-            .map(|f| f.verdict)
-            .filter(|v| *v != Verdict::Unknown)
-            .max()
-            .unwrap_or(Verdict::Unknown)
+        overall(&self.findings)
     }
 }
 
 impl fmt::Display for CaptureCheck {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for finding in &self.findings {
-            writeln!(
-                f,
-                "{:<22} {:<8} {}",
-                finding.topic, finding.verdict, finding.measured
-            )?;
-            if let Some(advice) = &finding.advice {
-                writeln!(f, "{:<31} → {advice}", "")?;
-            }
-        }
-        let overall = match self.verdict() {
-            Verdict::Bad => "not usable for AoA as it is (see the findings marked bad)",
-            Verdict::Warning => "usable for AoA, with the warnings above",
-            Verdict::Good | Verdict::Unknown => "usable for AoA",
-        };
-        writeln!(f, "{:<22} {:<8} {overall}", "verdict", self.verdict())
+        write_findings(f, &self.findings)
     }
+}
+
+/// The worst verdict of the findings that could be measured ([`Verdict::Unknown`] when none
+/// could).
+fn overall(findings: &[Finding]) -> Verdict {
+    findings
+        .iter()
+        .map(|f| f.verdict)
+        .filter(|v| *v != Verdict::Unknown)
+        .max()
+        .unwrap_or(Verdict::Unknown)
+}
+
+/// The findings, one line each with its advice under it, and the overall verdict.
+fn write_findings(f: &mut fmt::Formatter<'_>, findings: &[Finding]) -> fmt::Result {
+    for finding in findings {
+        writeln!(
+            f,
+            "{:<22} {:<8} {}",
+            finding.topic, finding.verdict, finding.measured
+        )?;
+        if let Some(advice) = &finding.advice {
+            writeln!(f, "{:<31} → {advice}", "")?;
+        }
+    }
+    let verdict = overall(findings);
+    let words = match verdict {
+        Verdict::Bad => "not usable for AoA as it is (see the findings marked bad)",
+        Verdict::Warning => "usable for AoA, with the warnings above",
+        Verdict::Good | Verdict::Unknown => "usable for AoA",
+    };
+    writeln!(f, "{:<22} {:<8} {words}", "verdict", verdict)
 }
 
 /// Checks the log at `path`. Errors: the file cannot be opened or read (a file that opens but is

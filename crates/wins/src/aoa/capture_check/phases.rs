@@ -8,10 +8,10 @@ use crate::csi::sanitize::wrap;
 
 /// A static capture's neighbouring chains keep their phase within a few degrees (the public
 /// lgtm captures: under 2° IQR), deg.
-const STABLE_IQR_DEG: f64 = 10.0;
+pub(super) const STABLE_IQR_DEG: f64 = 10.0;
 /// Packets whose chain phase is a whole step (90° or 180°) from the rest, above this share: the
 /// phases stepped.
-const STEPPED_SHARE: f64 = 0.02;
+pub(super) const STEPPED_SHARE: f64 = 0.02;
 /// Curvature within this of a multiple of the restart step is that multiple, deg.
 const STEP_TOLERANCE_DEG: f64 = 45.0;
 /// The curvature is angle-free for one path only: reflections bias each packet's by tens of

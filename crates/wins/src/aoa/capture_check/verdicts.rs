@@ -11,8 +11,8 @@ use crate::csi::intel5300::{DEFAULT_NOISE_DBM, LogSummary};
 /// centimetres apart see the same power within a few dB, but a multipath null at one spot can
 /// take one of them 10 dB down (the public lgtm captures: up to 12 dB, static, every antenna
 /// connected); a missing antenna or an open connector loses 15–30 dB everywhere, dB.
-const CHAIN_WARN_DB: f64 = -8.0;
-const CHAIN_BAD_DB: f64 = -15.0;
+pub(super) const CHAIN_WARN_DB: f64 = -8.0;
+pub(super) const CHAIN_BAD_DB: f64 = -15.0;
 /// Records without an RSSI reading on a chain, above this share: no signal there.
 const RSSI_ZERO_BAD: f64 = 0.1;
 /// SNR for AoA: MUSIC resolves the paths of a 5300's 30 subcarriers well above 20 dB; under
@@ -21,13 +21,13 @@ const SNR_GOOD_DB: f64 = 20.0;
 const SNR_BAD_DB: f64 = 10.0;
 /// Packet rates: the estimator tracks a turning drone at 50–100 packets/s; under 10 it loses
 /// the AP between packets, Hz.
-const RATE_GOOD_HZ: f64 = 25.0;
-const RATE_BAD_HZ: f64 = 10.0;
+pub(super) const RATE_GOOD_HZ: f64 = 25.0;
+pub(super) const RATE_BAD_HZ: f64 = 10.0;
 /// Reports the driver counted but the log lacks, above this share.
 const MISSING_WARN: f64 = 0.1;
 /// CSI entries at the 8-bit limits: a few are rounding, more are a saturated receiver.
-const CLIPPED_WARN: f64 = 0.001;
-const CLIPPED_BAD: f64 = 0.01;
+pub(super) const CLIPPED_WARN: f64 = 0.001;
+pub(super) const CLIPPED_BAD: f64 = 0.01;
 
 const CHAIN_NAMES: [&str; CHAINS] = ["A", "B", "C"];
 
