@@ -146,6 +146,15 @@ pub fn stats(args: StatsArgs) -> Result<()> {
             .unwrap_or_else(|| wins::rig::array::half_wavelength_m(center_freq_hz)),
     };
     let config = crate::run_cmd::load_config(args.config.as_deref())?.aoa;
+    for path in &args.files {
+        if let Some(format) = other_card(path, None) {
+            bail!(
+                "{}: {}: `wins csi stats` measures Intel 5300 logs (`wins csi check` and `wins aoa` take this capture)",
+                path.display(),
+                format.describe()
+            );
+        }
+    }
     let mut out = std::io::stdout().lock();
     if !args.json {
         writeln!(
