@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
-use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, calibrate, calibrate_with};
+use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, CalibrateReport, calibrate, calibrate_with};
 use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::{CsiRecord, SkipReason};
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::capture::{estimate_capture, other_card};
+use wins::pipeline::aoa_log::capture::{calibrate_capture, estimate_capture, other_card};
 use wins::pipeline::aoa_log::input::{AoaInput, AoaInputError, AoaSource, AoaSpec};
 use wins::pipeline::aoa_log::{AoaLogSummary, AoaMode, PacketAoa, truth_pairs};
 use wins::rig::ChainCalibration;
@@ -278,6 +278,9 @@ fn plot_spectrum(est: &AoaEstimator, record: &CsiRecord, index: usize, png: &Pat
 
 /// `wins calibrate`.
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
+    if let Some(format) = other_card(&args.input.file, args.input.csi_format) {
+        return calibrate_capture_cmd(&args, format);
+    }
     let input = open_input(&args.input)?;
     let file = &args.input.file;
     let (geometry, freq, config) = (input.geometry, input.center_freq_hz, &input.config);
@@ -310,6 +313,16 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
         ),
     };
     calibration.source = source;
+    report_log_skips(&input, file);
+    finish_calibration(&args, calibration, &report)
+}
+
+/// Refuses a calibration spread wider than `--max-spread-deg`, else writes it and prints it.
+fn finish_calibration(
+    args: &CalibrateArgs,
+    calibration: ChainCalibration,
+    report: &CalibrateReport,
+) -> Result<()> {
     calibration
         .check_spread(args.max_spread_deg.to_radians())
         .with_context(|| {
@@ -319,8 +332,6 @@ pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
             )
         })?;
     calibration.save(&args.out)?;
-
-    report_log_skips(&input, file);
     println!("calibration from {}", calibration.source);
     println!("chain  offset (deg)  spread (deg)");
     for (m, offset) in calibration.phase_offsets_rad.iter().enumerate() {
@@ -434,4 +445,33 @@ fn print_summary(file: &Path, summary: &AoaLogSummary) {
     for (reason, n) in &summary.skipped_by_reason {
         eprintln!("  skipped {n}: {reason}");
     }
+}
+
+/// `wins calibrate` on a capture of another card than the Intel 5300.
+fn calibrate_capture_cmd(args: &CalibrateArgs, format: CaptureFormat) -> Result<()> {
+    let Some(deg) = args.aoa_deg else {
+        bail!(
+            "{} is {}: give the known angle with --aoa-deg",
+            args.input.file.display(),
+            format.describe()
+        );
+    };
+    let spec = AoaSpec {
+        file: args.input.file.clone(),
+        ap: args.input.ap.clone(),
+        channel: args.input.channel,
+        center_freq_hz: args.input.center_freq_hz,
+        spacing_m: args.input.spacing_m,
+        config: match &args.input.config {
+            Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
+            None => AoaConfig::default(),
+        },
+    };
+    let (mut calibration, report) = calibrate_capture(&spec, format, deg.to_radians())?;
+    calibration.source = format!(
+        "static capture {} ({}) at {deg}°",
+        args.input.file.display(),
+        format.describe()
+    );
+    finish_calibration(args, calibration, &report)
 }

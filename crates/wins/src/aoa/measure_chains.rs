@@ -18,7 +18,9 @@ use num_complex::Complex64;
 
 use super::estimator::{AoaConfig, AoaError, received_csi};
 use super::music::{Music, MusicConfig};
+use crate::aoa::packet::chains_flip_sign;
 use crate::csi::intel5300::CsiRecord;
+use crate::csi::packet::CsiPacket;
 use crate::csi::sanitize::sanitize;
 use crate::rig::ArrayGeometry;
 use crate::rig::{CalibrationSetup, ChainCalibration};
@@ -99,79 +101,196 @@ pub fn calibrate_with<'a>(
     });
     let [ht20, ht40] = musics;
     let (ht20, ht40) = (ht20.map_err(AoaError::from)?, ht40.map_err(AoaError::from)?);
-    let mut sums = vec![Complex64::new(0.0, 0.0); m];
-    let mut report = CalibrateReport::default();
+    let mut acc = Accumulator::new(m, false);
     for (i, (record, aoa)) in packets.into_iter().enumerate() {
-        if aoa.is_nan() || aoa.abs() > std::f64::consts::FRAC_PI_2 {
-            return Err(CalibrateError::Angle(aoa));
-        }
+        check_angle(aoa)?;
         let bw = record.header.rate.bandwidth();
         let music = match bw {
             crate::csi::Bandwidth::Ht20 => &ht20,
             crate::csi::Bandwidth::Ht40 => &ht40,
         };
-        match direct_response(record, music, config, m) {
-            Ok(v) => {
-                let expected = geometry.steering(center_freq_hz, aoa.sin());
-                let reference = v[0] * expected[0].conj();
-                for (k, sum) in sums.iter_mut().enumerate() {
-                    let z = v[k] * expected[k].conj() * reference.conj();
-                    if z.norm() > 0.0 {
-                        *sum += z / z.norm();
-                    }
-                }
-                report.used += 1;
-                if !report.bandwidths.contains(&bw) {
-                    report.bandwidths.push(bw);
-                    report.bandwidths.sort();
-                }
-            }
-            Err(reason) => report.skipped.push((i, reason)),
+        let response = received_csi(record, config.tx, m, config.remove_receiver_response)
+            .map_err(|e| e.to_string())
+            .and_then(|csi| direct_response(csi, &bw.subcarrier_offsets_hz(), music, m));
+        match response {
+            Ok(v) => acc.add(&v, &geometry.steering(center_freq_hz, aoa.sin()), Some(bw)),
+            Err(reason) => acc.report.skipped.push((i, reason)),
         }
     }
-    if report.used == 0 {
-        return Err(CalibrateError::NoPackets {
-            skipped: report.skipped.len(),
-            first: report
-                .skipped
-                .first()
-                .map(|s| s.1.clone())
-                .unwrap_or_else(|| "no packets given".into()),
-        });
-    }
-    let n = report.used as f64;
-    let calibration = ChainCalibration {
-        phase_offsets_rad: sums.iter().map(|s| s.arg()).collect(),
-        source: String::new(),
-        spread_rad: sums
-            .iter()
-            .map(|s| (-2.0 * (s.norm() / n).clamp(1e-12, 1.0).ln()).sqrt())
-            .collect(),
-        packets: report.used,
-        made_for: Some(CalibrationSetup {
-            center_freq_hz,
-            spacing_m: geometry.spacing_m,
-            bandwidths: report.bandwidths.clone(),
-        }),
-    };
-    Ok((calibration, report))
+    acc.finish(geometry, center_freq_hz)
 }
 
-/// The direct path's array response of one packet (see the module docs), or why there is none.
-fn direct_response(
-    record: &CsiRecord,
-    music: &Music,
+/// Chain offsets from packets of any card ([`CsiPacket`]) captured with the AP at
+/// `known_aoa_rad`, MUSIC run over each packet's own subcarriers. On a card whose second chain
+/// flips sign from packet to packet ([`crate::aoa::packet::chains_flip_sign`]) the offsets are
+/// measured modulo π: each packet's phase is doubled before the mean and halved after, so the
+/// flips do not smear it (and the calibrated angles keep their twins).
+pub fn calibrate_packets(
+    packets: &[CsiPacket],
+    known_aoa_rad: f64,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
     config: &AoaConfig,
+) -> Result<(ChainCalibration, CalibrateReport), CalibrateError> {
+    check_angle(known_aoa_rad)?;
+    let m = geometry.num_antennas;
+    let unsmoothed = MusicConfig {
+        antennas_per_window: m,
+        forward_backward: false,
+        ..config.music.clone()
+    };
+    let fold = packets.first().is_some_and(chains_flip_sign);
+    let mut acc = Accumulator::new(m, fold);
+    let expected = geometry.steering(center_freq_hz, known_aoa_rad.sin());
+    let mut musics: Vec<(Vec<i32>, Music)> = Vec::new();
+    for (i, p) in packets.iter().enumerate() {
+        let Some(csi) = p.antenna_rows(config.tx).filter(|_| p.num_rx() == m) else {
+            acc.report.skipped.push((
+                i,
+                format!("{} chains or no stream {}", p.num_rx(), config.tx),
+            ));
+            continue;
+        };
+        let offsets = p.offsets_hz();
+        if !musics.iter().any(|(s, _)| *s == p.subcarriers) {
+            let w = if p.bandwidth_mhz <= 20 {
+                config.music.subcarriers_per_window_ht20
+            } else {
+                config.music.subcarriers_per_window_ht40
+            };
+            let music = Music::new(&unsmoothed, geometry, center_freq_hz, &offsets, w)
+                .map_err(AoaError::from)?;
+            musics.push((p.subcarriers.clone(), music));
+        }
+        let Some((_, music)) = musics.iter().find(|(s, _)| *s == p.subcarriers) else {
+            continue;
+        };
+        let bw = match p.bandwidth_mhz {
+            20 => Some(crate::csi::Bandwidth::Ht20),
+            40 => Some(crate::csi::Bandwidth::Ht40),
+            _ => None,
+        };
+        match direct_response(csi, &offsets, music, m) {
+            Ok(v) => acc.add(&v, &expected, bw),
+            Err(reason) => acc.report.skipped.push((i, reason)),
+        }
+    }
+    acc.finish(geometry, center_freq_hz)
+}
+
+/// An angle a calibration can be made at: within [−90°, 90°].
+fn check_angle(aoa: f64) -> Result<(), CalibrateError> {
+    if aoa.is_nan() || aoa.abs() > std::f64::consts::FRAC_PI_2 {
+        return Err(CalibrateError::Angle(aoa));
+    }
+    Ok(())
+}
+
+/// The packets' direct-path responses summed into per-chain offsets.
+struct Accumulator {
+    sums: Vec<Complex64>,
+    report: CalibrateReport,
+    /// Offsets modulo π (phases doubled before the mean).
+    fold: bool,
+    /// With `fold`, each packet's unit phasor per chain, to choose the branch of the halved
+    /// mean that most packets sit on.
+    units: Vec<Vec<Complex64>>,
+}
+
+impl Accumulator {
+    fn new(m: usize, fold: bool) -> Self {
+        Self {
+            sums: vec![Complex64::new(0.0, 0.0); m],
+            report: CalibrateReport::default(),
+            fold,
+            units: vec![Vec::new(); m],
+        }
+    }
+
+    /// Adds one packet's response `v` against the array's expected response.
+    fn add(&mut self, v: &[Complex64], expected: &[Complex64], bw: Option<crate::csi::Bandwidth>) {
+        let reference = v[0] * expected[0].conj();
+        for (k, sum) in self.sums.iter_mut().enumerate() {
+            let z = v[k] * expected[k].conj() * reference.conj();
+            if z.norm() > 0.0 {
+                let unit = z / z.norm();
+                *sum += if self.fold { unit * unit } else { unit };
+                if self.fold {
+                    self.units[k].push(unit);
+                }
+            }
+        }
+        self.report.used += 1;
+        if let Some(bw) = bw.filter(|b| !self.report.bandwidths.contains(b)) {
+            self.report.bandwidths.push(bw);
+            self.report.bandwidths.sort();
+        }
+    }
+
+    fn finish(
+        self,
+        geometry: ArrayGeometry,
+        center_freq_hz: f64,
+    ) -> Result<(ChainCalibration, CalibrateReport), CalibrateError> {
+        let report = self.report;
+        if report.used == 0 {
+            return Err(CalibrateError::NoPackets {
+                skipped: report.skipped.len(),
+                first: report
+                    .skipped
+                    .first()
+                    .map(|s| s.1.clone())
+                    .unwrap_or_else(|| "no packets given".into()),
+            });
+        }
+        let n = report.used as f64;
+        let k = if self.fold { 2.0 } else { 1.0 };
+        // Folded, `arg/2` and `arg/2 + π` fit equally: take the one most packets are nearer.
+        let offsets = self
+            .sums
+            .iter()
+            .zip(&self.units)
+            .map(|(s, units)| {
+                let half = s.arg() / k;
+                let near = units
+                    .iter()
+                    .filter(|u| (*u * Complex64::from_polar(1.0, -half)).re >= 0.0)
+                    .count();
+                if near * 2 >= units.len() {
+                    half
+                } else {
+                    crate::csi::sanitize::wrap(half + std::f64::consts::PI)
+                }
+            })
+            .collect();
+        let calibration = ChainCalibration {
+            phase_offsets_rad: offsets,
+            source: String::new(),
+            spread_rad: self
+                .sums
+                .iter()
+                .map(|s| (-2.0 * (s.norm() / n).clamp(1e-12, 1.0).ln()).sqrt() / k)
+                .collect(),
+            packets: report.used,
+            made_for: Some(CalibrationSetup {
+                center_freq_hz,
+                spacing_m: geometry.spacing_m,
+                bandwidths: report.bandwidths.clone(),
+            }),
+        };
+        Ok((calibration, report))
+    }
+}
+
+/// The direct path's array response of one packet's CSI `csi` (row-major by antenna, on
+/// subcarriers at `offsets_hz`; see the module docs), or why there is none.
+fn direct_response(
+    mut csi: Vec<Complex64>,
+    offsets_hz: &[f64],
+    music: &Music,
     m: usize,
 ) -> Result<Vec<Complex64>, String> {
-    let mut csi = received_csi(record, config.tx, m, config.remove_receiver_response)
-        .map_err(|e| e.to_string())?;
-    sanitize(
-        &mut csi,
-        m,
-        &record.header.rate.bandwidth().subcarrier_offsets_hz(),
-    )
-    .map_err(|e| e.to_string())?;
+    sanitize(&mut csi, m, offsets_hz).map_err(|e| e.to_string())?;
     let subspace = music.subspace(&csi).map_err(|e| e.to_string())?;
     let w_len = music.layout().subcarriers_per_window() as f64;
     // The Gram matrix of the signal subspace against the ToF `tof`'s phasors.

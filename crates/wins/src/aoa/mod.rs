@@ -25,9 +25,11 @@ mod top_eigen;
 pub use chain_curvature::{ChainCurvature, Correction, curvature_of, restart_step_rad};
 pub use estimator::{AoaConfig, AoaError, AoaEstimator, raw_csi, received_csi};
 pub use group::GroupResult;
-pub use measure_chains::{CalibrateError, CalibrateReport, calibrate, calibrate_with};
+pub use measure_chains::{
+    CalibrateError, CalibrateReport, calibrate, calibrate_packets, calibrate_with,
+};
 pub use music::{AoaWindow, Music, MusicConfig, MusicError, Spectrum};
-pub use packet::PacketAoa;
+pub use packet::{PacketAoa, chains_flip_sign};
 pub use paoa::{AoaPrediction, PaoaResult};
 pub use peak::Peak;
 pub use subspace::PathCount;

@@ -10,8 +10,9 @@ use std::collections::BTreeMap;
 use super::input::{AoaInputError, AoaSpec};
 use super::{AoaLogSummary, PacketAoa as AoaRow};
 use crate::aoa::PacketAoa;
+use crate::aoa::{CalibrateReport, calibrate_packets};
 use crate::csi::format::CaptureFormat;
-use crate::csi::packet::{CsiPacket, read_packets};
+use crate::csi::packet::{CsiPacket, CsiPackets, read_packets};
 use crate::pipeline::stats::PacketStatus;
 use crate::rig::array::half_wavelength_m;
 use crate::rig::channel::wifi_channel_hz;
@@ -46,13 +47,12 @@ pub struct CaptureAoa {
     pub lost: Option<String>,
 }
 
-/// The AoA of every packet of the capture `spec.file` in `format` (module doc), with
-/// `calibration` (one phase offset per chain) when given.
-pub fn estimate_capture(
+/// The packets of the capture `spec.file` in `format`, and the array and carrier they are
+/// taken on (module doc). Errors: a dataset's AP given, no packet, no carrier known.
+pub fn open_capture(
     spec: &AoaSpec,
     format: CaptureFormat,
-    calibration: Option<ChainCalibration>,
-) -> Result<CaptureAoa, AoaInputError> {
+) -> Result<(CsiPackets, ArrayGeometry, f64), AoaInputError> {
     let options = AoaInputError::Options;
     if spec.ap.is_some() {
         return Err(options("an AP is for a dataset directory".into()));
@@ -96,6 +96,35 @@ pub fn estimate_capture(
             .spacing_m
             .unwrap_or_else(|| half_wavelength_m(center_freq_hz)),
     };
+    Ok((read, geometry, center_freq_hz))
+}
+
+/// Chain offsets from the capture `spec.file` in `format`, taken with the AP at
+/// `known_aoa_rad` ([`crate::aoa::calibrate_packets`]).
+pub fn calibrate_capture(
+    spec: &AoaSpec,
+    format: CaptureFormat,
+    known_aoa_rad: f64,
+) -> Result<(ChainCalibration, CalibrateReport), AoaInputError> {
+    let (read, geometry, center_freq_hz) = open_capture(spec, format)?;
+    calibrate_packets(
+        &read.packets,
+        known_aoa_rad,
+        geometry,
+        center_freq_hz,
+        &spec.config,
+    )
+    .map_err(AoaInputError::from)
+}
+
+/// The AoA of every packet of the capture `spec.file` in `format` (module doc), with
+/// `calibration` (one phase offset per chain) when given.
+pub fn estimate_capture(
+    spec: &AoaSpec,
+    format: CaptureFormat,
+    calibration: Option<ChainCalibration>,
+) -> Result<CaptureAoa, AoaInputError> {
+    let (read, geometry, center_freq_hz) = open_capture(spec, format)?;
     let mut aoa = PacketAoa::new(&spec.config, geometry, center_freq_hz, calibration)?;
     let mut summary = AoaLogSummary {
         packets: read.packets.len() + read.skipped.values().sum::<u64>() as usize,

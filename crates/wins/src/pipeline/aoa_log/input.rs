@@ -54,6 +54,9 @@ pub enum AoaInputError {
     /// The records cannot be processed.
     #[error(transparent)]
     Log(#[from] AoaLogError),
+    /// No calibration came out of the packets.
+    #[error(transparent)]
+    Calibrate(#[from] crate::aoa::CalibrateError),
 }
 
 /// Where the records are.
