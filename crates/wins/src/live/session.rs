@@ -21,6 +21,7 @@
 //! before it ([`ApBy::Transmitter`]), or the only AP ([`ApBy::Single`]); a record whose AP cannot
 //! be told is counted and left out.
 
+mod clocks;
 mod inputs;
 
 use std::collections::{HashMap, VecDeque};
@@ -370,42 +371,6 @@ impl LiveSession {
     /// The counts so far.
     pub fn stats(&self) -> &LiveStats {
         &self.stats
-    }
-
-    /// The clocks now.
-    pub fn clocks(&self) -> ClockReport {
-        let mut nic: Vec<(u64, Option<i64>, Option<f64>)> = self
-            .nics
-            .iter()
-            .map(|(c, n)| (*c, n.clock.offset_ns(), n.clock.drift_ppm()))
-            .collect();
-        nic.sort_by_key(|n| n.0);
-        ClockReport {
-            fc_offset_ns: self.fc.offset_ns(),
-            fc_drift_ppm: self.fc.drift_ppm(),
-            nic,
-        }
-    }
-
-    /// The newest IMU time.
-    pub fn imu_last(&self) -> Option<Timestamp> {
-        self.imu_last
-    }
-
-    /// The flight controller's clock (its timeline) at host time `host_ns`, once known.
-    pub fn fc_time(&self, host_ns: i64) -> Option<Timestamp> {
-        self.fc.to_timeline(host_ns).map(Timestamp)
-    }
-
-    /// Host time of flight controller time `t` (on its timeline), once known.
-    pub fn host_time(&self, t: Timestamp) -> Option<i64> {
-        self.fc.to_host(t.as_nanos())
-    }
-
-    /// The session's times (the flight controller's timeline) minus its clock's reading now,
-    /// ns: 0 until it restarts; subtracted from a pose's time in the messages sent.
-    pub fn fc_epoch_offset_ns(&self) -> i64 {
-        self.fc.epoch_offset_ns()
     }
 
     /// Inputs held: waiting in the merger, released but not yet fed, or held for the start.
