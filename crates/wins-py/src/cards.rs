@@ -232,3 +232,212 @@ pub fn read_packets(py: Python<'_>, path: PathBuf, format: Option<String>) -> Py
     out.set_item("lost", read.lost.clone())?;
     Ok(out.unbind())
 }
+
+/// The complex values of `records` into one `records × tones × rx × tx` block of `[re, im]`
+/// (zero where a record has fewer), from each record's `at(tone, rx, tx)`.
+fn csi_block<R>(
+    records: &[R],
+    shape: (usize, usize, usize),
+    at: impl Fn(&R, usize, usize, usize) -> Option<(i16, i16)>,
+) -> Vec<i16> {
+    let (nt, nr, nc) = shape;
+    let mut out = vec![0i16; records.len() * nt * nr * nc * 2];
+    for (block, r) in out.chunks_mut(nt * nr * nc * 2).zip(records) {
+        for t in 0..nt {
+            for rx in 0..nr {
+                for tx in 0..nc {
+                    if let Some((re, im)) = at(r, t, rx, tx) {
+                        let i = ((t * nr + rx) * nc + tx) * 2;
+                        block[i] = re;
+                        block[i + 1] = im;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Reads an Atheros CSI Tool log (see python/wins/__init__.py, `read_atheros`): one row per
+/// record, csiread's names, the CSI in the vendor's layout.
+#[pyfunction]
+pub fn read_atheros(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
+    let capture = py
+        .detach(|| wins::csi::atheros::read_atheros(&path, None))
+        .map_err(raise)?;
+    let records = &capture.records;
+    if records.is_empty() {
+        return Err(raise_text(format!(
+            "{}: no Atheros CSI Tool records: {}",
+            path.display(),
+            capture.lost().unwrap_or_else(|| "empty".into())
+        )));
+    }
+    let n = records.len();
+    let max = |f: &dyn Fn(&wins::csi::atheros::AtherosRecord) -> u8| {
+        records.iter().map(|r| usize::from(f(r))).max().unwrap_or(0)
+    };
+    let shape = (max(&|r| r.num_tones), max(&|r| r.nr), max(&|r| r.nc));
+    let out = PyDict::new(py);
+    out.set_item("count", n)?;
+    out.set_item("shape", shape)?;
+    let columns = PyDict::new(py);
+    let column = |name: &str, f: &dyn Fn(&wins::csi::atheros::AtherosRecord) -> i64| {
+        put_i64(
+            &columns,
+            name,
+            &records.iter().map(f).collect::<Vec<_>>(),
+            vec![n],
+        )
+    };
+    column("offset", &|r| r.offset as i64)?;
+    column("timestamp", &|r| r.timestamp_us as i64)?;
+    column("csi_len", &|r| i64::from(r.csi_len))?;
+    column("tx_channel", &|r| i64::from(r.channel_mhz))?;
+    column("err_info", &|r| i64::from(r.err_info))?;
+    column("noise_floor", &|r| i64::from(r.noise_floor))?;
+    column("rate", &|r| i64::from(r.rate))?;
+    column("bandwidth", &|r| i64::from(r.bandwidth))?;
+    column("num_tones", &|r| i64::from(r.num_tones))?;
+    column("nr", &|r| i64::from(r.nr))?;
+    column("nc", &|r| i64::from(r.nc))?;
+    column("rssi", &|r| i64::from(r.rssi))?;
+    column("rssi_1", &|r| i64::from(r.rssi_chains[0]))?;
+    column("rssi_2", &|r| i64::from(r.rssi_chains[1]))?;
+    column("rssi_3", &|r| i64::from(r.rssi_chains[2]))?;
+    column("payload_len", &|r| r.payload.len() as i64)?;
+    let csi = csi_block(records, shape, |r, t, rx, tx| {
+        r.csi_at(rx, tx, t).map(|c| (c.re, c.im))
+    });
+    let (nt, nr, nc) = shape;
+    columns.set_item(
+        "csi_re_im",
+        (
+            PyBytes::new(py, &le_bytes(&csi, i16::to_le_bytes)),
+            "<i2",
+            vec![n, nt, nr, nc, 2],
+        ),
+    )?;
+    out.set_item("columns", columns)?;
+    let payloads: Vec<&[u8]> = records.iter().map(|r| r.payload.as_slice()).collect();
+    out.set_item("payloads", payloads)?;
+    out.set_item("order", format!("{:?}", capture.order).to_lowercase())?;
+    out.set_item("tail", capture.lost())?;
+    Ok(out.unbind())
+}
+
+/// Reads a PicoScenes file (see python/wins/__init__.py, `read_picoscenes`): one row per frame
+/// with CSI, its RxSBasic and CSI header fields and the MPDU's addresses, the CSI as stored.
+#[pyfunction]
+pub fn read_picoscenes(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
+    let capture = py
+        .detach(|| wins::csi::picoscenes::read_picoscenes(&path))
+        .map_err(raise)?;
+    let frames: Vec<&wins::csi::picoscenes::PicoFrame> =
+        capture.frames.iter().filter(|f| f.csi.is_some()).collect();
+    if frames.is_empty() {
+        return Err(raise_text(format!(
+            "{}: no PicoScenes frame with CSI: {}",
+            path.display(),
+            capture.lost().unwrap_or_else(|| "no CSI segment".into())
+        )));
+    }
+    let n = frames.len();
+    type Frame<'a> = &'a wins::csi::picoscenes::PicoFrame;
+    fn csi_of(f: Frame<'_>) -> Option<&wins::csi::picoscenes::PicoCsi> {
+        f.csi.as_ref()
+    }
+    let max = |g: &dyn Fn(&wins::csi::picoscenes::PicoCsi) -> usize| {
+        frames
+            .iter()
+            .filter_map(|f| csi_of(f))
+            .map(g)
+            .max()
+            .unwrap_or(0)
+    };
+    let shape = (
+        max(&|c| usize::from(c.num_tone)),
+        max(&|c| usize::from(c.num_rx)),
+        max(&|c| usize::from(c.num_sts)),
+    );
+    let out = PyDict::new(py);
+    out.set_item("count", n)?;
+    out.set_item("shape", shape)?;
+    let columns = PyDict::new(py);
+    let column = |name: &str, f: &dyn Fn(Frame<'_>) -> i64| {
+        put_i64(
+            &columns,
+            name,
+            &frames.iter().map(|x| f(x)).collect::<Vec<_>>(),
+            vec![n],
+        )
+    };
+    let basic = |f: Frame<'_>, g: &dyn Fn(&wins::csi::picoscenes::RxsBasic) -> i64| {
+        f.rxs_basic.as_ref().map_or(i64::MIN, g)
+    };
+    let csi_field = |f: Frame<'_>, g: &dyn Fn(&wins::csi::picoscenes::PicoCsi) -> i64| {
+        csi_of(f).map_or(i64::MIN, g)
+    };
+    column("offset", &|f| f.offset as i64)?;
+    column("mu_clock", &|f| {
+        f.mvm_extra
+            .as_ref()
+            .map_or(i64::MIN, |h| i64::from(h.mu_clock))
+    })?;
+    column("device_type", &|f| basic(f, &|b| i64::from(b.device_type)))?;
+    column("packet_format", &|f| {
+        basic(f, &|b| i64::from(b.packet_format))
+    })?;
+    column("cbw", &|f| basic(f, &|b| i64::from(b.cbw_mhz)))?;
+    column("mcs", &|f| basic(f, &|b| i64::from(b.mcs)))?;
+    column("num_sts", &|f| basic(f, &|b| i64::from(b.num_sts)))?;
+    column("noise_floor", &|f| basic(f, &|b| i64::from(b.noise_floor)))?;
+    column("rssi", &|f| basic(f, &|b| i64::from(b.rssi)))?;
+    for (i, name) in ["rssi_ctl0", "rssi_ctl1", "rssi_ctl2"]
+        .into_iter()
+        .enumerate()
+    {
+        column(name, &|f| basic(f, &|b| i64::from(b.rssi_chains[i])))?;
+    }
+    column("carrier_freq", &|f| {
+        csi_field(f, &|c| c.carrier_freq_hz as i64)
+    })?;
+    column("firmware_version", &|f| {
+        csi_field(f, &|c| i64::from(c.firmware_version))
+    })?;
+    column("num_tone", &|f| csi_field(f, &|c| i64::from(c.num_tone)))?;
+    column("num_rx", &|f| csi_field(f, &|c| i64::from(c.num_rx)))?;
+    column("frame_control", &|f| {
+        f.frame_control().map_or(i64::MIN, i64::from)
+    })?;
+    column("seq_ctl", &|f| f.seq_ctl().map_or(i64::MIN, i64::from))?;
+    let csi = csi_block(&frames, shape, |f, t, rx, sts| {
+        csi_of(f)
+            .and_then(|c| c.at(rx, sts, t))
+            .map(|v| (v.re, v.im))
+    });
+    let (nt, nr, nc) = shape;
+    columns.set_item(
+        "csi_re_im",
+        (
+            PyBytes::new(py, &le_bytes(&csi, i16::to_le_bytes)),
+            "<i2",
+            vec![n, nt, nr, nc, 2],
+        ),
+    )?;
+    out.set_item("columns", columns)?;
+    let mac = |m: Option<wins::csi::MacAddress>| m.map(|m| wins::csi::report::mac(&m));
+    out.set_item(
+        "addr1",
+        frames.iter().map(|f| mac(f.receiver())).collect::<Vec<_>>(),
+    )?;
+    out.set_item(
+        "addr2",
+        frames
+            .iter()
+            .map(|f| mac(f.transmitter()))
+            .collect::<Vec<_>>(),
+    )?;
+    out.set_item("tail", capture.lost())?;
+    Ok(out.unbind())
+}

@@ -155,6 +155,36 @@ def test_atheros_and_picoscenes_read_as_their_references_as_packets() -> None:
         wins.read_packets(log, format="pico")
 
 
+def test_atheros_and_picoscenes_raw_readers_equal_their_references() -> None:
+    for card in ["atheros", "picoscenes"]:
+        if not (SHARED / card).is_dir():
+            missing(f"the shared captures {SHARED / card}")
+    ath = wins.read_atheros(SHARED / "atheros" / "csiread_ath_csi_1.dat")
+    refs = [json.loads(line) for line in
+            (SHARED / "atheros" / "csiread_ath_csi_1.csiread_ref.jsonl").read_text().splitlines()]
+    assert (ath.count, ath.order, ath.tail) == (len(refs), "little", None)
+    for k, r in enumerate(refs):
+        ref = np.array(r["csi"], dtype=np.float64)
+        assert np.array_equal(ath.csi[k], ref[..., 0] + 1j * ref[..., 1]), k
+        assert (ath.timestamp[k], ath.tx_channel[k], ath.rate[k], ath.rssi_1[k]) == (
+            r["timestamp"], r["channel"], r["rate"], r["rssi1"])
+        assert len(ath.payloads[k]) == r["payload_len"]
+    pico = wins.read_picoscenes(SHARED / "picoscenes" / "csikit_picoscenes_ax200_example.csi")
+    refs = [json.loads(line) for line in (SHARED / "picoscenes" /
+            "csikit_picoscenes_ax200_example.csikit_ref.jsonl").read_text().splitlines()]
+    assert pico.count == len(refs) == 885
+    for k, r in enumerate(refs):
+        ref = np.array(r["csi"], dtype=np.float64)
+        tones = ref.shape[0]
+        assert np.array_equal(pico.csi[k, :tones], ref[..., 0] + 1j * ref[..., 1]), k
+        assert (pico.mcs[k], pico.rssi_ctl1[k], pico.carrier_freq[k], pico.mu_clock[k]) == (
+            r["rxs_basic"]["mcs"], r["rxs_basic"]["rssi_ctl1"], r["csi_header"]["carrierFreq"],
+            r["mvm_extra"]["mu_clock"])
+        assert (pico.addr1[k], pico.addr2[k]) == (r["mpdu"]["addr1"], r["mpdu"]["addr2"])
+    with pytest.raises(wins.WinsError, match="no PicoScenes frame"):
+        wins.read_picoscenes(SHARED / "atheros" / "csiread_ath_csi_1.dat")
+
+
 def test_chunks_are_the_whole_log() -> None:
     path = max(captures(), key=lambda p: p.stat().st_size)
     whole = wins.read_csi(path, ntx=3)

@@ -28,11 +28,13 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 __all__ = [
     "Aoa",
+    "AtherosData",
     "CsiData",
     "FeitData",
     "NexmonData",
     "Packet",
     "Packets",
+    "PicoData",
     "Run",
     "Sweep",
     "WinsError",
@@ -42,10 +44,12 @@ __all__ = [
     "iter_csi",
     "load_run",
     "load_sweep",
+    "read_atheros",
     "read_csi",
     "read_feitcsi",
     "read_nexmon",
     "read_packets",
+    "read_picoscenes",
     "run",
     "scenarios",
     "simulate",
@@ -194,16 +198,106 @@ class FeitData:
 def read_feitcsi(path: PathLike) -> FeitData:
     """Reads a FeitCSI file (Intel AX200/AX210) as FeitCSI documents its records."""
     d = _wins.read_feitcsi(os.fspath(path))
+    columns, csi = _card_columns(d)
+    return FeitData(
+        count=d["count"], csi=csi, format=np.array(d["format"], dtype=object), tail=d["tail"],
+        **columns,
+    )
+
+
+@dataclass
+class AtherosData:
+    """The records of an Atheros CSI Tool log, with csiread's ``Atheros`` names (``timestamp``,
+    ``csi_len``, ``tx_channel``, ``err_info``, ``noise_floor``, ``rate``, ``bandwidth``,
+    ``num_tones``, ``nr``, ``nc``, ``rssi``, ``rssi_1..3``, ``payload_len``) and ``csi``
+    ``(records, tones, nr, nc)`` complex128 in the vendor's layout (csiread 1.4.1 transposes the
+    receive and transmit chains of a 2-stream record; this does not), ``payloads`` (each
+    record's 802.11 frame), ``order`` (``"little"`` or ``"big"``)."""
+
+    count: int
+    csi: np.ndarray
+    offset: np.ndarray
+    timestamp: np.ndarray
+    csi_len: np.ndarray
+    tx_channel: np.ndarray
+    err_info: np.ndarray
+    noise_floor: np.ndarray
+    rate: np.ndarray
+    bandwidth: np.ndarray
+    num_tones: np.ndarray
+    nr: np.ndarray
+    nc: np.ndarray
+    rssi: np.ndarray
+    rssi_1: np.ndarray
+    rssi_2: np.ndarray
+    rssi_3: np.ndarray
+    payload_len: np.ndarray
+    payloads: List[bytes]
+    order: str
+    tail: Optional[str] = None
+
+
+@dataclass
+class PicoData:
+    """The frames with CSI of a PicoScenes file: ``csi`` ``(frames, tones, rx, streams)``
+    complex128 as stored (pilots included; real part first, as CSIKit reads it; zero where a
+    frame has fewer), the receiver's report per frame (``device_type``, ``packet_format``,
+    ``cbw``, ``mcs``, ``num_sts``, ``noise_floor``, ``rssi``, ``rssi_ctl0..2``; the minimum int64
+    where absent), the CSI header's ``carrier_freq``, ``firmware_version``, ``num_tone``,
+    ``num_rx``, the Intel ``mu_clock``, the MPDU's ``frame_control``, ``seq_ctl``, ``addr1`` and
+    ``addr2`` (``None`` where the frame has none)."""
+
+    count: int
+    csi: np.ndarray
+    offset: np.ndarray
+    mu_clock: np.ndarray
+    device_type: np.ndarray
+    packet_format: np.ndarray
+    cbw: np.ndarray
+    mcs: np.ndarray
+    num_sts: np.ndarray
+    noise_floor: np.ndarray
+    rssi: np.ndarray
+    rssi_ctl0: np.ndarray
+    rssi_ctl1: np.ndarray
+    rssi_ctl2: np.ndarray
+    carrier_freq: np.ndarray
+    firmware_version: np.ndarray
+    num_tone: np.ndarray
+    num_rx: np.ndarray
+    frame_control: np.ndarray
+    seq_ctl: np.ndarray
+    addr1: List[Optional[str]]
+    addr2: List[Optional[str]]
+    tail: Optional[str] = None
+
+
+def _card_columns(d: Dict[str, Any]) -> Tuple[Dict[str, np.ndarray], np.ndarray]:
+    """A card reader's columns as numpy arrays, and its CSI block as complex128."""
     columns = {
         name: np.frombuffer(raw, dtype=dtype).reshape(shape).copy()
         for name, (raw, dtype, shape) in d["columns"].items()
     }
     re_im = columns.pop("csi_re_im")
     csi = re_im.astype(np.float64).view(np.complex128).reshape(re_im.shape[:-1])
-    return FeitData(
-        count=d["count"], csi=csi, format=np.array(d["format"], dtype=object), tail=d["tail"],
-        **columns,
-    )
+    return columns, csi
+
+
+def read_atheros(path: PathLike) -> AtherosData:
+    """Reads an Atheros CSI Tool log (either byte order, with or without its byte-order byte)."""
+    d = _wins.read_atheros(os.fspath(path))
+    columns, csi = _card_columns(d)
+    return AtherosData(count=d["count"], csi=csi, payloads=list(d["payloads"]), order=d["order"],
+                       tail=d["tail"], **columns)
+
+
+def read_picoscenes(path: PathLike) -> PicoData:
+    """Reads a PicoScenes file's frames with CSI (RxSBasic v3, MVMExtra v1, CSI v4; another
+    version of those raises ``WinsError`` naming it)."""
+    d = _wins.read_picoscenes(os.fspath(path))
+    columns, csi = _card_columns(d)
+    return PicoData(count=d["count"], csi=csi, addr1=list(d["addr1"]), addr2=list(d["addr2"]),
+                    tail=d["tail"], **columns)
 
 
 @dataclass
