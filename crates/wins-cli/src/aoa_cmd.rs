@@ -117,20 +117,25 @@ fn parse_aoa_deg(text: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// Opens the input of `wins aoa` and `wins calibrate` ([`AoaInput::open`]).
-fn open_input(args: &InputArgs) -> Result<AoaInput> {
+/// What `wins aoa` and `wins calibrate` read, with the `[aoa]` settings of `--config`.
+fn spec_of(args: &InputArgs) -> Result<AoaSpec> {
     let config = match &args.config {
         Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
         None => AoaConfig::default(),
     };
-    let spec = AoaSpec {
+    Ok(AoaSpec {
         file: args.file.clone(),
         ap: args.ap.clone(),
         channel: args.channel,
         center_freq_hz: args.center_freq_hz,
         spacing_m: args.spacing_m,
         config,
-    };
+    })
+}
+
+/// Opens the input of `wins aoa` and `wins calibrate` ([`AoaInput::open`]).
+fn open_input(args: &InputArgs) -> Result<AoaInput> {
+    let spec = spec_of(args)?;
     AoaInput::open(&spec).map_err(|e| match e {
         AoaInputError::Options(why) => anyhow::anyhow!(
             "{why} (--ap NAME names a dataset's AP; --channel, --center-freq-hz and --spacing-m \
@@ -370,17 +375,7 @@ fn aoa_capture(args: &AoaArgs, format: CaptureFormat) -> Result<()> {
         Some(path) => Some(ChainCalibration::load(path)?),
         None => None,
     };
-    let spec = AoaSpec {
-        file: args.input.file.clone(),
-        ap: args.input.ap.clone(),
-        channel: args.input.channel,
-        center_freq_hz: args.input.center_freq_hz,
-        spacing_m: args.input.spacing_m,
-        config: match &args.input.config {
-            Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
-            None => AoaConfig::default(),
-        },
-    };
+    let spec = spec_of(&args.input)?;
     let out = estimate_capture(&spec, format, calibration)?;
     write_rows(&out.rows, args.format, args.out.as_deref())?;
     eprintln!(
@@ -456,17 +451,7 @@ fn calibrate_capture_cmd(args: &CalibrateArgs, format: CaptureFormat) -> Result<
             format.describe()
         );
     };
-    let spec = AoaSpec {
-        file: args.input.file.clone(),
-        ap: args.input.ap.clone(),
-        channel: args.input.channel,
-        center_freq_hz: args.input.center_freq_hz,
-        spacing_m: args.input.spacing_m,
-        config: match &args.input.config {
-            Some(path) => crate::run_cmd::load_config(Some(path))?.aoa,
-            None => AoaConfig::default(),
-        },
-    };
+    let spec = spec_of(&args.input)?;
     let (mut calibration, report) = calibrate_capture(&spec, format, deg.to_radians())?;
     calibration.source = format!(
         "static capture {} ({}) at {deg}°",

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use crate::csi::{le_bytes, put_i64};
+use crate::csi::{le_bytes, put_column, put_i64};
 use crate::{raise, raise_text};
 
 /// Reads a Nexmon capture (see python/wins/__init__.py, `read_nexmon`): one row per CSI packet,
@@ -33,12 +33,7 @@ pub fn read_nexmon(py: Python<'_>, path: PathBuf, exact: bool) -> PyResult<Py<Py
     out.set_item("bins", bins)?;
     let columns = PyDict::new(py);
     let column = |name: &str, f: &dyn Fn(&wins::csi::nexmon::NexmonPacket) -> i64| {
-        put_i64(
-            &columns,
-            name,
-            &packets.iter().map(f).collect::<Vec<_>>(),
-            vec![n],
-        )
+        put_column(&columns, packets, name, f)
     };
     column("sec", &|p| i64::from(p.ts_sec))?;
     column("usec", &|p| i64::from(p.ts_frac))?;
@@ -139,12 +134,7 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     out.set_item("shape", (nsc, nrx, ntx))?;
     let columns = PyDict::new(py);
     let column = |name: &str, f: &dyn Fn(&wins::csi::feitcsi::FeitRecord) -> i64| {
-        put_i64(
-            &columns,
-            name,
-            &records.iter().map(f).collect::<Vec<_>>(),
-            vec![n],
-        )
+        put_column(&columns, records, name, f)
     };
     column("offset", &|r| r.offset as i64)?;
     column("ftm_clock", &|r| i64::from(r.header.ftm_clock))?;
@@ -283,12 +273,7 @@ pub fn read_atheros(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     out.set_item("shape", shape)?;
     let columns = PyDict::new(py);
     let column = |name: &str, f: &dyn Fn(&wins::csi::atheros::AtherosRecord) -> i64| {
-        put_i64(
-            &columns,
-            name,
-            &records.iter().map(f).collect::<Vec<_>>(),
-            vec![n],
-        )
+        put_column(&columns, records, name, f)
     };
     column("offset", &|r| r.offset as i64)?;
     column("timestamp", &|r| r.timestamp_us as i64)?;
@@ -364,14 +349,8 @@ pub fn read_picoscenes(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     out.set_item("count", n)?;
     out.set_item("shape", shape)?;
     let columns = PyDict::new(py);
-    let column = |name: &str, f: &dyn Fn(Frame<'_>) -> i64| {
-        put_i64(
-            &columns,
-            name,
-            &frames.iter().map(|x| f(x)).collect::<Vec<_>>(),
-            vec![n],
-        )
-    };
+    let column =
+        |name: &str, f: &dyn Fn(Frame<'_>) -> i64| put_column(&columns, &frames, name, |x| f(x));
     let basic = |f: Frame<'_>, g: &dyn Fn(&wins::csi::picoscenes::RxsBasic) -> i64| {
         f.rxs_basic.as_ref().map_or(i64::MIN, g)
     };

@@ -46,6 +46,21 @@ pub(crate) fn put_i64(
     columns.set_item(name, (bytes, "<i8", shape))
 }
 
+/// One int64 column `name`: `f` of each of `items`.
+pub(crate) fn put_column<R>(
+    columns: &Bound<'_, PyDict>,
+    items: &[R],
+    name: &str,
+    f: impl Fn(&R) -> i64,
+) -> PyResult<()> {
+    put_i64(
+        columns,
+        name,
+        &items.iter().map(f).collect::<Vec<_>>(),
+        vec![items.len()],
+    )
+}
+
 /// The columns as a dict: each field `(bytes, numpy dtype, shape)`, the CSI as int8 pairs.
 fn columns_dict<'py>(
     py: Python<'py>,

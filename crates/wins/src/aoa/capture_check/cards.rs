@@ -11,7 +11,7 @@ use num_complex::Complex64;
 use serde::Serialize;
 
 use super::measure::{GAP_S, spread};
-use super::phases::{STABLE_IQR_DEG, STEPPED_SHARE};
+use super::phases::{STABLE_IQR_DEG, STEPPED_SHARE, steady_or_moving};
 use super::verdicts::{
     CHAIN_BAD_DB, CHAIN_WARN_DB, CLIPPED_BAD, CLIPPED_WARN, RATE_BAD_HZ, RATE_GOOD_HZ,
 };
@@ -241,20 +241,7 @@ fn chain_phases(packets: &[CsiPacket]) -> Finding {
             Some("the chains' phase offsets step within the capture: AoA from these packets aliases; do not restart the card between calibration and flight".into()),
         );
     }
-    if iqr_deg <= STABLE_IQR_DEG {
-        return finding(
-            "chain phases",
-            Verdict::Good,
-            format!("{measured}: stable within the capture"),
-            None,
-        );
-    }
-    finding(
-        "chain phases",
-        Verdict::Unknown,
-        format!("{measured}: they move within the capture"),
-        Some("in flight they should (they follow the angle); on a static capture they should stay within a few degrees: a moving reflector nearby, or a loose antenna".into()),
-    )
+    steady_or_moving(measured, iqr_deg)
 }
 
 fn channel(first: &CsiPacket) -> Finding {

@@ -61,7 +61,13 @@ pub(super) fn chain_phases(m: &Measurements) -> Finding {
             Some("the chains' phase offsets step within the capture (at 2.4 GHz the 5300 can step by 90° from packet to packet; at 5 GHz a restart steps them by 180°): AoA from these packets aliases; record on a 5 GHz channel and do not restart the NIC between calibration and flight".into()),
         );
     }
-    if iqr <= STABLE_IQR_DEG {
+    steady_or_moving(measured, iqr)
+}
+
+/// The chain-phase finding of phases that do not step: stable when their IQR is within
+/// [`STABLE_IQR_DEG`], else moving (which only a static capture says is wrong).
+pub(super) fn steady_or_moving(measured: String, iqr_deg: f64) -> Finding {
+    if iqr_deg <= STABLE_IQR_DEG {
         return finding(
             "chain phases",
             Verdict::Good,
