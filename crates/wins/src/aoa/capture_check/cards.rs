@@ -106,6 +106,9 @@ fn chain_power_db(packets: &[CsiPacket], rows: usize) -> Vec<f64> {
         }
     }
     let strongest = power.iter().copied().fold(0.0, f64::max);
+    if strongest <= 0.0 {
+        return vec![f64::NEG_INFINITY; rows];
+    }
     power
         .iter()
         .map(|p| 10.0 * (p / strongest).log10())
@@ -150,6 +153,14 @@ fn antennas(packets: &[CsiPacket]) -> Finding {
         parts.join(", ")
     );
     let weakest = power.iter().copied().fold(0.0, f64::min);
+    if power.iter().all(|p| *p == f64::NEG_INFINITY) {
+        return finding(
+            "antennas",
+            Verdict::Bad,
+            measured,
+            Some("every chain's CSI is zero: the card logged no channel (check the tool's CSI setting)".into()),
+        );
+    }
     if rows < 2 {
         return finding(
             "antennas",
@@ -361,4 +372,40 @@ fn clipping(format: CaptureFormat, packets: &[CsiPacket]) -> Finding {
             .to_string()
     });
     finding("clipping", verdict, measured, advice)
+}
+
+#[cfg(test)]
+mod tests {
+    use num_complex::Complex64;
+
+    use super::*;
+
+    fn packet(value: f64, chains: usize) -> CsiPacket {
+        CsiPacket {
+            format: CaptureFormat::Atheros,
+            offset: 0,
+            clock_ns: 0,
+            carrier_hz: Some(2.437e9),
+            bandwidth_mhz: 20,
+            spacing_hz: 312_500.0,
+            subcarriers: vec![-1, 1],
+            chains: (0..chains as u8).collect(),
+            num_tx: 1,
+            csi: vec![Complex64::new(value, 0.0); 2 * chains],
+            rssi: vec![None; chains],
+            transmitter: None,
+            sequence: None,
+        }
+    }
+
+    #[test]
+    fn chains_without_any_power_are_bad_and_one_chain_is_not_an_array() {
+        assert_eq!(antennas(&[packet(0.0, 3)]).verdict, Verdict::Bad);
+        assert_eq!(antennas(&[packet(5.0, 3)]).verdict, Verdict::Good);
+        assert_eq!(antennas(&[packet(5.0, 1)]).verdict, Verdict::Bad);
+        // A packet whose values do not fill its shape gives no rows (and no panic).
+        let mut short = packet(5.0, 3);
+        short.csi.pop();
+        assert_eq!(short.antenna_rows(0), None);
+    }
 }

@@ -97,7 +97,12 @@ fn intel5300(r: &CsiRecord) -> CsiPacket {
         chains: (0..h.nrx).collect(),
         num_tx: ntx,
         csi,
-        rssi: h.rssi[..nrx].iter().map(|&v| Some(f64::from(v))).collect(),
+        rssi: h
+            .rssi
+            .iter()
+            .take(nrx)
+            .map(|&v| Some(f64::from(v)))
+            .collect(),
         transmitter: None,
         sequence: None,
     }
@@ -119,7 +124,7 @@ fn broadcom_carrier_hz(chanspec: u16) -> f64 {
 /// A Nexmon frame: one receive row per core, one stream per spatial stream; a frame that lacks
 /// a (core, stream) pair the others have is skipped.
 fn nexmon(frame: &NexmonFrame<'_>) -> Result<CsiPacket, String> {
-    let first = frame.packets[0];
+    let first = *frame.packets.first().ok_or("an empty Nexmon frame")?;
     let chains = frame.cores();
     let mut streams: Vec<u8> = frame.packets.iter().map(|p| p.spatial_stream()).collect();
     streams.sort_unstable();
@@ -307,8 +312,10 @@ fn atheros(r: &AtherosRecord) -> Result<CsiPacket, String> {
         chains: (0..r.nr).collect(),
         num_tx: nc,
         csi,
-        rssi: r.rssi_chains[..nr]
+        rssi: r
+            .rssi_chains
             .iter()
+            .take(nr)
             .map(|&v| Some(f64::from(v)))
             .collect(),
         transmitter: r.transmitter(),

@@ -80,14 +80,16 @@ impl CsiPacket {
 
     /// The CSI of stream `tx` row-major by receive row (row `m` holds chain `m`'s subcarriers),
     /// the layout the AoA takes; `None` when there is no such stream.
+    /// `None` also when the CSI does not hold subcarriers × chains × streams values.
     pub fn antenna_rows(&self, tx: usize) -> Option<Vec<Complex64>> {
         let (nrx, nsc) = (self.num_rx(), self.subcarriers.len());
-        (tx < self.num_tx).then(|| {
-            (0..nrx)
-                .flat_map(|rx| (0..nsc).map(move |sc| (sc, rx)))
-                .map(|(sc, rx)| self.csi[(sc * nrx + rx) * self.num_tx + tx])
-                .collect()
-        })
+        if tx >= self.num_tx || self.csi.len() != nsc * nrx * self.num_tx {
+            return None;
+        }
+        (0..nrx)
+            .flat_map(|rx| (0..nsc).map(move |sc| (sc, rx)))
+            .map(|(sc, rx)| self.csi.get((sc * nrx + rx) * self.num_tx + tx).copied())
+            .collect()
     }
 }
 
