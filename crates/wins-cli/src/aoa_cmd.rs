@@ -10,7 +10,7 @@ use wins::aoa::{AoaConfig, AoaEstimator, AoaWindow, CalibrateReport, calibrate, 
 use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::{CsiRecord, SkipReason};
 use wins::dataset::truth::Truth;
-use wins::pipeline::aoa_log::capture::{calibrate_capture, estimate_capture, other_card};
+use wins::pipeline::aoa_log::capture::{calibrate_capture, estimate_capture};
 use wins::pipeline::aoa_log::input::{AoaInput, AoaInputError, AoaSource, AoaSpec};
 use wins::pipeline::aoa_log::{AoaLogSummary, AoaMode, PacketAoa, truth_pairs};
 use wins::rig::ChainCalibration;
@@ -164,7 +164,7 @@ fn report_log_skips(input: &AoaInput, label: &Path) {
 
 /// `wins aoa`.
 pub fn aoa(args: AoaArgs) -> Result<()> {
-    if let Some(format) = other_card(&args.input.file, args.input.csi_format) {
+    if let Some(format) = CaptureFormat::other_card(&args.input.file, args.input.csi_format) {
         return aoa_capture(&args, format);
     }
     let input = open_input(&args.input)?;
@@ -283,7 +283,7 @@ fn plot_spectrum(est: &AoaEstimator, record: &CsiRecord, index: usize, png: &Pat
 
 /// `wins calibrate`.
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
-    if let Some(format) = other_card(&args.input.file, args.input.csi_format) {
+    if let Some(format) = CaptureFormat::other_card(&args.input.file, args.input.csi_format) {
         return calibrate_capture_cmd(&args, format);
     }
     let input = open_input(&args.input)?;

@@ -5,10 +5,10 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use wins::aoa::capture_check::{CheckOptions, Verdict, check_capture, check_card};
+use wins::aoa::capture_check::{CheckOptions, Verdict, check_any};
 use wins::aoa::capture_stats::capture_stats;
+use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::read_log;
-use wins::pipeline::aoa_log::capture::other_card;
 use wins::rig::channel::wifi_channel_hz;
 use wins::rig::{ArrayGeometry, ChainCalibration};
 
@@ -47,7 +47,7 @@ pub struct CheckArgs {
     files: Vec<PathBuf>,
     /// Read the files as this capture format instead of the one their first bytes say.
     #[arg(long, value_name = "FORMAT")]
-    csi_format: Option<wins::csi::format::CaptureFormat>,
+    csi_format: Option<CaptureFormat>,
     /// The capture's channel (a CSI Tool log does not record it; it sets the chains' restart
     /// step, π at 5 GHz and π/2 at 2.4 GHz).
     #[command(flatten)]
@@ -75,36 +75,20 @@ pub fn check(args: CheckArgs) -> Result<()> {
     let mut out = std::io::stdout().lock();
     let mut unusable = Vec::new();
     for (i, path) in args.files.iter().enumerate() {
-        let (verdict, json, text) = match other_card(path, args.csi_format) {
-            Some(format) => {
-                let checked = check_card(path, format)?;
-                (
-                    checked.verdict(),
-                    serde_json::to_value(&checked)?,
-                    checked.to_string(),
-                )
-            }
-            None => {
-                let checked = check_capture(path, &options)?;
-                (
-                    checked.verdict(),
-                    serde_json::to_value(&checked)?,
-                    checked.to_string(),
-                )
-            }
-        };
+        let checked = check_any(path, args.csi_format, &options)?;
+        let verdict = checked.verdict();
         if verdict == Verdict::Bad {
             unusable.push(path.display().to_string());
         }
         if args.json {
-            let value = serde_json::json!({ "file": path, "verdict": verdict, "check": json });
+            let value = serde_json::json!({ "file": path, "verdict": verdict, "check": checked });
             writeln!(out, "{value}")?;
         } else {
             if i > 0 {
                 writeln!(out)?;
             }
             writeln!(out, "{:<22} {}", "file", path.display())?;
-            write!(out, "{text}")?;
+            write!(out, "{checked}")?;
         }
     }
     if !unusable.is_empty() {
@@ -147,7 +131,7 @@ pub fn stats(args: StatsArgs) -> Result<()> {
     };
     let config = crate::run_cmd::load_config(args.config.as_deref())?.aoa;
     for path in &args.files {
-        if let Some(format) = other_card(path, None) {
+        if let Some(format) = CaptureFormat::other_card(path, None) {
             bail!(
                 "{}: {}: `wins csi stats` measures Intel 5300 logs (`wins csi check` and `wins aoa` take this capture)",
                 path.display(),

@@ -277,7 +277,7 @@ fn csi_export(
         // Before anything is opened: creating the output would empty the input.
         wins::io_safety::refuse_same_file(file, p)?;
     }
-    if let Some(card) = wins::pipeline::aoa_log::capture::other_card(file, csi_format) {
+    if let Some(card) = wins::csi::format::CaptureFormat::other_card(file, csi_format) {
         return export_packets(file, card, format, out);
     }
     let input = File::open(file).with_context(|| format!("cannot open {}", file.display()))?;

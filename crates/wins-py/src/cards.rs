@@ -420,3 +420,44 @@ pub fn read_picoscenes(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     out.set_item("tail", capture.lost())?;
     Ok(out.unbind())
 }
+
+/// Checks a capture of any card for AoA (see python/wins/__init__.py, `check`): the check as
+/// JSON, as `wins csi check --json` gives it.
+#[pyfunction]
+#[pyo3(signature = (path, channel = None, calibration = None, format = None))]
+pub fn check(
+    py: Python<'_>,
+    path: PathBuf,
+    channel: Option<u32>,
+    calibration: Option<PathBuf>,
+    format: Option<String>,
+) -> PyResult<String> {
+    let forced = match &format {
+        Some(name) => Some(
+            name.parse::<wins::csi::format::CaptureFormat>()
+                .map_err(raise_text)?,
+        ),
+        None => None,
+    };
+    let center_freq_hz = match channel {
+        Some(n) => Some(wins::rig::channel::wifi_channel_hz(n).ok_or_else(|| {
+            raise_text(format!(
+                "channel {n} is not a Wi-Fi channel (1–14 at 2.4 GHz, 32–177 at 5 GHz)"
+            ))
+        })?),
+        None => None,
+    };
+    let calibration = match &calibration {
+        Some(p) => Some(wins::rig::ChainCalibration::load(p).map_err(raise)?),
+        None => None,
+    };
+    let options = wins::aoa::capture_check::CheckOptions {
+        center_freq_hz,
+        calibration,
+    };
+    let checked = py
+        .detach(|| wins::aoa::capture_check::check_any(&path, forced, &options))
+        .map_err(raise)?;
+    let value = serde_json::json!({ "verdict": checked.verdict(), "check": checked });
+    serde_json::to_string(&value).map_err(raise)
+}

@@ -10,7 +10,7 @@ use wins::csi::format::CaptureFormat;
 use wins::csi::intel5300::{CsiColumns, Event, LogReader, ReadError, Skip, why_no_records};
 use wins::io_safety::open_regular;
 use wins::pipeline::aoa_log::AoaMode;
-use wins::pipeline::aoa_log::capture::{estimate_capture, other_card};
+use wins::pipeline::aoa_log::capture::estimate_capture;
 use wins::pipeline::aoa_log::input::{AoaInput, AoaSpec};
 use wins::rig::ChainCalibration;
 
@@ -274,7 +274,7 @@ pub fn aoa(
         spacing_m,
         config,
     };
-    if let Some(format) = other_card(&spec.file, forced) {
+    if let Some(format) = CaptureFormat::other_card(&spec.file, forced) {
         if !matches!(mode, AoaMode::Music) {
             return Err(raise_text(format!(
                 "mode \"spotfi\" takes Intel 5300 logs and datasets; {} is {}",

@@ -40,6 +40,7 @@ fn _wins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cards::read_packets, m)?)?;
     m.add_function(wrap_pyfunction!(cards::read_atheros, m)?)?;
     m.add_function(wrap_pyfunction!(cards::read_picoscenes, m)?)?;
+    m.add_function(wrap_pyfunction!(cards::check, m)?)?;
     m.add_function(wrap_pyfunction!(csi::aoa, m)?)?;
     m.add_function(wrap_pyfunction!(runs::run, m)?)?;
     m.add_function(wrap_pyfunction!(runs::simulate, m)?)?;

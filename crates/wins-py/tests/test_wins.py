@@ -185,6 +185,25 @@ def test_atheros_and_picoscenes_raw_readers_equal_their_references() -> None:
         wins.read_picoscenes(SHARED / "atheros" / "csiread_ath_csi_1.dat")
 
 
+def test_check_gives_every_cards_verdict_as_the_command_line() -> None:
+    pico = SHARED / "picoscenes" / "csikit_picoscenes_ax200_example.csi"
+    if not pico.is_file():
+        missing(f"the shared capture {pico}")
+    c = wins.check(pico)
+    phases = next(f for f in c.findings if f["topic"] == "chain phases")
+    assert (c.verdict, c.usable, phases["verdict"]) == ("warning", True, "warning")
+    assert "180°" in phases["measured"]
+    done = cli("csi", "check", "--json", str(pico))
+    assert json.loads(done.stdout)["check"]["findings"] == c.findings
+    log = REPO / "data" / "intel5300" / "csikit_example.dat"
+    # CSIKit's example: its chains step by quarter turns from packet to packet.
+    five = wins.check(log, channel=64)
+    assert (five.verdict, five.usable) == ("bad", False)
+    assert next(f for f in five.findings if f["topic"] == "chain phases")["verdict"] == "bad"
+    with pytest.raises(wins.WinsError, match="not a Wi-Fi channel"):
+        wins.check(log, channel=500)
+
+
 def test_chunks_are_the_whole_log() -> None:
     path = max(captures(), key=lambda p: p.stat().st_size)
     whole = wins.read_csi(path, ntx=3)

@@ -29,6 +29,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 __all__ = [
     "Aoa",
     "AtherosData",
+    "Check",
     "CsiData",
     "FeitData",
     "NexmonData",
@@ -40,6 +41,7 @@ __all__ = [
     "WinsError",
     "__version__",
     "aoa",
+    "check",
     "default_config",
     "iter_csi",
     "load_run",
@@ -417,6 +419,37 @@ def aoa(
         csi_format,
     )
     return Aoa(rows=_columns(json.loads(rows)), summary=json.loads(summary), warnings=warnings)
+
+
+@dataclass
+class Check:
+    """Whether a capture is usable for AoA, as ``wins csi check`` says: the overall ``verdict``
+    (``"good"``, ``"warning"``, ``"bad"`` or ``"unknown"``) and one finding per topic
+    (``topic``, ``verdict``, ``measured``, ``advice``)."""
+
+    verdict: str
+    findings: List[Dict[str, Any]]
+
+    @property
+    def usable(self) -> bool:
+        """Usable for AoA: no finding is bad."""
+        return self.verdict != "bad"
+
+
+def check(
+    path: PathLike,
+    *,
+    channel: Optional[int] = None,
+    calibration: Optional[PathLike] = None,
+    format: Optional[str] = None,
+) -> Check:
+    """Checks a capture of any card for AoA before any flight (``wins csi check``): antennas,
+    signal, clipping, the chains' phases, a calibration, the channel, the packets' rate and
+    gaps. ``channel`` and ``calibration`` serve Intel 5300 logs, which carry neither."""
+    d = json.loads(_wins.check(
+        os.fspath(path), channel, None if calibration is None else os.fspath(calibration), format,
+    ))
+    return Check(verdict=d["verdict"], findings=list(d["check"]["findings"]))
 
 
 @dataclass

@@ -74,6 +74,18 @@ impl CaptureFormat {
         })
     }
 
+    /// The format of `file` when it is a capture of another card than the Intel 5300
+    /// (`forced`, else told from its first bytes): the captures the packet path takes. `None`
+    /// for an Intel 5300 log, a file no format recognizes, and a folder (a dataset).
+    pub fn other_card(file: &Path, forced: Option<Self>) -> Option<Self> {
+        let format = match forced {
+            Some(f) => Some(f),
+            None if file.is_file() => Self::of_path(file).ok().flatten(),
+            None => None,
+        };
+        format.filter(|f| *f != Self::Intel5300)
+    }
+
     /// [`CaptureFormat::detect`] on the file at `path`.
     pub fn of_path(path: &Path) -> io::Result<Option<Self>> {
         let mut head = Vec::new();

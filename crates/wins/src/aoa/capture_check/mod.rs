@@ -157,6 +157,62 @@ pub fn check_capture(path: &Path, options: &CheckOptions) -> Result<CaptureCheck
     Ok(CaptureCheck { findings, summary })
 }
 
+/// The check of a capture of any card.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Checked {
+    /// An Intel 5300 CSI Tool log (or a file no format recognizes).
+    Intel5300(Box<CaptureCheck>),
+    /// Another card's capture.
+    Card(CardCheck),
+}
+
+impl Checked {
+    /// The worst verdict of the findings that could be measured.
+    pub fn verdict(&self) -> Verdict {
+        match self {
+            Self::Intel5300(c) => c.verdict(),
+            Self::Card(c) => c.verdict(),
+        }
+    }
+}
+
+impl fmt::Display for Checked {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Intel5300(c) => write!(f, "{c}"),
+            Self::Card(c) => write!(f, "{c}"),
+        }
+    }
+}
+
+/// Why a capture cannot be checked at all.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckError {
+    /// The Intel 5300 log cannot be read.
+    #[error(transparent)]
+    Intel5300(#[from] ReadError),
+    /// Another card's capture cannot be read.
+    #[error(transparent)]
+    Card(#[from] crate::csi::capture::CaptureError),
+}
+
+/// Checks the capture at `path`: another card's from its packets ([`check_card`]) when it is
+/// one (`forced`, else told from its first bytes), else as an Intel 5300 log
+/// ([`check_capture`]).
+pub fn check_any(
+    path: &Path,
+    forced: Option<crate::csi::format::CaptureFormat>,
+    options: &CheckOptions,
+) -> Result<Checked, CheckError> {
+    Ok(
+        match crate::csi::format::CaptureFormat::other_card(path, forced) {
+            Some(format) => Checked::Card(check_card(path, format)?),
+            None => Checked::Intel5300(Box::new(check_capture(path, options)?)),
+        },
+    )
+}
+
 /// A finding.
 fn finding(
     topic: &'static str,

@@ -18,18 +18,6 @@ use crate::rig::array::half_wavelength_m;
 use crate::rig::channel::wifi_channel_hz;
 use crate::rig::{ArrayGeometry, ChainCalibration};
 
-/// The format of `file` when it is a capture of another card than the Intel 5300 (`forced`,
-/// else told from its first bytes): the captures [`estimate_capture`] takes. `None` for an
-/// Intel 5300 log, a file no format recognizes, and a dataset folder.
-pub fn other_card(file: &std::path::Path, forced: Option<CaptureFormat>) -> Option<CaptureFormat> {
-    let format = match forced {
-        Some(f) => Some(f),
-        None if file.is_file() => CaptureFormat::of_path(file).ok().flatten(),
-        None => None,
-    };
-    format.filter(|f| *f != CaptureFormat::Intel5300)
-}
-
 /// What an AoA run over a capture gives.
 #[derive(Debug)]
 pub struct CaptureAoa {
