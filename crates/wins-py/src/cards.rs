@@ -149,28 +149,9 @@ pub fn read_feitcsi(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     column("width_mhz", &|r| i64::from(r.header.width_mhz()))?;
     let macs: Vec<u8> = records.iter().flat_map(|r| r.header.source_mac).collect();
     columns.set_item("source_mac", (PyBytes::new(py, &macs), "u1", vec![n, 6]))?;
-    let mut csi = vec![0i16; n * nsc * nrx * ntx * 2];
-    for (block, r) in csi.chunks_mut(nsc * nrx * ntx * 2).zip(records) {
-        for sc in 0..nsc {
-            for rx in 0..nrx {
-                for tx in 0..ntx {
-                    if let Some(c) = r.csi_at(rx, tx, sc) {
-                        let at = ((sc * nrx + rx) * ntx + tx) * 2;
-                        block[at] = c.re;
-                        block[at + 1] = c.im;
-                    }
-                }
-            }
-        }
-    }
-    columns.set_item(
-        "csi_re_im",
-        (
-            PyBytes::new(py, &le_bytes(&csi, i16::to_le_bytes)),
-            "<i2",
-            vec![n, nsc, nrx, ntx, 2],
-        ),
-    )?;
+    put_csi_block(&columns, records, (nsc, nrx, ntx), |r, sc, rx, tx| {
+        r.csi_at(rx, tx, sc).map(|c| (c.re, c.im))
+    })?;
     out.set_item("columns", columns)?;
     let formats: Vec<&str> = records.iter().map(|r| r.header.format().name()).collect();
     out.set_item("format", formats)?;
@@ -223,16 +204,18 @@ pub fn read_packets(py: Python<'_>, path: PathBuf, format: Option<String>) -> Py
     Ok(out.unbind())
 }
 
-/// The complex values of `records` into one `records × tones × rx × tx` block of `[re, im]`
-/// (zero where a record has fewer), from each record's `at(tone, rx, tx)`.
-fn csi_block<R>(
+/// The column `csi_re_im`: the complex values of `records` in one `records × tones × rx × tx`
+/// block of int16 `[re, im]` (zero where a record has fewer), from each record's
+/// `at(tone, rx, tx)`.
+fn put_csi_block<R>(
+    columns: &Bound<'_, PyDict>,
     records: &[R],
     shape: (usize, usize, usize),
     at: impl Fn(&R, usize, usize, usize) -> Option<(i16, i16)>,
-) -> Vec<i16> {
+) -> PyResult<()> {
     let (nt, nr, nc) = shape;
     let mut out = vec![0i16; records.len() * nt * nr * nc * 2];
-    for (block, r) in out.chunks_mut(nt * nr * nc * 2).zip(records) {
+    for (block, r) in out.chunks_mut((nt * nr * nc * 2).max(1)).zip(records) {
         for t in 0..nt {
             for rx in 0..nr {
                 for tx in 0..nc {
@@ -245,7 +228,14 @@ fn csi_block<R>(
             }
         }
     }
-    out
+    columns.set_item(
+        "csi_re_im",
+        (
+            PyBytes::new(columns.py(), &le_bytes(&out, i16::to_le_bytes)),
+            "<i2",
+            vec![records.len(), nt, nr, nc, 2],
+        ),
+    )
 }
 
 /// Reads an Atheros CSI Tool log (see python/wins/__init__.py, `read_atheros`): one row per
@@ -291,18 +281,9 @@ pub fn read_atheros(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
     column("rssi_2", &|r| i64::from(r.rssi_chains[1]))?;
     column("rssi_3", &|r| i64::from(r.rssi_chains[2]))?;
     column("payload_len", &|r| r.payload.len() as i64)?;
-    let csi = csi_block(records, shape, |r, t, rx, tx| {
+    put_csi_block(&columns, records, shape, |r, t, rx, tx| {
         r.csi_at(rx, tx, t).map(|c| (c.re, c.im))
-    });
-    let (nt, nr, nc) = shape;
-    columns.set_item(
-        "csi_re_im",
-        (
-            PyBytes::new(py, &le_bytes(&csi, i16::to_le_bytes)),
-            "<i2",
-            vec![n, nt, nr, nc, 2],
-        ),
-    )?;
+    })?;
     out.set_item("columns", columns)?;
     let payloads: Vec<&[u8]> = records.iter().map(|r| r.payload.as_slice()).collect();
     out.set_item("payloads", payloads)?;
@@ -390,20 +371,11 @@ pub fn read_picoscenes(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyDict>> {
         f.frame_control().map_or(i64::MIN, i64::from)
     })?;
     column("seq_ctl", &|f| f.seq_ctl().map_or(i64::MIN, i64::from))?;
-    let csi = csi_block(&frames, shape, |f, t, rx, sts| {
+    put_csi_block(&columns, &frames, shape, |f, t, rx, sts| {
         csi_of(f)
             .and_then(|c| c.at(rx, sts, t))
             .map(|v| (v.re, v.im))
-    });
-    let (nt, nr, nc) = shape;
-    columns.set_item(
-        "csi_re_im",
-        (
-            PyBytes::new(py, &le_bytes(&csi, i16::to_le_bytes)),
-            "<i2",
-            vec![n, nt, nr, nc, 2],
-        ),
-    )?;
+    })?;
     out.set_item("columns", columns)?;
     let mac = |m: Option<wins::csi::MacAddress>| m.map(|m| wins::csi::report::mac(&m));
     out.set_item(
