@@ -219,9 +219,8 @@ pub fn aoa(args: AoaArgs) -> Result<()> {
     }
     if args.calibration.is_none() {
         eprintln!(
-            "warning: uncalibrated chains: the curvature is measured from the log, but the \
-             uniform phase step between chains is not, so angles are offset on real hardware \
-             (see wins calibrate)"
+            "warning: {} (see wins calibrate)",
+            wins::pipeline::aoa_log::input::UNCALIBRATED
         );
     }
     if let Some(png) = &args.plot {
@@ -392,8 +391,8 @@ fn aoa_capture(args: &AoaArgs, format: CaptureFormat) -> Result<()> {
     print_summary(&args.input.file, &out.summary);
     if args.calibration.is_none() {
         eprintln!(
-            "warning: uncalibrated chains: the phase step between chains is not measured, so \
-             angles are offset on real hardware (see wins calibrate)"
+            "warning: {} (see wins calibrate)",
+            wins::pipeline::aoa_log::capture::UNCALIBRATED
         );
     }
     Ok(())

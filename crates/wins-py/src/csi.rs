@@ -287,11 +287,7 @@ pub fn aoa(
             .map_err(raise)?;
         let mut warnings: Vec<String> = out.lost.iter().map(|l| format!("not read: {l}")).collect();
         if uncalibrated {
-            warnings.push(
-                "uncalibrated chains: the phase step between chains is not measured, so angles \
-                 are offset on real hardware"
-                    .into(),
-            );
+            warnings.push(wins::pipeline::aoa_log::capture::UNCALIBRATED.into());
         }
         let rows = serde_json::to_string(&out.rows).map_err(raise)?;
         let summary = serde_json::to_string(&out.summary).map_err(raise)?;
@@ -302,11 +298,7 @@ pub fn aoa(
         .map_err(raise)?;
     let mut warnings: Vec<String> = outcome.ambiguity.iter().cloned().collect();
     if uncalibrated {
-        warnings.push(
-            "uncalibrated chains: the curvature is measured from the log, but the uniform \
-             phase step between chains is not, so angles are offset on real hardware"
-                .into(),
-        );
+        warnings.push(wins::pipeline::aoa_log::input::UNCALIBRATED.into());
     }
     let rows = serde_json::to_string(&outcome.rows).map_err(raise)?;
     let summary = serde_json::to_string(&outcome.summary).map_err(raise)?;

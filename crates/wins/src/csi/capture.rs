@@ -54,13 +54,7 @@ impl CaptureSummary {
             path: path.display().to_string(),
             source,
         };
-        let format = match format {
-            Some(f) => f,
-            None => CaptureFormat::of_path(path)
-                .map_err(io)?
-                .unwrap_or(CaptureFormat::Intel5300),
-        };
-        Ok(match format {
+        Ok(match CaptureFormat::resolve(path, format).map_err(io)? {
             CaptureFormat::Nexmon => Self::Nexmon(NexmonSummary::of(&read_nexmon(path)?)),
             CaptureFormat::FeitCsi => {
                 Self::FeitCsi(FeitSummary::of(&read_feitcsi(path).map_err(io)?))

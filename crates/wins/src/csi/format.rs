@@ -86,6 +86,15 @@ impl CaptureFormat {
         format.filter(|f| *f != Self::Intel5300)
     }
 
+    /// `forced`, else the format the file at `path` is told to be, else (none recognized) an
+    /// Intel 5300 log, whose reader names what the file is.
+    pub fn resolve(path: &Path, forced: Option<Self>) -> io::Result<Self> {
+        match forced {
+            Some(f) => Ok(f),
+            None => Ok(Self::of_path(path)?.unwrap_or(Self::Intel5300)),
+        }
+    }
+
     /// [`CaptureFormat::detect`] on the file at `path`.
     pub fn of_path(path: &Path) -> io::Result<Option<Self>> {
         let mut head = Vec::new();

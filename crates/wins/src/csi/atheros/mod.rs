@@ -150,16 +150,16 @@ pub fn parse_atheros(bytes: &[u8], order: Option<ByteOrder>) -> AtherosCapture {
         .copied()
         .find(|&(lead, o)| record(&bytes[usize::from(lead).min(bytes.len())..], 0, o).is_ok())
         .unwrap_or(all[0]);
-    let (leading_byte, order) = layout;
+    let (lead, order) = layout;
+    // An empty file has no byte-order byte, whatever the layout.
+    let mut at = usize::from(lead && !bytes.is_empty());
     let mut capture = AtherosCapture {
         order,
-        leading_byte,
+        leading_byte: at == 1,
         records: Vec::new(),
         tail: None,
         bytes: bytes.len() as u64,
     };
-    let mut at = usize::from(leading_byte).min(bytes.len());
-    capture.leading_byte = at == 1;
     while at < bytes.len() {
         match record(&bytes[at..], at as u64, order) {
             Ok(r) => {

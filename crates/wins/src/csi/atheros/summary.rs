@@ -11,7 +11,7 @@ use super::AtherosCapture;
 pub struct AtherosSummary {
     /// Bytes in the file.
     pub bytes: u64,
-    /// The byte order of its fields, and whether a byte-order byte comes first.
+    /// The byte order of its fields.
     pub order: super::ByteOrder,
     /// Whether a byte-order byte comes first.
     pub leading_byte: bool,

@@ -116,14 +116,9 @@ pub fn read_packets(
     path: &Path,
     format: Option<CaptureFormat>,
 ) -> Result<(CaptureFormat, CsiPackets), CaptureError> {
-    let format = match format {
-        Some(f) => f,
-        None => CaptureFormat::of_path(path)
-            .map_err(|source| CaptureError::Io {
-                path: path.display().to_string(),
-                source,
-            })?
-            .unwrap_or(CaptureFormat::Intel5300),
-    };
+    let format = CaptureFormat::resolve(path, format).map_err(|source| CaptureError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
     Ok((format, convert::packets(path, format)?))
 }

@@ -35,6 +35,10 @@ pub struct CaptureAoa {
     pub lost: Option<String>,
 }
 
+/// The warning of a capture's AoA without a calibration.
+pub const UNCALIBRATED: &str = "uncalibrated chains: the phase step between chains is not \
+     measured, so angles are offset on real hardware";
+
 /// The packets of the capture `spec.file` in `format`, and the array and carrier they are
 /// taken on (module doc). Errors: a dataset's AP given, no packet, no carrier known.
 pub fn open_capture(

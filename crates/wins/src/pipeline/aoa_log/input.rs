@@ -15,6 +15,10 @@ use crate::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
 use crate::rig::channel::wifi_channel_hz;
 use crate::rig::{ArrayGeometry, ChainCalibration};
 
+/// The warning of a log's AoA without a calibration.
+pub const UNCALIBRATED: &str = "uncalibrated chains: the curvature is measured from the log, but \
+     the uniform phase step between chains is not, so angles are offset on real hardware";
+
 /// What to read: a log (with its channel and array, defaults channel 64 and half a wavelength)
 /// or a dataset folder (with the AP's name; the channel and array are the dataset's).
 #[derive(Clone, Debug, Default)]
