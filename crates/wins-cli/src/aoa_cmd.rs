@@ -164,6 +164,10 @@ fn report_log_skips(input: &AoaInput, label: &Path) {
 
 /// `wins aoa`.
 pub fn aoa(args: AoaArgs) -> Result<()> {
+    // Before anything is read: the output made over the input would destroy it.
+    for out in args.out.iter().chain(&args.plot) {
+        wins::io_safety::refuse_same_file(&args.input.file, out)?;
+    }
     if let Some(format) = CaptureFormat::other_card(&args.input.file, args.input.csi_format) {
         return aoa_capture(&args, format);
     }
@@ -282,6 +286,7 @@ fn plot_spectrum(est: &AoaEstimator, record: &CsiRecord, index: usize, png: &Pat
 
 /// `wins calibrate`.
 pub fn calibrate_cmd(args: CalibrateArgs) -> Result<()> {
+    wins::io_safety::refuse_same_file(&args.input.file, &args.out)?;
     if let Some(format) = CaptureFormat::other_card(&args.input.file, args.input.csi_format) {
         return calibrate_capture_cmd(&args, format);
     }

@@ -347,3 +347,27 @@ fn guards_refuse_what_would_give_wrong_angles() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn an_output_named_as_the_input_is_refused_before_anything_is_read() {
+    let dir = std::env::temp_dir().join(format!("wins-aoa-same-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("capture.dat");
+    let original = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/intel5300/csikit_example.dat"),
+    )
+    .unwrap();
+    std::fs::write(&log, &original).unwrap();
+    let same = dir.join(".").join("capture.dat");
+    for args in [
+        vec!["aoa", s(&log), "--out", s(&same)],
+        vec!["aoa", s(&log), "--plot", s(&same)],
+        vec!["calibrate", s(&log), "--aoa-deg", "10", "--out", s(&same)],
+    ] {
+        let out = wins(&args);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(stderr(&out).contains("is the input"), "{}", stderr(&out));
+        assert_eq!(std::fs::read(&log).unwrap(), original, "{args:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
