@@ -6,6 +6,7 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use wins::csi::format::CaptureFormat;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -101,6 +102,10 @@ struct SimulateArgs {
     /// landing) and fly the mission alone from t = 0.
     #[arg(long)]
     airborne: bool,
+    /// The rig's card: `intel5300` (each built-in scenario's and family's) or `atheros` (its
+    /// logs in the Atheros CSI Tool's format, `[array] card = "atheros"` in dataset.toml).
+    #[arg(long)]
+    card: Option<CaptureFormat>,
     /// Print a built-in scenario's TOML and exit.
     #[arg(long, value_name = "NAME", conflicts_with = "out")]
     print_scenario: Option<String>,
@@ -129,7 +134,7 @@ enum CsiCommand {
         /// Read the files as this format instead of the one their first bytes say:
         /// intel5300, nexmon, feitcsi, picoscenes or atheros.
         #[arg(long)]
-        format: Option<wins::csi::format::CaptureFormat>,
+        format: Option<CaptureFormat>,
     },
     /// Is a capture usable for AoA? Antennas, signal, clipping, chain phases, calibration,
     /// bandwidth and channel, packet rate and gaps, each with a verdict and what to do.
@@ -152,7 +157,7 @@ enum CsiCommand {
         out: Option<PathBuf>,
         /// Read the file as this capture format instead of the one its first bytes say.
         #[arg(long, value_name = "FORMAT")]
-        csi_format: Option<wins::csi::format::CaptureFormat>,
+        csi_format: Option<CaptureFormat>,
     },
 }
 
@@ -239,11 +244,7 @@ fn config(args: ConfigArgs) -> Result<()> {
     Ok(())
 }
 
-fn csi_info(
-    files: &[PathBuf],
-    json: bool,
-    format: Option<wins::csi::format::CaptureFormat>,
-) -> Result<()> {
+fn csi_info(files: &[PathBuf], json: bool, format: Option<CaptureFormat>) -> Result<()> {
     let stdout = io::stdout();
     let mut out = stdout.lock();
     let mut empty = Vec::new();
@@ -271,13 +272,13 @@ fn csi_export(
     file: &PathBuf,
     format: Format,
     out: Option<PathBuf>,
-    csi_format: Option<wins::csi::format::CaptureFormat>,
+    csi_format: Option<CaptureFormat>,
 ) -> Result<()> {
     if let Some(p) = &out {
         // Before anything is opened: creating the output would empty the input.
         wins::io_safety::refuse_same_file(file, p)?;
     }
-    if let Some(card) = wins::csi::format::CaptureFormat::other_card(file, csi_format) {
+    if let Some(card) = CaptureFormat::other_card(file, csi_format) {
         return export_packets(file, card, format, out);
     }
     let input = File::open(file).with_context(|| format!("cannot open {}", file.display()))?;
@@ -319,7 +320,7 @@ fn csi_export(
 /// made.
 fn export_packets(
     file: &Path,
-    card: wins::csi::format::CaptureFormat,
+    card: CaptureFormat,
     format: Format,
     out: Option<PathBuf>,
 ) -> Result<()> {
@@ -399,11 +400,15 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         return Ok(());
     }
     let draw = match &args.family {
-        Some(name) => Some(
-            Family::from_name(name)?
+        Some(name) => {
+            let mut d = Family::from_name(name)?
                 .draw(args.seed.unwrap_or(1))?
-                .with_overrides(args.duration, args.airborne)?,
-        ),
+                .with_overrides(args.duration, args.airborne)?;
+            if let Some(card) = args.card {
+                d.scenario = d.scenario.with_card(card);
+            }
+            Some(d)
+        }
         None => None,
     };
     let scenario = match (&draw, &args.scenario_file) {
@@ -413,6 +418,10 @@ fn simulate(args: SimulateArgs) -> Result<()> {
             None => Scenario::built_in(&args.scenario)?,
         }
         .with_overrides(args.seed, args.duration, args.airborne),
+    };
+    let scenario = match args.card {
+        Some(card) => scenario.with_card(card),
+        None => scenario,
     };
     if args.print {
         match &draw {

@@ -3,6 +3,7 @@
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
+use wins::csi::format::CaptureFormat;
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -27,7 +28,7 @@ pub struct SweepArgs {
     /// and `airborne`), instead of --scenario, --family and --seeds.
     #[arg(
         value_name = "PLAN",
-        conflicts_with_all = ["scenario", "family", "seeds", "duration_s", "config", "airborne"]
+        conflicts_with_all = ["scenario", "family", "seeds", "duration_s", "config", "airborne", "card"]
     )]
     plan: Option<PathBuf>,
     /// Scenarios, comma-separated or repeated: built-in names (`wins simulate --list`) and
@@ -64,6 +65,10 @@ pub struct SweepArgs {
     /// landing).
     #[arg(long)]
     airborne: bool,
+    /// Fly every scenario with this card: `intel5300` or `atheros` (default: each scenario's
+    /// own, the Intel 5300 for the built-in ones and the families).
+    #[arg(long)]
+    card: Option<CaptureFormat>,
 }
 
 #[derive(clap::Subcommand)]
@@ -102,6 +107,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
                 None,
                 args.airborne,
             )?
+            .with_card(args.card)?
         }
     };
     let shard = args.shard.as_deref().map(Shard::parse).transpose()?;

@@ -63,6 +63,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp};
 use wins::Config;
+use wins::csi::Received;
 use wins::dataset::stream::{DatasetEvent, DatasetStream};
 use wins::fusion::choice::Estimator;
 use wins::live::mavlink::link::{DEFAULT_COMPONENT_ID, MavlinkLink, MavlinkUrl, open};
@@ -254,7 +255,12 @@ fn inputs(dir: &Path) -> (Vec<DatasetEvent>, Vec<Arrival>) {
                     kind: Kind::Csi,
                     input: LiveInput::Csi(CsiEvent::Record {
                         conn: 0,
-                        record: Box::new(packet.record),
+                        record: match packet.record {
+                            Received::Intel5300(r) => Box::new(r),
+                            Received::Card(_) => {
+                                panic!("the CSI Tool's stream carries 5300 records")
+                            }
+                        },
                         transmitter: macs[ap],
                         arrival_ns: host_ns,
                     }),

@@ -132,18 +132,35 @@ pub fn calibrate_packets(
     center_freq_hz: f64,
     config: &AoaConfig,
 ) -> Result<(ChainCalibration, CalibrateReport), CalibrateError> {
-    check_angle(known_aoa_rad)?;
+    calibrate_packets_with(
+        packets.iter().map(|p| (p, known_aoa_rad)),
+        geometry,
+        center_freq_hz,
+        config,
+    )
+}
+
+/// [`calibrate_packets`] from `(packet, true AoA)` pairs, e.g. a moving capture with a reference
+/// system (or the simulator's truth).
+pub fn calibrate_packets_with<'a>(
+    packets: impl IntoIterator<Item = (&'a CsiPacket, f64)>,
+    geometry: ArrayGeometry,
+    center_freq_hz: f64,
+    config: &AoaConfig,
+) -> Result<(ChainCalibration, CalibrateReport), CalibrateError> {
     let m = geometry.num_antennas;
     let unsmoothed = MusicConfig {
         antennas_per_window: m,
         forward_backward: false,
         ..config.music.clone()
     };
-    let fold = packets.first().is_some_and(chains_flip_sign);
+    let mut packets = packets.into_iter().peekable();
+    let fold = packets.peek().is_some_and(|(p, _)| chains_flip_sign(p));
     let mut acc = Accumulator::new(m, fold);
-    let expected = geometry.steering(center_freq_hz, known_aoa_rad.sin());
     let mut musics: Vec<(Vec<i32>, Music)> = Vec::new();
-    for (i, p) in packets.iter().enumerate() {
+    for (i, (p, aoa)) in packets.enumerate() {
+        check_angle(aoa)?;
+        let expected = geometry.steering(center_freq_hz, aoa.sin());
         let Some(csi) = p.antenna_rows(config.tx).filter(|_| p.num_rx() == m) else {
             acc.report.skipped.push((
                 i,

@@ -15,6 +15,7 @@ pub mod music;
 pub(crate) mod packet;
 pub(crate) mod paoa;
 pub(crate) mod peak;
+pub(crate) mod received;
 pub mod reference;
 pub(crate) mod smoothing;
 pub mod spotfi;
@@ -26,10 +27,12 @@ pub use chain_curvature::{ChainCurvature, Correction, curvature_of, restart_step
 pub use estimator::{AoaConfig, AoaError, AoaEstimator, raw_csi, received_csi};
 pub use group::GroupResult;
 pub use measure_chains::{
-    CalibrateError, CalibrateReport, calibrate, calibrate_packets, calibrate_with,
+    CalibrateError, CalibrateReport, calibrate, calibrate_packets, calibrate_packets_with,
+    calibrate_with,
 };
 pub use music::{AoaWindow, Music, MusicConfig, MusicError, Spectrum};
 pub use packet::{PacketAoa, chains_flip_sign};
 pub use paoa::{AoaPrediction, PaoaResult};
 pub use peak::Peak;
+pub use received::ReceivedAoa;
 pub use subspace::PathCount;

@@ -65,6 +65,13 @@ impl PacketAoa {
         })
     }
 
+    /// Replaces the chain offsets (checked as in [`Self::new`]).
+    pub fn set_calibration(&mut self, calibration: ChainCalibration) -> Result<(), AoaError> {
+        check_calibration(&calibration, self.geometry, self.center_freq_hz)?;
+        self.calibration = calibration;
+        Ok(())
+    }
+
     /// The packet's CSI of the configured stream, calibrated and sanitized, row-major by
     /// antenna.
     pub fn prepare(&self, packet: &CsiPacket) -> Result<Vec<Complex64>, AoaError> {

@@ -15,10 +15,11 @@ use super::picoscenes::looks_like_picoscenes;
 pub const HEAD_BYTES: u64 = 1 << 16;
 
 /// A CSI capture format.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
+/// In files (`dataset.toml`, JSON) by its [`CaptureFormat::name`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum CaptureFormat {
     /// The Linux 802.11n CSI Tool's log (Intel 5300).
+    #[default]
     Intel5300,
     /// A pcap of nexmon_csi's UDP packets (Broadcom).
     Nexmon,
@@ -108,6 +109,19 @@ impl CaptureFormat {
 impl fmt::Display for CaptureFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+impl serde::Serialize for CaptureFormat {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for CaptureFormat {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        name.parse().map_err(serde::de::Error::custom)
     }
 }
 

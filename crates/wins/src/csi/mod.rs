@@ -10,10 +10,12 @@ pub mod iwlmvm;
 pub mod nexmon;
 pub mod packet;
 pub mod picoscenes;
+pub mod received;
 pub mod report;
 pub mod sanitize;
 pub(crate) mod subcarriers;
 
+pub use received::Received;
 pub use subcarriers::{Bandwidth, NUM_SUBCARRIERS, SUBCARRIER_SPACING_HZ};
 
 /// A transmitter's 48-bit MAC address, as sent on the air.

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::Received;
 use crate::time::Timestamp;
 
 /// A gap between IMU samples longer than this many nominal periods is an event.
@@ -33,13 +33,13 @@ pub const SILENCE_S: f64 = 1.0;
 /// Events listed with their times (the counts go on).
 pub(crate) const MAX_LISTED: usize = 20;
 
-/// One CSI record with its time on the IMU clock.
+/// One packet with its time on the IMU clock.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CsiPacket {
     /// Reception time on the IMU clock (the NIC time shifted by the manifest's offset).
     pub t: Timestamp,
-    /// The record as logged (its `timestamp` stays on the NIC clock).
-    pub record: CsiRecord,
+    /// The packet as logged (its own time stays on the NIC clock).
+    pub record: Received,
 }
 
 /// Inputs that cannot give a meaningful estimate.

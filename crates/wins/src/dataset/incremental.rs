@@ -16,7 +16,7 @@ use super::checks::{
     ApInputReport, CsiPacket, GAP_PERIODS, ImuLimits, InputError, InputReport, Kind, MAX_LISTED,
     SILENCE_S,
 };
-use crate::csi::intel5300::{BfeeHeader, CsiRecord};
+use crate::csi::Received;
 use crate::imu::ImuSample;
 use crate::time::{NANOS_PER_SEC, Timestamp};
 
@@ -216,13 +216,13 @@ pub struct ApCheck {
     after_jump: bool,
     /// Kept records within [`JUMP_BACK_NS`] of `latest` (or newer than an older one), in the
     /// order kept.
-    recent: VecDeque<(i64, BfeeHeader)>,
+    recent: VecDeque<(i64, u128)>,
     /// With repeats told from clock jumps: the last [`MAX_REMEMBERED`] kept records, oldest
     /// first, and the same as a set.
     remembered: Option<Remembered>,
 }
 
-/// Kept records as (time ns, [`header_key`]): in the order kept, and as a set.
+/// Kept records as (time ns, [`Received::repeat_key`]): in the order kept, and as a set.
 type Remembered = (VecDeque<(i64, u128)>, HashSet<(i64, u128)>);
 
 impl ApCheck {
@@ -253,11 +253,12 @@ impl ApCheck {
     /// The record placed on the IMU clock when it is kept; else it is counted.
     pub fn push(
         &mut self,
-        record: CsiRecord,
+        record: impl Into<Received>,
         report: &mut InputReport,
     ) -> Result<Option<CsiPacket>, InputError> {
+        let record = record.into();
         self.ap.records += 1;
-        let nic_ns = record.timestamp.as_nanos();
+        let nic_ns = record.nic_time_ns();
         let t = nic_ns
             .checked_add(self.imu_minus_nic_ns)
             .filter(|&t| Timestamp(t).is_in_range())
@@ -267,7 +268,8 @@ impl ApCheck {
                 nic_ns,
             })?;
         let name = &self.ap.name;
-        if t <= self.latest && self.is_repeat(t, &record.header) {
+        let key = record.repeat_key();
+        if t <= self.latest && self.is_repeat(t, key) {
             if self.ap.repeated == 0 {
                 report.event(
                     Kind::Repeated(self.index),
@@ -311,7 +313,7 @@ impl ApCheck {
             }
         }
         self.latest = self.latest.max(t);
-        self.keep(t, record.header);
+        self.keep(t, key);
         self.ap.kept += 1;
         let t_s = Timestamp(t).as_secs_f64();
         self.ap.span_s = Some(self.ap.span_s.map_or((t_s, t_s), |(a, _)| (a, t_s)));
@@ -326,22 +328,22 @@ impl ApCheck {
         report.aps.push(self.ap);
     }
 
-    fn is_repeat(&self, t: i64, header: &BfeeHeader) -> bool {
-        self.recent.iter().any(|(u, h)| *u == t && h == header)
+    fn is_repeat(&self, t: i64, key: u128) -> bool {
+        self.recent.iter().any(|&(u, k)| u == t && k == key)
             || self
                 .remembered
                 .as_ref()
-                .is_some_and(|(_, set)| set.contains(&(t, header_key(header))))
+                .is_some_and(|(_, set)| set.contains(&(t, key)))
     }
 
-    fn keep(&mut self, t: i64, header: BfeeHeader) {
-        self.recent.push_back((t, header));
+    fn keep(&mut self, t: i64, key: u128) {
+        self.recent.push_back((t, key));
         let oldest = self.latest.saturating_sub(JUMP_BACK_NS);
         while self.recent.front().is_some_and(|(u, _)| *u < oldest) {
             self.recent.pop_front();
         }
         if let Some((order, set)) = &mut self.remembered {
-            let key = (t, header_key(&header));
+            let key = (t, key);
             if set.insert(key) {
                 order.push_back(key);
             }
@@ -352,22 +354,4 @@ impl ApCheck {
             }
         }
     }
-}
-
-/// Every field of a header in 128 bits (an exact key, not a hash).
-fn header_key(h: &BfeeHeader) -> u128 {
-    let bytes = [
-        h.nrx,
-        h.ntx,
-        h.rssi[0],
-        h.rssi[1],
-        h.rssi[2],
-        h.noise_dbm as u8,
-        h.agc,
-        h.antenna_sel,
-    ];
-    (u128::from(h.timestamp_low) << 96)
-        | (u128::from(h.bfee_count) << 80)
-        | (u128::from(h.rate.0) << 64)
-        | u128::from(u64::from_le_bytes(bytes))
 }

@@ -7,6 +7,8 @@ pub use super::checks::CsiPacket;
 use super::checks::{InputError, InputReport};
 use super::imu_csv::ImuCsvError;
 use super::manifest::{FORMAT, Manifest, VERSION};
+use crate::csi::capture::CaptureError;
+use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{ReadError, Skip};
 use crate::imu::ImuSample;
 use crate::rig::{CalibrationError, ChainCalibration};
@@ -64,6 +66,28 @@ pub enum DatasetError {
     /// A CSI log could not be read (corrupt content is skipped and counted, not an error).
     #[error(transparent)]
     Log(#[from] ReadError),
+    /// An AP's log is another card's than `[array] card` says.
+    #[error(
+        "{path}: dataset.toml's [array] card is {card}, but this log is {found} ({describe}): \
+         set card = \"{found}\"",
+        describe = found.describe()
+    )]
+    Card {
+        /// The log.
+        path: PathBuf,
+        /// The card the manifest names.
+        card: CaptureFormat,
+        /// The format the file's first bytes say.
+        found: CaptureFormat,
+    },
+    /// Another card's capture could not be read.
+    #[error("{path}: {source}")]
+    Capture {
+        /// The log.
+        path: PathBuf,
+        /// Why.
+        source: Box<CaptureError>,
+    },
     /// The calibration file the manifest names cannot be used.
     #[error(transparent)]
     Calibration(#[from] CalibrationError),

@@ -4,6 +4,7 @@ use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::csi::Bandwidth;
+use crate::csi::format::CaptureFormat;
 use crate::rig::ArrayGeometry;
 use crate::rig::ImuNoise;
 
@@ -71,6 +72,10 @@ pub struct ImuEntry {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArrayEntry {
+    /// The card whose tool wrote the logs, by its capture format: `intel5300` (the default),
+    /// `atheros`, `nexmon`, `feitcsi` or `picoscenes`. Every AP's log is in it.
+    #[serde(default, skip_serializing_if = "is_intel5300")]
+    pub card: CaptureFormat,
     /// Antenna count and spacing (antennas along the array's y axis, normal along x).
     pub geometry: ArrayGeometry,
     /// Array centre in the body (IMU) frame, m.
@@ -82,6 +87,10 @@ pub struct ArrayEntry {
     /// resolved from the flight alone, where the estimator can (`wins run` warns).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<String>,
+}
+
+fn is_intel5300(card: &CaptureFormat) -> bool {
+    *card == CaptureFormat::Intel5300
 }
 
 impl ArrayEntry {
@@ -100,6 +109,7 @@ impl ArrayEntry {
         let t = body_from_array.translation.vector;
         Self {
             geometry,
+            card: CaptureFormat::Intel5300,
             translation_m: [t.x, t.y, t.z],
             rotation_xyzw: [q.i, q.j, q.k, q.w],
             calibration: None,

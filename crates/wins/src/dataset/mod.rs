@@ -17,6 +17,7 @@
 //!   scenario.toml      the scenario that produced the dataset
 //! ```
 
+mod ap_reader;
 pub mod baro_csv;
 pub mod checks;
 pub mod events;

@@ -17,6 +17,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
+use super::ap_reader::{ApEvent, ApReader};
 use super::baro_csv::{self, BaroSample};
 use super::checks::{self, CsiPacket, ImuLimits, InputReport};
 use super::events::Sources;
@@ -25,7 +26,9 @@ use super::imu_csv::RowReader;
 use super::incremental::{ApCheck, ImuCheck, JUMP_BACK_NS};
 use super::load::{ApLog, Dataset, DatasetError, read_manifest};
 use super::manifest::Manifest;
-use crate::csi::intel5300::{Event, LogReader, ReadError, SkipReason, read_log};
+use crate::csi::Received;
+use crate::csi::format::CaptureFormat;
+use crate::csi::intel5300::{SkipReason, read_log};
 use crate::imu::ImuSample;
 use crate::io_safety::open_regular;
 use crate::rig::ChainCalibration;
@@ -95,14 +98,15 @@ impl DatasetStream {
         let mut csi_span: Option<(Timestamp, Timestamp)> = None;
         for (l, entry) in manifest.aps.iter().enumerate() {
             let path = dir.join(&entry.log);
-            let file = open_regular(&path).map_err(ReadError::io(&path))?;
+            let card = manifest.array.card;
+            let reader = ApReader::open(&path, card, &entry.name, Some(&mut inputs.warnings))?;
             let mut check = ApCheck::new(l, &entry.name, entry.imu_minus_nic_ns, true);
             let (mut before, mut after, mut kept) = (0, 0, 0);
-            for event in LogReader::new(file) {
-                let Event::Csi(record) = event.map_err(ReadError::io(&path))? else {
+            for event in reader {
+                let ApEvent::Packet(record) = event? else {
                     continue;
                 };
-                let Some(p) = check.push(*record, &mut inputs).map_err(inputs_error)? else {
+                let Some(p) = check.push(record, &mut inputs).map_err(inputs_error)? else {
                     continue;
                 };
                 kept += 1;
@@ -174,16 +178,34 @@ impl DatasetStream {
             imu.push(s);
         }
         let mut aps = Vec::with_capacity(self.manifest.aps.len());
+        let bandwidth_mhz = self.manifest.channel.bandwidth.mhz();
         for (l, entry) in self.manifest.aps.iter().enumerate() {
-            let log = read_log(self.dir.join(&entry.log))?;
-            let bandwidth_mismatches = log
-                .records
+            let path = self.dir.join(&entry.log);
+            let (records, skips): (Vec<Received>, _) = match self.manifest.array.card {
+                CaptureFormat::Intel5300 => {
+                    let log = read_log(&path)?;
+                    (
+                        log.records.into_iter().map(Received::from).collect(),
+                        log.skips,
+                    )
+                }
+                card => {
+                    let mut records = Vec::new();
+                    for event in ApReader::open(&path, card, &entry.name, None)? {
+                        if let ApEvent::Packet(r) = event? {
+                            records.push(r);
+                        }
+                    }
+                    (records, Vec::new())
+                }
+            };
+            let bandwidth_mismatches = records
                 .iter()
-                .filter(|r| r.header.rate.bandwidth() != self.manifest.channel.bandwidth)
+                .filter(|r| r.bandwidth_mhz() != bandwidth_mhz)
                 .count();
             let mut check = ApCheck::new(l, &entry.name, entry.imu_minus_nic_ns, false);
-            let mut packets = Vec::with_capacity(log.records.len());
-            for record in log.records {
+            let mut packets = Vec::with_capacity(records.len());
+            for record in records {
                 let kept =
                     check
                         .push(record, &mut scratch)
@@ -196,7 +218,7 @@ impl DatasetStream {
             aps.push(ApLog {
                 name: entry.name.clone(),
                 packets,
-                skips: log.skips,
+                skips,
                 bandwidth_mismatches,
             });
         }
@@ -221,9 +243,8 @@ impl DatasetStream {
             .enumerate()
             .map(|(l, entry)| {
                 let path = self.dir.join(&entry.log);
-                let file = open_regular(&path).map_err(ReadError::io(&path))?;
                 Ok(ApSource {
-                    reader: LogReader::new(file),
+                    reader: ApReader::open(&path, self.manifest.array.card, &entry.name, None)?,
                     check: ApCheck::new(l, &entry.name, entry.imu_minus_nic_ns, false),
                     buffer: BTreeMap::new(),
                     next_seq: 0,
@@ -305,7 +326,7 @@ struct SkipCount {
 /// One AP's log through its checks and its reorder buffer.
 #[derive(Debug)]
 struct ApSource {
-    reader: LogReader<File>,
+    reader: ApReader,
     check: ApCheck,
     /// Kept records by (time ns, order kept).
     buffer: BTreeMap<(i64, u64), CsiPacket>,
@@ -331,9 +352,9 @@ impl ApSource {
             }
             match self.reader.next() {
                 None => self.done = true,
-                Some(event) => match event.map_err(ReadError::io(&self.path))? {
-                    Event::Csi(record) => {
-                        let kept = self.check.push(*record, report).map_err(|source| {
+                Some(event) => match event? {
+                    ApEvent::Packet(record) => {
+                        let kept = self.check.push(record, report).map_err(|source| {
                             DatasetError::Inputs {
                                 dir: self.path.clone(),
                                 source,
@@ -344,7 +365,8 @@ impl ApSource {
                             self.next_seq += 1;
                         }
                     }
-                    Event::Skipped(s) => {
+                    ApEvent::Lost(n) => self.skips.count += n,
+                    ApEvent::Skipped(s) => {
                         let k = &mut self.skips;
                         if k.last != Some((s.offset, s.reason)) {
                             k.count += 1;

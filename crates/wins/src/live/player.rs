@@ -33,6 +33,7 @@ use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::{HIGHRES_IMU_DATA, HighresImuUpdatedFlags, MavMessage};
 
 use super::mavlink::inbound::{STANDARD_SEA_LEVEL_PA, pressure_altitude_m};
+use crate::csi::Received;
 use crate::csi::intel5300::{MacAddress, encode_frame_record, encode_record};
 use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::dataset::{DatasetError, parse_mac};
@@ -221,13 +222,18 @@ pub fn play(options: &PlayOptions, stop: &AtomicBool) -> Result<PlaySummary, Pla
         buf.clear();
         let rel_s = t.secs_since(t0);
         match event {
-            DatasetEvent::Csi { ap, mut packet } if options.streams.csi => {
-                let low = packet.record.header.timestamp_low;
-                packet.record.header.timestamp_low = faults.csi(low, rel_s, &mut buf);
+            DatasetEvent::Csi { ap, packet } if options.streams.csi => {
+                // The CSI Tool's TCP stream carries Intel 5300 records only.
+                let Received::Intel5300(mut record) = packet.record else {
+                    summary.csi_not_sent += 1;
+                    continue;
+                };
+                let low = record.header.timestamp_low;
+                record.header.timestamp_low = faults.csi(low, rel_s, &mut buf);
                 if let Some(Some(mac)) = macs.get(ap) {
                     encode_frame_record(mac, &mut buf);
                 }
-                encode_record(&packet.record, &mut buf);
+                encode_record(&record, &mut buf);
                 if csi.send(&buf) {
                     summary.csi_sent += 1;
                 } else {

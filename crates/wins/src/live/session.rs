@@ -32,6 +32,7 @@ pub use super::counts::{ClockReport, LiveStats};
 use super::merge::{Merged, Merger};
 use super::recorder::Recorder;
 use crate::config::Config;
+use crate::csi::Received;
 use crate::csi::intel5300::MacAddress;
 use crate::fusion::pose::PoseEstimate;
 use crate::pipeline::{ChainResolver, EstimateState, PipelineError, Released};
@@ -311,14 +312,14 @@ impl LiveSession {
         if let Some(r) = &mut self.recorder {
             r.record(&input)?;
         }
-        let released = match &input {
-            Merged::Imu(s) => resolver.push_imu(s)?,
-            Merged::Baro { t, altitude_m } => resolver.push_baro(*t, *altitude_m)?,
+        let released = match input {
+            Merged::Imu(s) => resolver.push_imu(&s)?,
+            Merged::Baro { t, altitude_m } => resolver.push_baro(t, altitude_m)?,
             Merged::Csi { ap, t, record } => {
-                if let Some(n) = self.stats.csi_used_per_ap.get_mut(*ap) {
+                if let Some(n) = self.stats.csi_used_per_ap.get_mut(ap) {
                     *n += 1;
                 }
-                resolver.push_csi(*ap, *t, record)?
+                resolver.push_csi(ap, t, &Received::Intel5300(*record))?
             }
         };
         let restarts = resolver.decided_stats().map_or(0, |s| s.restarts);

@@ -351,10 +351,14 @@ pub fn truth_pairs<'a>(
         lost_sync: None,
     };
     let (mut i, mut j) = (0, 0);
-    while let (Some(packet), Some(row)) = (records.get(i), rows.get(j)) {
-        let count = packet.record.header.bfee_count;
+    let records: Vec<&CsiRecord> = records
+        .iter()
+        .filter_map(|p| p.record.intel5300())
+        .collect();
+    while let (Some(&record), Some(row)) = (records.get(i), rows.get(j)) {
+        let count = record.header.bfee_count;
         if row.bfee_count == count {
-            out.pairs.push((&packet.record, row.aoa_rad));
+            out.pairs.push((record, row.aoa_rad));
             (i, j) = (i + 1, j + 1);
         } else if let Some(k) = rows[j..]
             .iter()
@@ -366,7 +370,7 @@ pub fn truth_pairs<'a>(
         } else if let Some(k) = records[i..]
             .iter()
             .take(RESYNC_WINDOW)
-            .position(|p| p.record.header.bfee_count == row.bfee_count)
+            .position(|r| r.header.bfee_count == row.bfee_count)
         {
             out.unmatched += k;
             i += k;

@@ -53,7 +53,7 @@ use crate::aoa::{AoaEstimator, ChainCurvature, received_csi};
 #[cfg(doc)]
 use crate::config::ChainOffsetsConfig;
 use crate::config::Config;
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::Received;
 #[cfg(doc)]
 use crate::fusion::choice::Estimator;
 use crate::imu::ImuSample;
@@ -148,7 +148,7 @@ impl ChainResolver {
         )?
         .calibration()
         .clone();
-        let resolve = resolves(config, rig.geometry);
+        let resolve = resolves(config, &rig);
         let had_calibration = rig.calibration.is_some();
         let report = ChainReport {
             resolved: resolve,
@@ -257,13 +257,14 @@ impl ChainResolver {
         &mut self,
         ap: usize,
         t: Timestamp,
-        record: &CsiRecord,
+        record: &Received,
     ) -> Result<Released, PipelineError> {
         // The curvature: with a prior measured once, to rank the restart steps; without one
         // measured over the whole flight and applied again as it moves.
         let measuring = matches!(self.stage, Stage::Measuring { .. });
         if self.report.resolved
             && (measuring || !self.report.had_calibration)
+            && let Some(record) = record.intel5300()
             && let Ok(csi) = received_csi(
                 record,
                 self.config.aoa.tx,

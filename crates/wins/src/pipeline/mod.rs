@@ -36,10 +36,10 @@ pub use self::chains::{ChainReport, ChainResolver, EstimateState, FRESH_NS, Fini
 use self::slot::{FrameSlot, move_bearing, rotation_between};
 pub use self::stats::{ApStats, PacketLog, PacketStatus, PipelineStats};
 use self::track::{ArrayPose, Track, TrackState};
-use crate::aoa::{AoaError, AoaEstimator};
+use crate::aoa::{AoaError, ReceivedAoa};
 pub use crate::config::{ChainOffsetsConfig, PipelineConfig};
 use crate::config::{Config, ConfigError};
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::Received;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::choice::{Estimator, EstimatorKind};
 use crate::fusion::error::EstimatorError;
@@ -91,7 +91,7 @@ impl std::ops::AddAssign for StageTiming {
 pub struct Pipeline {
     config: PipelineConfig,
     rig: Rig,
-    aoa: AoaEstimator,
+    aoa: ReceivedAoa,
     wins: Estimator,
     tracks: Vec<Track>,
     slot: FrameSlot,
@@ -129,7 +129,7 @@ impl Pipeline {
     pub fn with_baro(config: &Config, rig: Rig, has_baro: bool) -> Result<Self, PipelineError> {
         config.validate()?;
         rig.validate()?;
-        let aoa = AoaEstimator::new(
+        let aoa = ReceivedAoa::new(
             &config.aoa,
             rig.geometry,
             rig.center_freq_hz,
@@ -192,7 +192,7 @@ impl Pipeline {
     }
 
     /// Replaces the chain calibration the AoA stage applies from the next packet on (checked
-    /// against the set-up as [`AoaEstimator::set_calibration`]).
+    /// against the set-up as [`ReceivedAoa::set_calibration`]).
     pub fn set_chain_calibration(&mut self, calibration: ChainCalibration) -> Result<(), AoaError> {
         self.aoa.set_calibration(calibration)
     }
@@ -271,7 +271,7 @@ impl Pipeline {
     /// Processes one packet of AP `ap` received at `t` (IMU clock); returns its log row.
     /// Packets must come in time order with the IMU samples (a packet at `t` before the samples
     /// after `t`).
-    pub fn push_csi(&mut self, ap: usize, t: Timestamp, record: &CsiRecord) -> PacketLog {
+    pub fn push_csi(&mut self, ap: usize, t: Timestamp, record: &Received) -> PacketLog {
         self.solve_pending();
         let converged = self.wins.is_converged();
         let mut row = PacketLog::new(ap, t, converged);

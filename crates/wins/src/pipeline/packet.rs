@@ -4,7 +4,7 @@
 
 use super::slot::{PendingBearing, grid_time};
 use super::track::{ArrayPose, TrackGains, TrackState};
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::Received;
 use crate::fusion::bearing::Bearing;
 use crate::fusion::nonlinear::factors::cone::sin_sigma;
 use crate::time::Timestamp;
@@ -20,7 +20,7 @@ impl super::Pipeline {
         ap: usize,
         t: Timestamp,
         attitude: UnitQuaternion<f64>,
-        record: &CsiRecord,
+        record: &Received,
         row: &mut PacketLog,
     ) {
         row.status = PacketStatus::Acquisition;
@@ -54,7 +54,7 @@ impl super::Pipeline {
         ap: usize,
         t: Timestamp,
         attitude: UnitQuaternion<f64>,
-        record: &CsiRecord,
+        record: &Received,
         now: Option<&ArrayPose>,
         converged: bool,
         row: &mut PacketLog,

@@ -19,7 +19,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 use crate::aoa::AoaPrediction;
 use crate::aoa::steering::aoa_rad;
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::Received;
 use crate::fusion::bearing::{Side, side_of};
 use crate::time::Timestamp;
 
@@ -88,7 +88,7 @@ pub enum TrackState {
     /// Collecting the first packets for SpotFi.
     Acquiring {
         /// Records collected so far.
-        records: Vec<CsiRecord>,
+        records: Vec<Received>,
     },
     /// Following the AP packet by packet.
     Tracking {

@@ -9,6 +9,8 @@ pub(crate) mod imu_noise;
 
 use nalgebra::Isometry3;
 
+use crate::csi::format::CaptureFormat;
+
 pub use array::{Ambiguity, ArrayGeometry, GeometryError};
 pub use chain_calibration::{CalibrationError, CalibrationSetup, ChainCalibration};
 pub use imu_noise::ImuNoise;
@@ -16,6 +18,10 @@ pub use imu_noise::ImuNoise;
 /// The rig: what the pipeline needs to know about the hardware.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rig {
+    /// The card, as its capture format names it: the Intel 5300's records get its own model
+    /// (subcarrier groups, receiver response, chain offsets resolved in flight), other cards'
+    /// packets MUSIC on their own subcarriers with the calibration as given.
+    pub card: CaptureFormat,
     /// Antenna count and spacing.
     pub geometry: ArrayGeometry,
     /// `body_from_array`: the array's pose on the body (IMU) frame.

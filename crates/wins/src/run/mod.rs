@@ -150,7 +150,7 @@ fn run_into_sink(
         rig.calibration = None;
     }
     let mut warnings = Vec::new();
-    if rig.calibration.is_none() && resolves(config, rig.geometry) {
+    if rig.calibration.is_none() && resolves(config, &rig) {
         warnings.push(
             "no chain calibration: the chains' phase offsets are resolved from the flight alone \
              (stats.json chain_offsets; a calibration makes the start faster and surer)"

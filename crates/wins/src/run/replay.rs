@@ -37,6 +37,7 @@ pub fn rig_of_manifest(
     calibration: Option<ChainCalibration>,
 ) -> Result<Rig, ReplayError> {
     Ok(Rig {
+        card: m.array.card,
         geometry: m.array.geometry,
         body_from_array: m.array.body_from_array(),
         center_freq_hz: m.channel.center_freq_hz,

@@ -1,5 +1,8 @@
-//! CSI as the Intel 5300 reports it: multipath channel through the shared steering vector, thermal
-//! and implementation noise, the NIC's phase impairments, AGC and 8-bit quantization.
+//! CSI as a card reports it: multipath channel through the shared steering vector, thermal and
+//! implementation noise, the NIC's phase impairments, AGC and quantization. The Intel 5300 (its
+//! 30 subcarrier groups, 8 bits, its measured receiver response) is the default; the Atheros
+//! CSI Tool's card ([`SimCard`]: 56 or 114 tones, 10 bits, a flat response, since no Atheros
+//! response has been measured) is the other rig the simulator writes.
 //!
 //! For path `p` (length `L_p`, delay `τ_p = L_p/c`, cone angle `θ_p` at the array, amplitude
 //! `g_p·λ/(4πL_p)·√(P_tx·G_tx·G_rx)`), antenna `m` and subcarrier `k` at `f_k = f_c + Δf_k`:
@@ -25,7 +28,10 @@ use super::radio::{RadioConfig, db_to_power, free_space_amplitude, power_to_db};
 use super::room::Path;
 use crate::aoa::steering::{sin_aoa, tof_phase_rad};
 use crate::csi::NUM_SUBCARRIERS;
+use crate::csi::atheros::AtherosRecord;
+use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RSSI_TO_DBM_OFFSET, RateFlags};
+use crate::csi::packet::tables;
 use crate::rig::ArrayGeometry;
 use crate::rig::array::SPEED_OF_LIGHT_M_S;
 use crate::time::Timestamp;
@@ -71,12 +77,57 @@ pub struct PacketTruth {
 /// packet stays bounded by the paths that matter. The direct path is always kept.
 pub const NEGLIGIBLE_PATH_POWER_RATIO: f64 = 0.01;
 
-/// Turns propagation paths into Intel 5300 records for one AP.
+/// One received packet as the simulated card logs it.
+// Not boxed: most packets are Intel 5300 records, and a box would cost each an allocation.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimRecord {
+    /// An Intel 5300 record.
+    Intel5300(CsiRecord),
+    /// An Atheros CSI Tool record.
+    Atheros(AtherosRecord),
+}
+
+impl SimRecord {
+    /// The Intel 5300 record, if it is one.
+    pub fn intel5300(&self) -> Option<&CsiRecord> {
+        match self {
+            Self::Intel5300(r) => Some(r),
+            Self::Atheros(_) => None,
+        }
+    }
+
+    /// The count the truth pairs it by: the 5300's `bfee_count`, the Atheros frame's 802.11
+    /// sequence number.
+    pub fn count(&self) -> u16 {
+        match self {
+            Self::Intel5300(r) => r.header.bfee_count,
+            Self::Atheros(r) => r
+                .payload
+                .get(22..24)
+                .map_or(0, |b| u16::from_le_bytes([b[0], b[1]]) >> 4),
+        }
+    }
+}
+
+/// The cards the simulator writes, by their capture format.
+pub const SIM_CARDS: [CaptureFormat; 2] = [CaptureFormat::Intel5300, CaptureFormat::Atheros];
+
+/// Bits the Atheros CSI Tool gives each part: its quantizer's RMS is the 5300's times 2^(10−8).
+const ATHEROS_EXTRA_BITS: i32 = 2;
+/// The Atheros rate code of HT MCS 0.
+const ATHEROS_RATE_MCS0: u8 = 0x80;
+/// The receiving card's own address in the simulated Atheros frames (locally administered).
+const RECEIVER_MAC: [u8; 6] = [0x02, 0x00, 0x00, 0x00, 0x01, 0x00];
+
+/// Turns propagation paths into a card's records for one AP.
 #[derive(Clone, Debug)]
 pub struct CsiSynth {
+    card: CaptureFormat,
+    transmitter: [u8; 6],
     geometry: ArrayGeometry,
-    freqs_hz: [f64; NUM_SUBCARRIERS],
-    offsets_hz: [f64; NUM_SUBCARRIERS],
+    freqs_hz: Vec<f64>,
+    offsets_hz: Vec<f64>,
     chain_phase_rad: [f64; MAX_ANTENNAS],
     tx_amplitude: f64,
     wavelength_m: f64,
@@ -100,7 +151,21 @@ impl CsiSynth {
         chain_phase_rad: &[f64],
         tx_power_dbm: f64,
     ) -> Self {
-        let offsets_hz = radio.bandwidth.subcarrier_offsets_hz();
+        let offsets_hz: Vec<f64> = match radio.card {
+            CaptureFormat::Atheros => {
+                let tones = if radio.bandwidth == crate::csi::Bandwidth::Ht40 {
+                    114
+                } else {
+                    56
+                };
+                tables::atheros(tones)
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|&k| f64::from(k) * tables::LEGACY_SPACING_HZ)
+                    .collect()
+            }
+            _ => radio.bandwidth.subcarrier_offsets_hz().to_vec(),
+        };
         let mut chain = [0.0; MAX_ANTENNAS];
         for (c, v) in chain.iter_mut().zip(chain_phase_rad) {
             *c = *v;
@@ -110,8 +175,13 @@ impl CsiSynth {
             crate::csi::Bandwidth::Ht40 => RATE_HT | RATE_HT40,
         };
         Self {
+            card: radio.card,
+            transmitter: [0x02, 0, 0, 0, 0, 1],
             geometry,
-            freqs_hz: offsets_hz.map(|o| radio.center_freq_hz + o),
+            freqs_hz: offsets_hz
+                .iter()
+                .map(|o| radio.center_freq_hz + o)
+                .collect(),
             offsets_hz,
             chain_phase_rad: chain,
             tx_amplitude: db_to_power(
@@ -132,12 +202,19 @@ impl CsiSynth {
     }
 
     /// The same synthesizer with the receiver's response per chain and subcarrier (one card's,
-    /// [`crate::sim::ReceiverResponse::factors`]; `None`: flat).
+    /// [`crate::sim::ReceiverResponse::factors`]; `None`: flat). It is the Intel 5300's: another
+    /// card stays flat.
     pub fn with_response(
         mut self,
         response: Option<[[Complex64; NUM_SUBCARRIERS]; MAX_ANTENNAS]>,
     ) -> Self {
-        self.response = response;
+        self.response = response.filter(|_| self.card == CaptureFormat::Intel5300);
+        self
+    }
+
+    /// The same synthesizer sending from `mac` (written in the frames of formats that keep it).
+    pub fn with_transmitter(mut self, mac: [u8; 6]) -> Self {
+        self.transmitter = mac;
         self
     }
 
@@ -148,9 +225,9 @@ impl CsiSynth {
         &self,
         paths: &[Path],
         world_from_array: &UnitQuaternion<f64>,
-    ) -> [[Complex64; NUM_SUBCARRIERS]; MAX_ANTENNAS] {
-        let mut h = [[Complex64::new(0.0, 0.0); NUM_SUBCARRIERS]; MAX_ANTENNAS];
+    ) -> Vec<Vec<Complex64>> {
         let m_count = self.geometry.num_antennas.min(MAX_ANTENNAS);
+        let mut h = vec![vec![Complex64::new(0.0, 0.0); self.freqs_hz.len()]; m_count];
         let negligible_mw = NEGLIGIBLE_PATH_POWER_RATIO * self.noise_floor_mw;
         for (i, path) in paths.iter().enumerate() {
             let amplitude = self.tx_amplitude * path.gain * self.free_space(path.length_m);
@@ -174,7 +251,7 @@ impl CsiSynth {
         free_space_amplitude(self.wavelength_m, length_m)
     }
 
-    /// One received packet: the Intel 5300 record and what the simulator knows about it.
+    /// One received packet: the card's record and what the simulator knows about it.
     /// `paths[0]` must be the direct path; `p_array_in_w`/`world_from_array` place the array.
     #[allow(clippy::too_many_arguments)]
     pub fn packet(
@@ -184,9 +261,9 @@ impl CsiSynth {
         p_ap_in_w: &Vector3<f64>,
         world_from_array: &UnitQuaternion<f64>,
         t: Timestamp,
-        bfee_count: u16,
+        count: u16,
         rng: &mut ChaCha8Rng,
-    ) -> (CsiRecord, PacketTruth) {
+    ) -> (SimRecord, PacketTruth) {
         let m_count = self.geometry.num_antennas.clamp(1, MAX_ANTENNAS);
         let mut h = self.channel(paths, world_from_array);
 
@@ -223,8 +300,8 @@ impl CsiSynth {
             }
         }
 
-        // AGC in whole dB from the strongest chain, RSSI per chain, 8-bit quantization.
-        let powers_dbm = h.map(|r| power_to_db(mean_power(&r)));
+        // AGC in whole dB from the strongest chain, RSSI per chain, quantization.
+        let powers_dbm: Vec<f64> = h.iter().map(|r| power_to_db(mean_power(r))).collect();
         let powers_dbm = &powers_dbm[..m_count];
         let strongest = powers_dbm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let agc = (self.agc_target_rssi_db - RSSI_TO_DBM_OFFSET - strongest)
@@ -236,32 +313,14 @@ impl CsiSynth {
         }
         let target_mw = db_to_power(self.agc_target_rssi_db - RSSI_TO_DBM_OFFSET - agc);
         let scale = self.quantization_rms / target_mw.sqrt();
-        let mut clipped = 0u32;
-        let mut csi = [Complex::<i8>::new(0, 0); MAX_ENTRIES];
-        for (m, row) in h.iter().enumerate().take(m_count) {
-            for (k, v) in row.iter().enumerate() {
-                let (re, c1) = quantize(v.re * scale);
-                let (im, c2) = quantize(v.im * scale);
-                clipped += u32::from(c1) + u32::from(c2);
-                csi[m * NUM_SUBCARRIERS + k] = Complex::new(re, im);
-            }
-        }
-
         let nic_us = self.nic_clock_at_imu_zero_us as i64 + t.as_nanos().div_euclid(1000);
-        let header = BfeeHeader {
-            timestamp_low: nic_us.rem_euclid(1 << 32) as u32,
-            bfee_count,
-            nrx: m_count as u8,
-            ntx: 1,
-            rssi,
-            noise_dbm: self.noise_floor_dbm.round().clamp(-126.0, 0.0) as i8,
-            agc: agc as u8,
-            antenna_sel: identity_antenna_sel(m_count),
-            rate: self.rate,
+        let (record, clipped) = match self.card {
+            CaptureFormat::Atheros => self.atheros_record(&h, powers_dbm, scale, nic_us, count),
+            _ => {
+                let (record, clipped) = self.intel5300_record(&h, rssi, agc, scale, nic_us, count);
+                (SimRecord::Intel5300(record), clipped)
+            }
         };
-        let timestamp = Timestamp::from_micros(nic_us);
-        // 1–3 chains and one stream: always a valid shape, so no `CsiRecord::new` error to carry.
-        let record = CsiRecord::from_parts(0, timestamp, header, csi);
 
         let toward_ap_in_w = p_ap_in_w - p_array_in_w;
         let u_a = world_from_array.inverse_transform_vector(&toward_ap_in_w);
@@ -289,6 +348,98 @@ impl CsiSynth {
         };
         (record, truth)
     }
+
+    /// The Intel 5300's record: 8 bits per part, its header.
+    fn intel5300_record(
+        &self,
+        h: &[Vec<Complex64>],
+        rssi: [u8; 3],
+        agc: f64,
+        scale: f64,
+        nic_us: i64,
+        bfee_count: u16,
+    ) -> (CsiRecord, u32) {
+        let m_count = h.len();
+        let mut clipped = 0u32;
+        let mut csi = [Complex::<i8>::new(0, 0); MAX_ENTRIES];
+        for (m, row) in h.iter().enumerate() {
+            for (k, v) in row.iter().enumerate() {
+                let (re, c1) = quantize(v.re * scale);
+                let (im, c2) = quantize(v.im * scale);
+                clipped += u32::from(c1) + u32::from(c2);
+                csi[m * NUM_SUBCARRIERS + k] = Complex::new(re, im);
+            }
+        }
+        let header = BfeeHeader {
+            timestamp_low: nic_us.rem_euclid(1 << 32) as u32,
+            bfee_count,
+            nrx: m_count as u8,
+            ntx: 1,
+            rssi,
+            noise_dbm: self.noise_floor_dbm.round().clamp(-126.0, 0.0) as i8,
+            agc: agc as u8,
+            antenna_sel: identity_antenna_sel(m_count),
+            rate: self.rate,
+        };
+        let timestamp = Timestamp::from_micros(nic_us);
+        // 1–3 chains and one stream: always a valid shape, so no `CsiRecord::new` error to carry.
+        (CsiRecord::from_parts(0, timestamp, header, csi), clipped)
+    }
+
+    /// The Atheros CSI Tool's record: 10 bits per part, per tone then receive chain, the
+    /// chains' RSSI in dB above the noise floor, an 802.11 data frame header carrying the
+    /// transmitter and `sequence` (modulo 4096).
+    fn atheros_record(
+        &self,
+        h: &[Vec<Complex64>],
+        powers_dbm: &[f64],
+        scale: f64,
+        nic_us: i64,
+        sequence: u16,
+    ) -> (SimRecord, u32) {
+        let scale = scale * f64::from(1 << ATHEROS_EXTRA_BITS);
+        let tones = self.freqs_hz.len();
+        let mut clipped = 0u32;
+        let mut csi = Vec::with_capacity(tones * h.len());
+        for k in 0..tones {
+            for row in h {
+                let (re, c1) = quantize_bits(row[k].re * scale, 10);
+                let (im, c2) = quantize_bits(row[k].im * scale, 10);
+                clipped += u32::from(c1) + u32::from(c2);
+                csi.push(Complex::new(re, im));
+            }
+        }
+        let above_floor =
+            |p_dbm: f64| (p_dbm - self.noise_floor_dbm).round().clamp(0.0, 127.0) as u8;
+        let mut rssi_chains = [0u8; 3];
+        for (r, p) in rssi_chains.iter_mut().zip(powers_dbm) {
+            *r = above_floor(*p);
+        }
+        let total_mw: f64 = powers_dbm.iter().map(|p| db_to_power(*p)).sum();
+        let mut payload = vec![0x08, 0x00, 0x00, 0x00];
+        payload.extend(RECEIVER_MAC);
+        payload.extend(self.transmitter);
+        payload.extend(self.transmitter);
+        payload.extend(((sequence & 0x0fff) << 4).to_le_bytes());
+        let record = AtherosRecord {
+            offset: 0,
+            timestamp_us: nic_us.max(0) as u64,
+            channel_mhz: (self.freqs_hz.iter().sum::<f64>() / tones as f64 / 1e6).round() as u16,
+            err_info: 0,
+            noise_floor: 0,
+            rate: ATHEROS_RATE_MCS0,
+            bandwidth: u8::from(tones > 56),
+            num_tones: tones as u8,
+            nr: h.len() as u8,
+            nc: 1,
+            rssi: above_floor(power_to_db(total_mw)),
+            rssi_chains,
+            csi_len: 0,
+            csi,
+            payload,
+        };
+        (SimRecord::Atheros(record), clipped)
+    }
 }
 
 /// `antenna_sel` mapping chain i to antenna i (2 bits per chain).
@@ -296,8 +447,21 @@ fn identity_antenna_sel(chains: usize) -> u8 {
     (0..chains).fold(0u8, |sel, i| sel | ((i as u8) << (2 * i)))
 }
 
-fn mean_power(row: &[Complex64; NUM_SUBCARRIERS]) -> f64 {
-    row.iter().map(|v| v.norm_sqr()).sum::<f64>() / NUM_SUBCARRIERS as f64
+fn mean_power(row: &[Complex64]) -> f64 {
+    row.iter().map(|v| v.norm_sqr()).sum::<f64>() / row.len() as f64
+}
+
+/// Rounds to the nearest signed `bits`-bit value; `true` when it had to clip.
+fn quantize_bits(x: f64, bits: u32) -> (i16, bool) {
+    let max = f64::from((1i32 << (bits - 1)) - 1);
+    let r = x.round();
+    if r > max {
+        (max as i16, true)
+    } else if r < -max - 1.0 {
+        ((-max - 1.0) as i16, true)
+    } else {
+        (r as i16, false)
+    }
 }
 
 /// Rounds to the nearest signed 8-bit value; `true` when it had to clip.

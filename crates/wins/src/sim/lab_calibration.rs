@@ -7,11 +7,14 @@
 
 use nalgebra::Vector3;
 
+use super::csi::SimRecord;
 use super::scenario::Scenario;
 use super::trajectory::TrajectoryConfig;
 use super::yaw::{YawConfig, YawMode};
 use super::{ConfigError, simulate};
-use crate::aoa::{AoaConfig, CalibrateError, calibrate_with};
+use crate::aoa::{AoaConfig, CalibrateError, calibrate_packets_with, calibrate_with};
+use crate::csi::format::CaptureFormat;
+use crate::csi::packet::{CsiPacket, from_atheros};
 use crate::rig::ChainCalibration;
 
 /// File name of the calibration in a simulated dataset.
@@ -104,16 +107,28 @@ pub fn capture_scenario(scenario: &Scenario) -> Result<Scenario, LabCalibrationE
 pub fn lab_calibration(scenario: &Scenario) -> Result<ChainCalibration, LabCalibrationError> {
     let capture = capture_scenario(scenario)?;
     let out = simulate(&capture, &mut |_| {})?;
-    let pairs = out
-        .aps
-        .iter()
-        .flat_map(|ap| ap.received().map(|(p, r)| (r, p.truth.aoa_rad)));
-    let (mut calibration, _) = calibrate_with(
-        pairs,
-        scenario.array.geometry,
-        scenario.radio.center_freq_hz,
-        &AoaConfig::default(),
-    )?;
+    let (geometry, carrier_hz) = (scenario.array.geometry, scenario.radio.center_freq_hz);
+    let config = AoaConfig::default();
+    let (mut calibration, _) = if scenario.radio.card == CaptureFormat::Intel5300 {
+        let pairs = out
+            .aps
+            .iter()
+            .flat_map(|ap| ap.received().map(|(p, r)| (r, p.truth.aoa_rad)));
+        calibrate_with(pairs, geometry, carrier_hz, &config)?
+    } else {
+        // Every record the simulator writes has CSI and a tone table: none is left out.
+        let packets: Vec<(CsiPacket, f64)> = out
+            .aps
+            .iter()
+            .flat_map(|ap| ap.received_records())
+            .filter_map(|(p, r)| match r {
+                SimRecord::Atheros(r) => from_atheros(r).ok().map(|c| (c, p.truth.aoa_rad)),
+                SimRecord::Intel5300(_) => None,
+            })
+            .collect();
+        let pairs = packets.iter().map(|(c, aoa)| (c, *aoa));
+        calibrate_packets_with(pairs, geometry, carrier_hz, &config)?
+    };
     calibration.source = format!(
         "simulated calibration flight with motion-capture angles: {CAPTURE_S} s in front of AP \
          {} (aoa::calibrate_with)",

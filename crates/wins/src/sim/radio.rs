@@ -3,7 +3,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
+use super::csi::SIM_CARDS;
 use crate::csi::Bandwidth;
+use crate::csi::format::CaptureFormat;
 use crate::rig::array::{CHANNEL_64_HZ, SPEED_OF_LIGHT_M_S};
 
 /// Thermal noise power spectral density at 290 K, dBm/Hz.
@@ -13,6 +15,11 @@ pub const THERMAL_NOISE_DBM_HZ: f64 = -173.977;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadioConfig {
+    /// The receiving card, by the format its tool writes: `intel5300` (default) or `atheros`
+    /// (the Atheros CSI Tool's 56 tones, or 114 at 40 MHz, 10 bits per part, a flat receiver
+    /// response).
+    #[serde(skip_serializing_if = "is_intel5300")]
+    pub card: CaptureFormat,
     /// Carrier frequency, Hz. Default 5.32 GHz (channel 64, the paper's).
     pub center_freq_hz: f64,
     /// Channel width: `ht20` or `ht40` (sets the 30 reported subcarrier indices). Default `ht20`
@@ -69,9 +76,14 @@ pub struct RadioConfig {
     pub nic_clock_at_imu_zero_us: u64,
 }
 
+fn is_intel5300(card: &CaptureFormat) -> bool {
+    *card == CaptureFormat::Intel5300
+}
+
 impl Default for RadioConfig {
     fn default() -> Self {
         Self {
+            card: CaptureFormat::Intel5300,
             center_freq_hz: CHANNEL_64_HZ,
             bandwidth: Bandwidth::Ht20,
             tx_power_dbm: 15.0,
@@ -99,6 +111,17 @@ impl RadioConfig {
     pub fn validate(&self, field: &str, num_antennas: usize) -> Result<(), ConfigError> {
         let bad = |name: &str, why: String| Err(ConfigError::new(format!("{field}.{name}"), why));
         let in_range = |v: f64, lo: f64, hi: f64| v.is_finite() && v >= lo && v <= hi;
+        if !SIM_CARDS.contains(&self.card) {
+            let names: Vec<&str> = SIM_CARDS.iter().map(|c| c.name()).collect();
+            return bad(
+                "card",
+                format!(
+                    "the simulator writes {} logs, not {}",
+                    names.join(" or "),
+                    self.card
+                ),
+            );
+        }
         if !in_range(self.center_freq_hz, 1e9, 100e9) {
             return bad(
                 "center_freq_hz",

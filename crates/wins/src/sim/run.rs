@@ -4,7 +4,7 @@ use nalgebra::{Isometry3, Vector3};
 
 use super::ConfigError;
 use super::baro::BaroTruth;
-use super::csi::{CsiSynth, PacketTruth};
+use super::csi::{CsiSynth, PacketTruth, SimRecord};
 use super::imu::{ImuBiases, ImuSimulator};
 use super::motion::{BodyState, sample, specific_force_in_b};
 use super::packets::{self, PacketSlot};
@@ -25,7 +25,7 @@ pub struct SimPacket {
     /// Arrival time on the IMU clock.
     pub t: Timestamp,
     /// The record the NIC logged; `None` when the packet was lost.
-    pub record: Option<CsiRecord>,
+    pub record: Option<SimRecord>,
     /// The geometry and impairments behind it (also for lost packets, whose CSI fields are then
     /// those it would have had).
     pub truth: PacketTruth,
@@ -42,10 +42,16 @@ pub struct ApOutput {
 
 impl ApOutput {
     /// Received packets.
-    pub fn received(&self) -> impl Iterator<Item = (&SimPacket, &CsiRecord)> {
+    pub fn received_records(&self) -> impl Iterator<Item = (&SimPacket, &SimRecord)> {
         self.packets
             .iter()
             .filter_map(|p| p.record.as_ref().map(|r| (p, r)))
+    }
+
+    /// Received packets of an Intel 5300 rig (none on another card's).
+    pub fn received(&self) -> impl Iterator<Item = (&SimPacket, &CsiRecord)> {
+        self.received_records()
+            .filter_map(|(p, r)| r.intel5300().map(|r| (p, r)))
     }
 }
 
@@ -132,7 +138,7 @@ pub fn simulate(
     let body_from_array = scenario.body_from_array();
     let mut aps = Vec::with_capacity(scenario.aps.len());
     let mut paths: Vec<Path> = Vec::with_capacity(32);
-    for ap in &scenario.aps {
+    for (l, ap) in scenario.aps.iter().enumerate() {
         let radio = &scenario.radio;
         let synth = CsiSynth::new(
             radio,
@@ -140,7 +146,8 @@ pub fn simulate(
             &chain_phase_offsets_rad,
             ap.tx_power_dbm.unwrap_or(radio.tx_power_dbm),
         )
-        .with_response(response);
+        .with_response(response)
+        .with_transmitter(ap_mac(l));
         let mut timing_rng = rng::stream(seed, &rng::packet_stream_name(&ap.name));
         let mut csi_rng = rng::stream(seed, &rng::csi_stream_name(&ap.name));
         let slots = packets::schedule(
@@ -210,6 +217,12 @@ pub fn simulate(
         chain_phase_offsets_rad,
         aps,
     })
+}
+
+/// The address AP `index` (its place in the scenario) sends from: locally administered, in the
+/// manifest and in the frames of formats that keep the transmitter.
+pub fn ap_mac(index: usize) -> [u8; 6] {
+    [0x02, 0x00, 0x00, 0x00, 0x00, (index + 1) as u8]
 }
 
 /// When the rotors spin, s: from the take-off's start to the landing's end; the whole flight

@@ -15,6 +15,7 @@ use super::radio::RadioConfig;
 use super::room::{ObstacleConfig, RoomConfig};
 use super::trajectory::TrajectoryConfig;
 use super::yaw::YawConfig;
+use crate::csi::format::CaptureFormat;
 use crate::rig::ArrayGeometry;
 
 mod built_in;
@@ -201,6 +202,13 @@ impl Scenario {
     /// mission is flown from t = 0 at its own speed, as every flight was before phases existed.
     pub fn airborne(mut self) -> Self {
         self.phases = None;
+        self
+    }
+
+    /// The same flight received by `card` ([`super::RadioConfig::card`]; checked by
+    /// [`Self::validate`]: the simulator writes the cards of [`super::csi::SIM_CARDS`]).
+    pub fn with_card(mut self, card: CaptureFormat) -> Self {
+        self.radio.card = card;
         self
     }
 

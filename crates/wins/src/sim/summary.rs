@@ -45,7 +45,7 @@ impl SimOutput {
             .aps
             .iter()
             .map(|ap| {
-                let rx: Vec<_> = ap.received().map(|(p, _)| &p.truth).collect();
+                let rx: Vec<_> = ap.received_records().map(|(p, _)| &p.truth).collect();
                 let n = rx.len().max(1) as f64;
                 let snr: Vec<f64> = rx.iter().map(|t| t.snr_db).collect();
                 let aoa: Vec<f64> = rx.iter().map(|t| t.aoa_rad.to_degrees()).collect();

@@ -4,10 +4,13 @@ use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use super::csi::SimRecord;
 use super::lab_calibration::{CALIBRATION_FILE, lab_calibration};
-use super::run::{SimOutput, rotors_interval_s};
+use super::run::ApOutput;
+use super::run::{SimOutput, ap_mac, rotors_interval_s};
 use super::scenario::Scenario;
 use super::vibration::broadband_density;
+use crate::csi::atheros::{ByteOrder, encode_record};
 use crate::csi::intel5300::LogWriter;
 use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
@@ -119,13 +122,7 @@ pub fn write_dataset(
     let mut clipped = 0u64;
     let mut counts = Vec::new();
     for (ap, entry) in output.aps.iter().zip(&manifest.aps) {
-        put(&entry.log, &mut |w| {
-            let mut log = LogWriter::new(w);
-            for (_, record) in ap.received() {
-                log.write(record)?;
-            }
-            log.finish().map(|_| ())
-        })?;
+        put(&entry.log, &mut |w| write_log(w, ap))?;
         let rows: Vec<PacketRow> = ap
             .packets
             .iter()
@@ -134,7 +131,7 @@ pub fn write_dataset(
                 PacketRow {
                     t_ns: p.t.as_nanos(),
                     received: p.record.is_some(),
-                    bfee_count: p.record.as_ref().map_or(0, |r| r.header.bfee_count),
+                    bfee_count: p.record.as_ref().map_or(0, SimRecord::count),
                     aoa_rad: t.aoa_rad,
                     aoa_deg: t.aoa_rad.to_degrees(),
                     elevation_rad: t.elevation_rad,
@@ -151,7 +148,7 @@ pub fn write_dataset(
             })
             .collect();
         clipped += ap
-            .received()
+            .received_records()
             .map(|(p, _)| u64::from(p.truth.clipped))
             .sum::<u64>();
         put(
@@ -161,7 +158,7 @@ pub fn write_dataset(
         counts.push((
             ap.config.name.clone(),
             ap.packets.len(),
-            ap.received().count(),
+            ap.received_records().count(),
         ));
     }
 
@@ -234,6 +231,22 @@ pub fn write_dataset(
     Ok(report)
 }
 
+/// One AP's received records in its card's log format.
+fn write_log(w: &mut BufWriter<File>, ap: &ApOutput) -> io::Result<()> {
+    let mut log = LogWriter::new(Vec::new());
+    let mut bytes = Vec::new();
+    for (_, record) in ap.received_records() {
+        match record {
+            SimRecord::Intel5300(r) => log.write(r)?,
+            SimRecord::Atheros(r) => {
+                encode_record(r, ByteOrder::Little, &mut bytes).map_err(io::Error::other)?;
+            }
+        }
+    }
+    w.write_all(&log.finish()?)?;
+    w.write_all(&bytes)
+}
+
 /// The vibration's density near 0 Hz while the rotors spin, for `truth.toml`.
 fn vibration_truth(scenario: &Scenario) -> Option<VibrationTruth> {
     let model = scenario.imu.vibration_model()?;
@@ -268,6 +281,7 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
             noise: Some(scenario.imu.model.noise()),
         },
         array: ArrayEntry {
+            card: scenario.radio.card,
             calibration: scenario
                 .radio
                 .lab_calibration
@@ -288,7 +302,7 @@ pub fn manifest(scenario: &Scenario) -> Manifest {
                 imu_minus_nic_ns: imu_minus_nic_ns(scenario.radio.nic_clock_at_imu_zero_us),
                 // A locally administered address per AP, for `wins replay --realtime`'s frame
                 // records.
-                mac: Some(format_mac(&[0x02, 0x00, 0x00, 0x00, 0x00, (l + 1) as u8])),
+                mac: Some(format_mac(&ap_mac(l))),
             })
             .collect(),
         baro: scenario.baro.as_ref().map(|b| BaroEntry {

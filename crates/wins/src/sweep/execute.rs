@@ -215,10 +215,7 @@ fn start_order(plan: &Plan, runs: Vec<RunId>) -> Vec<RunId> {
 /// doubled without a lab calibration (the chain offsets are then resolved among twice as many
 /// hypotheses flown side by side). Only the order depends on it, never a result.
 fn expected_work(plan: &Plan, run: RunId) -> f64 {
-    let Some(s) = plan.scenarios.get(run.scenario) else {
-        return 0.0;
-    };
-    match s.flight(run.seed, plan.duration_s, plan.airborne) {
+    match plan.flight(run) {
         // Relative to a calibrated flight's hypotheses, not their count.
         Ok(f) if f.scenario.radio.lab_calibration => f.scenario.duration_s,
         Ok(f) => 2.0 * f.scenario.duration_s,
@@ -247,9 +244,7 @@ fn run_one(plan: &Plan, run: RunId, out: &Path, keep: bool) -> (RunRow, Option<S
     let mut ap_names: Vec<String> = s.scenario.aps.iter().map(|a| a.name.clone()).collect();
     // A bug in a stage must cost one row, not the sweep.
     let outcome = catch_unwind(AssertUnwindSafe(|| {
-        let flight = s
-            .flight(run.seed, plan.duration_s, plan.airborne)
-            .map_err(|e| e.to_string())?;
+        let flight = plan.flight(run).map_err(|e| e.to_string())?;
         ap_names = flight.scenario.aps.iter().map(|a| a.name.clone()).collect();
         if let Some(drawn) = &flight.drawn {
             row.labels = drawn

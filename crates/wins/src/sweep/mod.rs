@@ -99,6 +99,16 @@ pub enum SweepError {
     /// drawn flight cannot be flown with the plan's duration.
     #[error(transparent)]
     Family(#[from] FamilyError),
+    /// A scenario cannot be flown with the plan's card.
+    #[error("scenario {label:?} with card = {card}: {source}")]
+    Card {
+        /// The scenario's label.
+        label: String,
+        /// The card asked for.
+        card: crate::csi::format::CaptureFormat,
+        /// Why.
+        source: crate::sim::ConfigError,
+    },
     /// A scenario cannot be flown with the plan's duration override.
     #[error("scenario {label:?} with duration_s = {duration_s}: {source}")]
     Duration {

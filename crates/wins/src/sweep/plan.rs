@@ -12,6 +12,7 @@ use super::SweepError;
 use super::record::{PLAN_FORMAT, PLAN_VERSION, PlanRecord, PlanScenario};
 pub use super::shard::Shard;
 use crate::Config;
+use crate::csi::format::CaptureFormat;
 use crate::sim::Scenario;
 use crate::sim::family::Family;
 pub use family::RunFlight;
@@ -181,6 +182,7 @@ pub struct RunId {
 /// duration_s = 90.0            # optional: each scenario's own otherwise
 /// config = "pipeline.toml"     # optional: the defaults otherwise
 /// airborne = true              # optional: drop every scenario's [phases] (start in the air)
+/// card = "atheros"             # optional: the rig's card (each scenario's own otherwise)
 /// ```
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -202,6 +204,9 @@ pub struct PlanSpec {
     /// Fly every scenario airborne from t = 0 ([`Scenario::airborne`]).
     #[serde(default)]
     pub airborne: bool,
+    /// Fly every scenario with this card ([`Scenario::with_card`]).
+    #[serde(default)]
+    pub card: Option<CaptureFormat>,
 }
 
 /// Seeds in a plan file.
@@ -229,6 +234,8 @@ pub struct Plan {
     pub config_source: Option<String>,
     /// Whether every scenario's phases were dropped ([`Scenario::airborne`]).
     pub airborne: bool,
+    /// The card every scenario is flown with (`None`: each scenario's own).
+    pub card: Option<CaptureFormat>,
 }
 
 impl Plan {
@@ -313,7 +320,46 @@ impl Plan {
             config,
             config_source,
             airborne,
+            card: None,
         })
+    }
+
+    /// The same plan with every run received by `card` (`None`: each scenario's own), checked
+    /// on every scenario's first flight.
+    pub fn with_card(mut self, card: Option<CaptureFormat>) -> Result<Self, SweepError> {
+        self.card = card;
+        if let (Some(card), Some(&seed)) = (card, self.seeds.as_slice().first()) {
+            for (scenario, s) in self.scenarios.iter().enumerate() {
+                let run = RunId {
+                    index: 0,
+                    scenario,
+                    seed,
+                };
+                self.flight(run)?
+                    .scenario
+                    .validate()
+                    .map_err(|source| SweepError::Card {
+                        label: s.label.clone(),
+                        card,
+                        source,
+                    })?;
+            }
+        }
+        Ok(self)
+    }
+
+    /// What `run` flies: its scenario's flight for its seed with the plan's duration, start and
+    /// card ([`SweepScenario::flight`]).
+    pub fn flight(&self, run: RunId) -> Result<RunFlight, SweepError> {
+        let s = self
+            .scenarios
+            .get(run.scenario)
+            .ok_or(SweepError::NoScenarios)?;
+        let mut f = s.flight(run.seed, self.duration_s, self.airborne)?;
+        if let Some(card) = self.card {
+            f.scenario = f.scenario.with_card(card);
+        }
+        Ok(f)
     }
 
     /// Reads a plan file ([`PlanSpec`]); its paths are relative to the file's directory.
@@ -339,7 +385,8 @@ impl Plan {
             spec.config.as_deref(),
             base,
             spec.airborne,
-        )
+        )?
+        .with_card(spec.card)
     }
 
     /// Every run, in canonical order: scenario-major (in the order given), then seed

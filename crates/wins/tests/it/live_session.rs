@@ -102,7 +102,7 @@ fn arrivals(dir: &Path, seed: u64) -> Vec<Arrival> {
                     packet.t,
                     CsiEvent::Record {
                         conn: 0,
-                        record: Box::new(packet.record),
+                        record: Box::new(packet.record.intel5300().unwrap().clone()),
                         transmitter: macs[ap],
                         arrival_ns: host_ns,
                     },

@@ -378,11 +378,14 @@ fn bad_input_is_counted() {
         };
         d.imu[300] = nan;
         for p in d.aps[0].packets.iter_mut().skip(100).take(5) {
-            let mut header = p.record.header;
+            let record = p.record.intel5300().unwrap();
+            let mut header = record.header;
             header.nrx = 2;
             header.ntx = 1;
-            let csi = &p.record.csi()[..header.num_entries()];
-            p.record = CsiRecord::new(header, csi, p.record.timestamp).unwrap();
+            let csi = &record.csi()[..header.num_entries()];
+            p.record = CsiRecord::new(header, csi, record.timestamp)
+                .unwrap()
+                .into();
         }
         let (from, to) = (3_000_000_000, 5_000_000_000);
         d.aps[0].packets.retain(|p| p.t.0 < from || p.t.0 > to);

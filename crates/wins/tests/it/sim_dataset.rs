@@ -135,7 +135,10 @@ fn logs_read_back_identically_and_clocks_line_up_across_a_wrap() {
         assert_eq!(rows.len(), data.aps[i].packets.len());
         for (row, pkt) in rows.iter().zip(&data.aps[i].packets) {
             assert_eq!(pkt.t.as_nanos(), row.t_ns.div_euclid(1000) * 1000);
-            assert_eq!(pkt.record.header.bfee_count, row.bfee_count);
+            assert_eq!(
+                pkt.record.intel5300().unwrap().header.bfee_count,
+                row.bfee_count
+            );
         }
     }
     std::fs::remove_dir_all(&dir).unwrap();

@@ -15,12 +15,14 @@
 //! where the public readers disagree: `../shared/data/atheros/README.md`.
 
 mod summary;
+pub mod write;
 
 use std::path::Path;
 
 use num_complex::Complex;
 
 pub use summary::AtherosSummary;
+pub use write::encode_record;
 
 /// Bytes of a record's header, the block length included.
 pub const ATHEROS_HEADER_LEN: usize = 27;

@@ -57,7 +57,7 @@ pub fn packets(path: &Path, format: CaptureFormat) -> Result<CsiPackets, Capture
         CaptureFormat::Atheros => {
             let capture = read_atheros(path, None).map_err(io)?;
             for r in &capture.records {
-                push(&mut out, atheros(r));
+                push(&mut out, from_atheros(r));
             }
             out.lost = capture.lost();
         }
@@ -277,8 +277,8 @@ fn picoscenes(f: &PicoFrame) -> Result<CsiPacket, String> {
     Ok(p)
 }
 
-/// An Atheros CSI Tool record with CSI.
-fn atheros(r: &AtherosRecord) -> Result<CsiPacket, String> {
+/// An Atheros CSI Tool record with CSI as a packet, or why it cannot be one.
+pub fn from_atheros(r: &AtherosRecord) -> Result<CsiPacket, String> {
     if r.csi.is_empty() {
         return Err("an Atheros record without CSI".into());
     }

@@ -11,6 +11,8 @@ mod convert;
 pub mod export;
 pub mod tables;
 
+pub use convert::from_atheros;
+
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -23,6 +23,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::{LiveSession, decode, inbound_config, load_rig};
 use crate::Config;
+use crate::csi::Received;
 use crate::csi::intel5300::{CsiRecord, Event, StreamDecoder, encode_frame_record, encode_record};
 use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::imu::ImuSample;
@@ -72,7 +73,10 @@ fn clean_inputs(dir: &std::path::Path) -> Vec<Clean> {
         out.push(match e {
             DatasetEvent::Imu(s) => Clean::Imu(s),
             DatasetEvent::Baro(b) => Clean::Baro(b.t, b.altitude_m),
-            DatasetEvent::Csi { packet, .. } => Clean::Csi(Box::new(packet.record), packet.t),
+            DatasetEvent::Csi { packet, .. } => match packet.record {
+                Received::Intel5300(record) => Clean::Csi(Box::new(record), packet.t),
+                Received::Card(_) => panic!("the live fuzz flies Intel 5300 datasets"),
+            },
         });
     }
     out

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use super::{AoaLogError, AoaLogSummary, AoaMode, PacketAoa, estimate_log, match_chain_curvature};
 use crate::aoa::estimator::{AoaError, AoaEstimator};
 use crate::aoa::{AoaConfig, Correction};
+use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{CsiLog, CsiRecord, ReadError, Skip, read_log, why_no_records};
 use crate::dataset::{Dataset, DatasetError};
 use crate::rig::array::{CHANNEL_64_HZ, half_wavelength_m};
@@ -163,6 +164,14 @@ impl AoaInput {
             ));
         }
         let dataset = Dataset::load(file).map_err(Box::new)?;
+        let card = dataset.manifest.array.card;
+        if card != CaptureFormat::Intel5300 {
+            return Err(options(format!(
+                "{} is a dataset of {card} logs: run wins aoa on an AP's log itself \
+                 (wins aoa LOG --csi-format {card} --channel N)",
+                file.display()
+            )));
+        }
         let names: Vec<&str> = dataset.aps.iter().map(|a| a.name.as_str()).collect();
         let Some(name) = &spec.ap else {
             return Err(options(format!(
@@ -196,7 +205,12 @@ impl AoaInput {
             AoaSource::Dataset { dataset, ap } => dataset
                 .aps
                 .get(*ap)
-                .map(|a| a.packets.iter().map(|p| &p.record).collect())
+                .map(|a| {
+                    a.packets
+                        .iter()
+                        .filter_map(|p| p.record.intel5300())
+                        .collect()
+                })
                 .unwrap_or_default(),
         }
     }

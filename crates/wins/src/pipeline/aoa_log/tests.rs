@@ -148,7 +148,7 @@ fn truth_pairs_match_by_bfee_count_and_resync_after_gaps() {
     let packets = &mut dataset.aps[0].packets;
     packets.remove(10);
     let mut stray = packets[20].clone();
-    stray.record.header.bfee_count = 60_000;
+    stray.record.intel5300_mut().unwrap().header.bfee_count = 60_000;
     packets.insert(20, stray);
     let p = truth_pairs(&dataset, &truth, "ap0").unwrap();
     assert_eq!(
@@ -162,7 +162,7 @@ fn truth_pairs_match_by_bfee_count_and_resync_after_gaps() {
     // Counts that match nothing: the walk stops and reports where.
     let packets = &mut dataset.aps[0].packets;
     for (k, packet) in packets.iter_mut().enumerate().skip(30) {
-        packet.record.header.bfee_count = 50_000 + k as u16;
+        packet.record.intel5300_mut().unwrap().header.bfee_count = 50_000 + k as u16;
     }
     let n = packets.len();
     let p = truth_pairs(&dataset, &truth, "ap0").unwrap();

@@ -3,7 +3,7 @@
 
 use super::super::Pipeline;
 use super::Released;
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::Received;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
@@ -12,7 +12,7 @@ use crate::time::Timestamp;
 pub(super) enum Input {
     Imu(ImuSample),
     Baro(Timestamp, f64),
-    Csi(usize, Timestamp, Box<CsiRecord>),
+    Csi(usize, Timestamp, Box<Received>),
 }
 
 /// One input into one pipeline; a sample the estimator refuses is counted, not an error.

@@ -4,9 +4,10 @@ use serde::Serialize;
 
 use super::super::{PacketLog, Pipeline, StageTiming};
 use crate::config::Config;
+use crate::csi::format::CaptureFormat;
 use crate::fusion::choice::EstimatorKind;
 use crate::fusion::pose::PoseEstimate;
-use crate::rig::ArrayGeometry;
+use crate::rig::Rig;
 use crate::time::Timestamp;
 
 /// What the resolution did (in `stats.json` as `chain_offsets`).
@@ -101,12 +102,15 @@ impl Released {
     }
 }
 
-/// Whether the offsets are resolved from the flight for `config` on an array `geometry`: asked
-/// for, three antennas, and the nonlinear estimator (the paper's tests its fit only when it
+/// Whether the offsets are resolved from the flight for `config` on `rig`: asked for, an Intel
+/// 5300 (its restart steps are the model, and its curvature is measured on its subcarrier
+/// groups; another card's calibration is applied as it is), three antennas, and the nonlinear
+/// estimator (the paper's tests its fit only when it
 /// declares convergence: it converged on π aliases and fitted them better than the truth, so it
 /// cannot choose).
-pub fn resolves(config: &Config, geometry: ArrayGeometry) -> bool {
+pub fn resolves(config: &Config, rig: &Rig) -> bool {
     config.pipeline.chains.resolve
-        && geometry.num_antennas == 3
+        && rig.card == CaptureFormat::Intel5300
+        && rig.geometry.num_antennas == 3
         && config.estimator == EstimatorKind::Nonlinear
 }

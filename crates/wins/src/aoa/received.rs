@@ -1,0 +1,102 @@
+//! Per-packet AoA of any [`Received`] packet ([`ReceivedAoa`]): the Intel 5300's records through
+//! [`AoaEstimator`] (its subcarrier groups, its receiver response), every other card's packets
+//! through [`PacketAoa`] on their own subcarriers. One calibration for both.
+
+use super::estimator::{AoaConfig, AoaError, AoaEstimator};
+use super::group::GroupResult;
+use super::music::AoaWindow;
+use super::packet::PacketAoa;
+use super::paoa::{AoaPrediction, PaoaResult};
+use super::peak::Peak;
+use super::spotfi::direct_path;
+use crate::csi::Received;
+use crate::rig::{ArrayGeometry, ChainCalibration};
+
+/// SpotFi and PAoA over packets of any card, for one array and channel.
+#[derive(Clone, Debug)]
+pub struct ReceivedAoa {
+    intel5300: AoaEstimator,
+    cards: PacketAoa,
+}
+
+impl ReceivedAoa {
+    /// The AoA stage for `geometry` on a channel centred at `center_freq_hz` (without a
+    /// calibration the chains are assumed to add no phase).
+    pub fn new(
+        config: &AoaConfig,
+        geometry: ArrayGeometry,
+        center_freq_hz: f64,
+        calibration: Option<ChainCalibration>,
+    ) -> Result<Self, AoaError> {
+        let intel5300 = AoaEstimator::new(config, geometry, center_freq_hz, calibration)?;
+        let cards = PacketAoa::new(
+            config,
+            geometry,
+            center_freq_hz,
+            Some(intel5300.calibration().clone()),
+        )?;
+        Ok(Self { intel5300, cards })
+    }
+
+    /// The calibration applied.
+    pub fn calibration(&self) -> &ChainCalibration {
+        self.intel5300.calibration()
+    }
+
+    /// Replaces the chain offsets ([`AoaEstimator::set_calibration`]).
+    pub fn set_calibration(&mut self, calibration: ChainCalibration) -> Result<(), AoaError> {
+        self.intel5300.set_calibration(calibration.clone())?;
+        self.cards.set_calibration(calibration)
+    }
+
+    /// Every credible peak of a packet inside `window`, lowest ToF first.
+    pub fn peaks(&mut self, packet: &Received, window: AoaWindow) -> Result<Vec<Peak>, AoaError> {
+        match packet {
+            Received::Intel5300(r) => self.intel5300.peaks(r, window),
+            Received::Card(p) => self.cards.peaks(p, window),
+        }
+    }
+
+    /// SpotFi's direct path over `packets` ([`AoaEstimator::spotfi`]).
+    pub fn spotfi<'a>(&mut self, packets: impl IntoIterator<Item = &'a Received>) -> GroupResult {
+        let mut peaks = Vec::new();
+        let mut skipped = Vec::new();
+        for (i, packet) in packets.into_iter().enumerate() {
+            match self.peaks(packet, AoaWindow::FULL) {
+                Ok(p) => peaks.push(p),
+                Err(e) => {
+                    skipped.push((i, e.to_string()));
+                    peaks.push(Vec::new());
+                }
+            }
+        }
+        GroupResult {
+            direct: direct_path(&peaks, &self.intel5300.config().spotfi),
+            peaks,
+            skipped,
+        }
+    }
+
+    /// PAoA of one packet given the prediction ([`AoaEstimator::paoa`]).
+    pub fn paoa(
+        &mut self,
+        packet: &Received,
+        prediction: &AoaPrediction,
+    ) -> Result<PaoaResult, AoaError> {
+        match packet {
+            Received::Intel5300(r) => self.intel5300.paoa(r, prediction),
+            Received::Card(p) => {
+                let predicted = prediction.predicted_aoa_rad();
+                let half_width = self.intel5300.config().paoa_half_width_deg.to_radians();
+                let window = AoaWindow::around(predicted, half_width);
+                let peaks = self.cards.peaks(p, window)?;
+                Ok(PaoaResult {
+                    predicted_aoa_rad: predicted,
+                    window,
+                    peak: peaks.first().copied(),
+                    candidates: peaks.len(),
+                })
+            }
+        }
+    }
+}
