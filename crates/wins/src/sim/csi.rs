@@ -1,8 +1,9 @@
 //! CSI as a card reports it: multipath channel through the shared steering vector, thermal and
 //! implementation noise, the NIC's phase impairments, AGC and quantization. The Intel 5300 (its
 //! 30 subcarrier groups, 8 bits, its measured receiver response) is the default; the Atheros
-//! CSI Tool's card ([`SimCard`]: 56 or 114 tones, 10 bits, a flat response, since no Atheros
-//! response has been measured) is the other rig the simulator writes.
+//! CSI Tool's card (56 or 114 tones, 10 bits) and Nexmon on an RT-AC86U's BCM4366c0 (three of its
+//! cores, 56 tones of 64 FFT bins, the chip's floating point) are the other rigs it writes
+//! ([`SIM_CARDS`]), each with a flat response: no other card's response has been measured.
 //!
 //! For path `p` (length `L_p`, delay `τ_p = L_p/c`, cone angle `θ_p` at the array, amplitude
 //! `g_p·λ/(4πL_p)·√(P_tx·G_tx·G_rx)`), antenna `m` and subcarrier `k` at `f_k = f_c + Δf_k`:
@@ -31,7 +32,10 @@ use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::atheros::AtherosRecord;
 use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RSSI_TO_DBM_OFFSET, RateFlags};
-use crate::csi::packet::tables;
+use crate::csi::nexmon::frames::frames;
+use crate::csi::nexmon::write::encode_word;
+use crate::csi::nexmon::{MAGIC_NEW, NexmonPacket};
+use crate::csi::packet::{CsiPacket, from_atheros, from_nexmon, tables};
 use crate::rig::ArrayGeometry;
 use crate::rig::array::SPEED_OF_LIGHT_M_S;
 use crate::time::Timestamp;
@@ -86,6 +90,8 @@ pub enum SimRecord {
     Intel5300(CsiRecord),
     /// An Atheros CSI Tool record.
     Atheros(AtherosRecord),
+    /// Nexmon's packets of one frame, one per core.
+    Nexmon(Vec<NexmonPacket>),
 }
 
 impl SimRecord {
@@ -93,11 +99,21 @@ impl SimRecord {
     pub fn intel5300(&self) -> Option<&CsiRecord> {
         match self {
             Self::Intel5300(r) => Some(r),
-            Self::Atheros(_) => None,
+            Self::Atheros(_) | Self::Nexmon(_) => None,
         }
     }
 
-    /// The count the truth pairs it by: the 5300's `bfee_count`, the Atheros frame's 802.11
+    /// Another card's record as the loader reads it (`None` for a 5300 record, or a record that
+    /// does not convert, which the simulator never writes).
+    pub fn card_packet(&self) -> Option<CsiPacket> {
+        match self {
+            Self::Intel5300(_) => None,
+            Self::Atheros(r) => from_atheros(r).ok(),
+            Self::Nexmon(p) => frames(p).first().and_then(|f| from_nexmon(f).ok()),
+        }
+    }
+
+    /// The count the truth pairs it by: the 5300's `bfee_count`, the other cards' 802.11
     /// sequence number.
     pub fn count(&self) -> u16 {
         match self {
@@ -106,17 +122,30 @@ impl SimRecord {
                 .payload
                 .get(22..24)
                 .map_or(0, |b| u16::from_le_bytes([b[0], b[1]]) >> 4),
+            Self::Nexmon(p) => p.first().map_or(0, NexmonPacket::seq_num),
         }
     }
 }
 
 /// The cards the simulator writes, by their capture format.
-pub const SIM_CARDS: [CaptureFormat; 2] = [CaptureFormat::Intel5300, CaptureFormat::Atheros];
+pub const SIM_CARDS: [CaptureFormat; 3] = [
+    CaptureFormat::Intel5300,
+    CaptureFormat::Atheros,
+    CaptureFormat::Nexmon,
+];
 
 /// Bits the Atheros CSI Tool gives each part: its quantizer's RMS is the 5300's times 2^(10−8).
 const ATHEROS_EXTRA_BITS: i32 = 2;
 /// The Atheros rate code of HT MCS 0.
 const ATHEROS_RATE_MCS0: u8 = 0x80;
+/// Nexmon's chip id of the BCM4366c0 (the RT-AC86U's).
+const NEXMON_CHIP_BCM4366C0: u16 = 0x006a;
+/// A Broadcom chanspec's bits of a 5 GHz, 20 MHz channel (its number in the low byte).
+const CHANSPEC_5G_20MHZ: u16 = 0xd000;
+/// Nexmon's words hold the CSI at this many powers of two above the 5300's 8-bit scale, well
+/// inside the range of their floating point ([`crate::csi::nexmon::write::encode_word`]).
+const NEXMON_SCALE_POW2: i32 = 24;
+
 /// The receiving card's own address in the simulated Atheros frames (locally administered).
 const RECEIVER_MAC: [u8; 6] = [0x02, 0x00, 0x00, 0x00, 0x01, 0x00];
 
@@ -152,7 +181,7 @@ impl CsiSynth {
         tx_power_dbm: f64,
     ) -> Self {
         let offsets_hz: Vec<f64> = match radio.card {
-            CaptureFormat::Atheros => {
+            CaptureFormat::Atheros | CaptureFormat::Nexmon => {
                 let tones = if radio.bandwidth == crate::csi::Bandwidth::Ht40 {
                     114
                 } else {
@@ -316,6 +345,7 @@ impl CsiSynth {
         let nic_us = self.nic_clock_at_imu_zero_us as i64 + t.as_nanos().div_euclid(1000);
         let (record, clipped) = match self.card {
             CaptureFormat::Atheros => self.atheros_record(&h, powers_dbm, scale, nic_us, count),
+            CaptureFormat::Nexmon => self.nexmon_record(&h, powers_dbm, scale, nic_us, count),
             _ => {
                 let (record, clipped) = self.intel5300_record(&h, rssi, agc, scale, nic_us, count);
                 (SimRecord::Intel5300(record), clipped)
@@ -439,6 +469,59 @@ impl CsiSynth {
             payload,
         };
         (SimRecord::Atheros(record), clipped)
+    }
+
+    /// Nexmon's packets of one frame: one per core, each the newer header and one word per FFT
+    /// bin in the chip's floating point (the DC and guard bins zero), the core's RSSI in dBm.
+    /// The floating point does not clip.
+    fn nexmon_record(
+        &self,
+        h: &[Vec<Complex64>],
+        powers_dbm: &[f64],
+        scale: f64,
+        nic_us: i64,
+        sequence: u16,
+    ) -> (SimRecord, u32) {
+        let scale = scale * 2f64.powi(NEXMON_SCALE_POW2);
+        let tones = self.freqs_hz.len();
+        let bins = if tones > 56 { 128 } else { 64 };
+        let mut subcarriers: Vec<(i32, usize)> = (0..bins)
+            .filter_map(|b| tables::nexmon_bin(b, bins).map(|k| (k, b)))
+            .collect();
+        subcarriers.sort_unstable();
+        let carrier_mhz = self.freqs_hz.iter().sum::<f64>() / tones as f64 / 1e6;
+        let channel = ((carrier_mhz - 5000.0) / 5.0).round().clamp(0.0, 255.0) as u16;
+        let nic_us = nic_us.max(0);
+        let packets = h
+            .iter()
+            .zip(powers_dbm)
+            .enumerate()
+            .map(|(core, (row, p_dbm))| {
+                let mut words = vec![0u32; bins];
+                for (tone, &(_, bin)) in subcarriers.iter().enumerate().take(tones) {
+                    words[bin] = encode_word(row[tone] * scale);
+                }
+                NexmonPacket {
+                    index: 0,
+                    offset: 0,
+                    ts_sec: (nic_us / 1_000_000) as u32,
+                    ts_frac: (nic_us % 1_000_000) as u32,
+                    time_ns: nic_us * 1000,
+                    caplen: 0,
+                    wirelen: 0,
+                    magic: u32::from(MAGIC_NEW),
+                    rssi_dbm: Some(p_dbm.round().clamp(-128.0, 0.0) as i8),
+                    frame_control: Some(0x08),
+                    transmitter: self.transmitter,
+                    seq: (sequence & 0x0fff) << 4,
+                    csiconf: (core as u16) << 8,
+                    chanspec: CHANSPEC_5G_20MHZ | channel,
+                    chip: NEXMON_CHIP_BCM4366C0,
+                    words,
+                }
+            })
+            .collect();
+        (SimRecord::Nexmon(packets), 0)
     }
 }
 

@@ -7,14 +7,13 @@
 
 use nalgebra::Vector3;
 
-use super::csi::SimRecord;
 use super::scenario::Scenario;
 use super::trajectory::TrajectoryConfig;
 use super::yaw::{YawConfig, YawMode};
 use super::{ConfigError, simulate};
 use crate::aoa::{AoaConfig, CalibrateError, calibrate_packets_with, calibrate_with};
 use crate::csi::format::CaptureFormat;
-use crate::csi::packet::{CsiPacket, from_atheros};
+use crate::csi::packet::CsiPacket;
 use crate::rig::ChainCalibration;
 
 /// File name of the calibration in a simulated dataset.
@@ -121,10 +120,7 @@ pub fn lab_calibration(scenario: &Scenario) -> Result<ChainCalibration, LabCalib
             .aps
             .iter()
             .flat_map(|ap| ap.received_records())
-            .filter_map(|(p, r)| match r {
-                SimRecord::Atheros(r) => from_atheros(r).ok().map(|c| (c, p.truth.aoa_rad)),
-                SimRecord::Intel5300(_) => None,
-            })
+            .filter_map(|(p, r)| r.card_packet().map(|c| (c, p.truth.aoa_rad)))
             .collect();
         let pairs = packets.iter().map(|(c, aoa)| (c, *aoa));
         calibrate_packets_with(pairs, geometry, carrier_hz, &config)?

@@ -15,9 +15,10 @@ pub const THERMAL_NOISE_DBM_HZ: f64 = -173.977;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadioConfig {
-    /// The receiving card, by the format its tool writes: `intel5300` (default) or `atheros`
-    /// (the Atheros CSI Tool's 56 tones, or 114 at 40 MHz, 10 bits per part, a flat receiver
-    /// response).
+    /// The receiving card, by the format its tool writes: `intel5300` (default), `atheros` (the
+    /// Atheros CSI Tool's 56 tones, or 114 at 40 MHz, 10 bits per part) or `nexmon` (an
+    /// RT-AC86U's BCM4366c0, three cores, 56 tones of 64 FFT bins in the chip's floating point);
+    /// the other two with a flat receiver response.
     #[serde(skip_serializing_if = "is_intel5300")]
     pub card: CaptureFormat,
     /// Carrier frequency, Hz. Default 5.32 GHz (channel 64, the paper's).
@@ -116,8 +117,8 @@ impl RadioConfig {
             return bad(
                 "card",
                 format!(
-                    "the simulator writes {} logs, not {}",
-                    names.join(" or "),
+                    "the simulator writes the logs of these cards only: {} (not {})",
+                    names.join(", "),
                     self.card
                 ),
             );

@@ -11,7 +11,9 @@ use super::run::{SimOutput, ap_mac, rotors_interval_s};
 use super::scenario::Scenario;
 use super::vibration::broadband_density;
 use crate::csi::atheros::{ByteOrder, encode_record};
+use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::LogWriter;
+use crate::csi::nexmon::write::{encode_packet, pcap_header};
 use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
     ApEntry, ArrayEntry, BaroEntry, ChannelEntry, FORMAT, ImuEntry, Manifest, VERSION,
@@ -122,7 +124,7 @@ pub fn write_dataset(
     let mut clipped = 0u64;
     let mut counts = Vec::new();
     for (ap, entry) in output.aps.iter().zip(&manifest.aps) {
-        put(&entry.log, &mut |w| write_log(w, ap))?;
+        put(&entry.log, &mut |w| write_log(w, ap, scenario.radio.card))?;
         let rows: Vec<PacketRow> = ap
             .packets
             .iter()
@@ -231,15 +233,23 @@ pub fn write_dataset(
     Ok(report)
 }
 
-/// One AP's received records in its card's log format.
-fn write_log(w: &mut BufWriter<File>, ap: &ApOutput) -> io::Result<()> {
+/// One AP's received records in its card's log format (a Nexmon pcap's global header first).
+fn write_log(w: &mut BufWriter<File>, ap: &ApOutput, card: CaptureFormat) -> io::Result<()> {
     let mut log = LogWriter::new(Vec::new());
     let mut bytes = Vec::new();
+    if card == CaptureFormat::Nexmon {
+        pcap_header(&mut bytes);
+    }
     for (_, record) in ap.received_records() {
         match record {
             SimRecord::Intel5300(r) => log.write(r)?,
             SimRecord::Atheros(r) => {
                 encode_record(r, ByteOrder::Little, &mut bytes).map_err(io::Error::other)?;
+            }
+            SimRecord::Nexmon(packets) => {
+                for p in packets {
+                    encode_packet(p, &mut bytes);
+                }
             }
         }
     }

@@ -15,6 +15,7 @@ mod atheros_real;
 mod bounds;
 mod capture_check;
 mod capture_formats;
+mod card_rigs;
 mod chain_offsets;
 mod data;
 mod dataset_fuzz;

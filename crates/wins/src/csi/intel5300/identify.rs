@@ -84,7 +84,7 @@ pub fn identify_bytes(head: &[u8]) -> Option<Identified> {
     }
     if looks_like_atheros(head) {
         return Some(Identified::Foreign(
-            "an Atheros CSI Tool log (`wins csi info`, `check`, `export` and `wins aoa` read it; `wins csi stats`, `wins calibrate` and the estimator do not take it yet)",
+            "an Atheros CSI Tool log (`wins csi info`, `check`, `export` and `wins aoa` read it; `wins calibrate` and the estimator, with `[array] card` in dataset.toml, take it; `wins csi stats` does not)",
         ));
     }
     (1..=MAX_PREFIX)
@@ -103,17 +103,17 @@ fn magic(head: &[u8]) -> Option<&'static str> {
         || starts(&[0xa1, 0xb2, 0x3c, 0x4d])
     {
         return Some(
-            "a pcap capture (Nexmon writes its CSI as UDP packets in one: `wins csi info`, `check`, `export` and `wins aoa` read it; `wins csi stats`, `wins calibrate` and the estimator do not take it yet)",
+            "a pcap capture (Nexmon writes its CSI as UDP packets in one: `wins csi info`, `check`, `export` and `wins aoa` read it; `wins calibrate` and the estimator, with `[array] card` in dataset.toml, take it; `wins csi stats` does not)",
         );
     }
     if looks_like_picoscenes(head) {
         return Some(
-            "a PicoScenes file (`wins csi info`, `check`, `export` and `wins aoa` read it; `wins csi stats`, `wins calibrate` and the estimator do not take it yet)",
+            "a PicoScenes file (`wins csi info`, `check`, `export` and `wins aoa` read it; `wins calibrate` and the estimator, with `[array] card` in dataset.toml, take it; `wins csi stats` does not)",
         );
     }
     if looks_like_feitcsi(head) {
         return Some(
-            "a FeitCSI file of an Intel AX200/AX210 (`wins csi info`, `check`, `export` and `wins aoa` read it; `wins csi stats`, `wins calibrate` and the estimator do not take it yet)",
+            "a FeitCSI file of an Intel AX200/AX210 (`wins csi info`, `check`, `export` and `wins aoa` read it; `wins calibrate` and the estimator, with `[array] card` in dataset.toml, take it; `wins csi stats` does not)",
         );
     }
     if starts(&[0x0a, 0x0d, 0x0d, 0x0a]) {

@@ -13,6 +13,7 @@ pub mod frames;
 pub mod pcap;
 mod summary;
 pub mod unpack;
+pub mod write;
 
 pub use summary::NexmonSummary;
 

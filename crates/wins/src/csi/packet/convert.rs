@@ -36,7 +36,7 @@ pub fn packets(path: &Path, format: CaptureFormat) -> Result<CsiPackets, Capture
         CaptureFormat::Nexmon => {
             let capture = read_nexmon(path)?;
             for frame in frames(&capture.packets) {
-                push(&mut out, nexmon(&frame));
+                push(&mut out, from_nexmon(&frame));
             }
             out.lost = capture.tail.map(|t| format!("{t:?}"));
         }
@@ -123,7 +123,7 @@ fn broadcom_carrier_hz(chanspec: u16) -> f64 {
 
 /// A Nexmon frame: one receive row per core, one stream per spatial stream; a frame that lacks
 /// a (core, stream) pair the others have is skipped.
-fn nexmon(frame: &NexmonFrame<'_>) -> Result<CsiPacket, String> {
+pub fn from_nexmon(frame: &NexmonFrame<'_>) -> Result<CsiPacket, String> {
     let first = *frame.packets.first().ok_or("an empty Nexmon frame")?;
     let chains = frame.cores();
     let mut streams: Vec<u8> = frame.packets.iter().map(|p| p.spatial_stream()).collect();
