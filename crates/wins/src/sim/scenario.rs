@@ -205,7 +205,7 @@ impl Scenario {
         self
     }
 
-    /// The same flight received by `card` ([`super::RadioConfig::card`]; checked by
+    /// The same flight received by `card` ([`super::radio::RadioConfig::card`]; checked by
     /// [`Self::validate`]: the simulator writes the cards of [`super::csi::SIM_CARDS`]).
     pub fn with_card(mut self, card: CaptureFormat) -> Self {
         self.radio.card = card;
