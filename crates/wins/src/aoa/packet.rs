@@ -131,6 +131,32 @@ impl PacketAoa {
         Ok(music.peaks(&subspace, window))
     }
 
+    /// [`Self::peaks`], and on a card whose second chain flips sign from packet to packet
+    /// ([`chains_flip_sign`], two chains) also the peaks with that chain's sign turned: the
+    /// packet cannot tell which sign it has, so both angles stand, as an array's aliases do, and
+    /// the window around a prediction chooses. Lowest ToF first.
+    pub fn peaks_either_sign(
+        &mut self,
+        packet: &CsiPacket,
+        window: AoaWindow,
+    ) -> Result<Vec<Peak>, AoaError> {
+        let n = self.geometry.num_antennas;
+        if !(chains_flip_sign(packet) && n == 2) {
+            return self.peaks(packet, window);
+        }
+        let csi = self.prepare(packet)?;
+        let mut turned = csi.clone();
+        let row = turned.len() / n;
+        for v in &mut turned[row..] {
+            *v = -*v;
+        }
+        let music = self.music_for(packet)?;
+        let mut peaks = music.peaks(&music.subspace(&csi)?, window);
+        peaks.extend(music.peaks(&music.subspace(&turned)?, window));
+        peaks.sort_by(|a, b| a.tof_s.total_cmp(&b.tof_s));
+        Ok(peaks)
+    }
+
     /// The other angles `packet` could equally have given for `aoa_rad`: the array's aliases
     /// when it is wider than λ/2, and on a card whose second chain flips sign from packet to
     /// packet ([`chains_flip_sign`], two chains) the angles whose phase step differs by π, with

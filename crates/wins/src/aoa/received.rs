@@ -1,6 +1,7 @@
 //! Per-packet AoA of any [`Received`] packet ([`ReceivedAoa`]): the Intel 5300's records through
 //! [`AoaEstimator`] (its subcarrier groups, its receiver response), every other card's packets
-//! through [`PacketAoa`] on their own subcarriers. One calibration for both.
+//! through [`PacketAoa`] on their own subcarriers, both signs of a flipping chain kept
+//! ([`PacketAoa::peaks_either_sign`]). One calibration for both.
 
 use super::estimator::{AoaConfig, AoaError, AoaEstimator};
 use super::group::GroupResult;
@@ -53,7 +54,7 @@ impl ReceivedAoa {
     pub fn peaks(&mut self, packet: &Received, window: AoaWindow) -> Result<Vec<Peak>, AoaError> {
         match packet {
             Received::Intel5300(r) => self.intel5300.peaks(r, window),
-            Received::Card(p) => self.cards.peaks(p, window),
+            Received::Card(p) => self.cards.peaks_either_sign(p, window),
         }
     }
 
@@ -89,7 +90,7 @@ impl ReceivedAoa {
                 let predicted = prediction.predicted_aoa_rad();
                 let half_width = self.intel5300.config().paoa_half_width_deg.to_radians();
                 let window = AoaWindow::around(predicted, half_width);
-                let peaks = self.cards.peaks(p, window)?;
+                let peaks = self.cards.peaks_either_sign(p, window)?;
                 Ok(PaoaResult {
                     predicted_aoa_rad: predicted,
                     window,

@@ -102,6 +102,24 @@ impl IntelCsiHeader {
         })
     }
 
+    /// The header's 272 bytes: its fields where [`Self::parse`] reads them, every other byte
+    /// zero.
+    pub fn encode(&self) -> [u8; IWL_HEADER_LEN] {
+        let mut h = [0u8; IWL_HEADER_LEN];
+        let mut put = |at: usize, v: u32| h[at..at + 4].copy_from_slice(&v.to_le_bytes());
+        put(0, self.csi_size);
+        put(8, self.ftm_clock);
+        put(52, self.num_subcarriers);
+        put(60, self.rssi[0]);
+        put(64, self.rssi[1]);
+        put(88, self.mu_clock);
+        put(92, self.rate_flags);
+        h[46] = self.num_rx;
+        h[47] = self.num_tx;
+        h[68..74].copy_from_slice(&self.source_mac);
+        h
+    }
+
     /// Complex values its shape holds (chains × streams × subcarriers).
     pub fn values(&self) -> usize {
         usize::from(self.num_rx) * usize::from(self.num_tx) * self.num_subcarriers as usize

@@ -20,7 +20,7 @@
 //! noise alike, per chain and subcarrier (`R_m[k]`, measured on real captures: `response`).
 
 use nalgebra::{UnitQuaternion, Vector3};
-use num_complex::{Complex, Complex64};
+use num_complex::Complex64;
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -29,13 +29,9 @@ use super::radio::{RadioConfig, db_to_power, free_space_amplitude, power_to_db};
 use super::room::Path;
 use crate::aoa::steering::{sin_aoa, tof_phase_rad};
 use crate::csi::NUM_SUBCARRIERS;
-use crate::csi::atheros::AtherosRecord;
 use crate::csi::format::CaptureFormat;
-use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES, RSSI_TO_DBM_OFFSET, RateFlags};
-use crate::csi::nexmon::frames::frames;
-use crate::csi::nexmon::write::encode_word;
-use crate::csi::nexmon::{MAGIC_NEW, NexmonPacket};
-use crate::csi::packet::{CsiPacket, from_atheros, from_nexmon, tables};
+use crate::csi::intel5300::{RSSI_TO_DBM_OFFSET, RateFlags};
+use crate::csi::packet::tables;
 use crate::rig::ArrayGeometry;
 use crate::rig::array::SPEED_OF_LIGHT_M_S;
 use crate::time::Timestamp;
@@ -81,74 +77,6 @@ pub struct PacketTruth {
 /// packet stays bounded by the paths that matter. The direct path is always kept.
 pub const NEGLIGIBLE_PATH_POWER_RATIO: f64 = 0.01;
 
-/// One received packet as the simulated card logs it.
-// Not boxed: most packets are Intel 5300 records, and a box would cost each an allocation.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, PartialEq)]
-pub enum SimRecord {
-    /// An Intel 5300 record.
-    Intel5300(CsiRecord),
-    /// An Atheros CSI Tool record.
-    Atheros(AtherosRecord),
-    /// Nexmon's packets of one frame, one per core.
-    Nexmon(Vec<NexmonPacket>),
-}
-
-impl SimRecord {
-    /// The Intel 5300 record, if it is one.
-    pub fn intel5300(&self) -> Option<&CsiRecord> {
-        match self {
-            Self::Intel5300(r) => Some(r),
-            Self::Atheros(_) | Self::Nexmon(_) => None,
-        }
-    }
-
-    /// Another card's record as the loader reads it (`None` for a 5300 record, or a record that
-    /// does not convert, which the simulator never writes).
-    pub fn card_packet(&self) -> Option<CsiPacket> {
-        match self {
-            Self::Intel5300(_) => None,
-            Self::Atheros(r) => from_atheros(r).ok(),
-            Self::Nexmon(p) => frames(p).first().and_then(|f| from_nexmon(f).ok()),
-        }
-    }
-
-    /// The count the truth pairs it by: the 5300's `bfee_count`, the other cards' 802.11
-    /// sequence number.
-    pub fn count(&self) -> u16 {
-        match self {
-            Self::Intel5300(r) => r.header.bfee_count,
-            Self::Atheros(r) => r
-                .payload
-                .get(22..24)
-                .map_or(0, |b| u16::from_le_bytes([b[0], b[1]]) >> 4),
-            Self::Nexmon(p) => p.first().map_or(0, NexmonPacket::seq_num),
-        }
-    }
-}
-
-/// The cards the simulator writes, by their capture format.
-pub const SIM_CARDS: [CaptureFormat; 3] = [
-    CaptureFormat::Intel5300,
-    CaptureFormat::Atheros,
-    CaptureFormat::Nexmon,
-];
-
-/// Bits the Atheros CSI Tool gives each part: its quantizer's RMS is the 5300's times 2^(10−8).
-const ATHEROS_EXTRA_BITS: i32 = 2;
-/// The Atheros rate code of HT MCS 0.
-const ATHEROS_RATE_MCS0: u8 = 0x80;
-/// Nexmon's chip id of the BCM4366c0 (the RT-AC86U's).
-const NEXMON_CHIP_BCM4366C0: u16 = 0x006a;
-/// A Broadcom chanspec's bits of a 5 GHz, 20 MHz channel (its number in the low byte).
-const CHANSPEC_5G_20MHZ: u16 = 0xd000;
-/// Nexmon's words hold the CSI at this many powers of two above the 5300's 8-bit scale, well
-/// inside the range of their floating point ([`crate::csi::nexmon::write::encode_word`]).
-const NEXMON_SCALE_POW2: i32 = 24;
-
-/// The receiving card's own address in the simulated Atheros frames (locally administered).
-const RECEIVER_MAC: [u8; 6] = [0x02, 0x00, 0x00, 0x00, 0x01, 0x00];
-
 /// Turns propagation paths into a card's records for one AP.
 #[derive(Clone, Debug)]
 pub struct CsiSynth {
@@ -188,6 +116,18 @@ impl CsiSynth {
                     56
                 };
                 tables::atheros(tones)
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|&k| f64::from(k) * tables::LEGACY_SPACING_HZ)
+                    .collect()
+            }
+            CaptureFormat::FeitCsi => {
+                let tones = if radio.bandwidth == crate::csi::Bandwidth::Ht40 {
+                    114
+                } else {
+                    56
+                };
+                tables::intel_ax(tones)
                     .unwrap_or_default()
                     .iter()
                     .map(|&k| f64::from(k) * tables::LEGACY_SPACING_HZ)
@@ -346,6 +286,10 @@ impl CsiSynth {
         let (record, clipped) = match self.card {
             CaptureFormat::Atheros => self.atheros_record(&h, powers_dbm, scale, nic_us, count),
             CaptureFormat::Nexmon => self.nexmon_record(&h, powers_dbm, scale, nic_us, count),
+            CaptureFormat::FeitCsi => {
+                let flip = rng.random::<bool>();
+                self.feitcsi_record(&h, powers_dbm, scale, nic_us, flip)
+            }
             _ => {
                 let (record, clipped) = self.intel5300_record(&h, rssi, agc, scale, nic_us, count);
                 (SimRecord::Intel5300(record), clipped)
@@ -378,187 +322,15 @@ impl CsiSynth {
         };
         (record, truth)
     }
-
-    /// The Intel 5300's record: 8 bits per part, its header.
-    fn intel5300_record(
-        &self,
-        h: &[Vec<Complex64>],
-        rssi: [u8; 3],
-        agc: f64,
-        scale: f64,
-        nic_us: i64,
-        bfee_count: u16,
-    ) -> (CsiRecord, u32) {
-        let m_count = h.len();
-        let mut clipped = 0u32;
-        let mut csi = [Complex::<i8>::new(0, 0); MAX_ENTRIES];
-        for (m, row) in h.iter().enumerate() {
-            for (k, v) in row.iter().enumerate() {
-                let (re, c1) = quantize(v.re * scale);
-                let (im, c2) = quantize(v.im * scale);
-                clipped += u32::from(c1) + u32::from(c2);
-                csi[m * NUM_SUBCARRIERS + k] = Complex::new(re, im);
-            }
-        }
-        let header = BfeeHeader {
-            timestamp_low: nic_us.rem_euclid(1 << 32) as u32,
-            bfee_count,
-            nrx: m_count as u8,
-            ntx: 1,
-            rssi,
-            noise_dbm: self.noise_floor_dbm.round().clamp(-126.0, 0.0) as i8,
-            agc: agc as u8,
-            antenna_sel: identity_antenna_sel(m_count),
-            rate: self.rate,
-        };
-        let timestamp = Timestamp::from_micros(nic_us);
-        // 1–3 chains and one stream: always a valid shape, so no `CsiRecord::new` error to carry.
-        (CsiRecord::from_parts(0, timestamp, header, csi), clipped)
-    }
-
-    /// The Atheros CSI Tool's record: 10 bits per part, per tone then receive chain, the
-    /// chains' RSSI in dB above the noise floor, an 802.11 data frame header carrying the
-    /// transmitter and `sequence` (modulo 4096).
-    fn atheros_record(
-        &self,
-        h: &[Vec<Complex64>],
-        powers_dbm: &[f64],
-        scale: f64,
-        nic_us: i64,
-        sequence: u16,
-    ) -> (SimRecord, u32) {
-        let scale = scale * f64::from(1 << ATHEROS_EXTRA_BITS);
-        let tones = self.freqs_hz.len();
-        let mut clipped = 0u32;
-        let mut csi = Vec::with_capacity(tones * h.len());
-        for k in 0..tones {
-            for row in h {
-                let (re, c1) = quantize_bits(row[k].re * scale, 10);
-                let (im, c2) = quantize_bits(row[k].im * scale, 10);
-                clipped += u32::from(c1) + u32::from(c2);
-                csi.push(Complex::new(re, im));
-            }
-        }
-        let above_floor =
-            |p_dbm: f64| (p_dbm - self.noise_floor_dbm).round().clamp(0.0, 127.0) as u8;
-        let mut rssi_chains = [0u8; 3];
-        for (r, p) in rssi_chains.iter_mut().zip(powers_dbm) {
-            *r = above_floor(*p);
-        }
-        let total_mw: f64 = powers_dbm.iter().map(|p| db_to_power(*p)).sum();
-        let mut payload = vec![0x08, 0x00, 0x00, 0x00];
-        payload.extend(RECEIVER_MAC);
-        payload.extend(self.transmitter);
-        payload.extend(self.transmitter);
-        payload.extend(((sequence & 0x0fff) << 4).to_le_bytes());
-        let record = AtherosRecord {
-            offset: 0,
-            timestamp_us: nic_us.max(0) as u64,
-            channel_mhz: (self.freqs_hz.iter().sum::<f64>() / tones as f64 / 1e6).round() as u16,
-            err_info: 0,
-            noise_floor: 0,
-            rate: ATHEROS_RATE_MCS0,
-            bandwidth: u8::from(tones > 56),
-            num_tones: tones as u8,
-            nr: h.len() as u8,
-            nc: 1,
-            rssi: above_floor(power_to_db(total_mw)),
-            rssi_chains,
-            csi_len: 0,
-            csi,
-            payload,
-        };
-        (SimRecord::Atheros(record), clipped)
-    }
-
-    /// Nexmon's packets of one frame: one per core, each the newer header and one word per FFT
-    /// bin in the chip's floating point (the DC and guard bins zero), the core's RSSI in dBm.
-    /// The floating point does not clip.
-    fn nexmon_record(
-        &self,
-        h: &[Vec<Complex64>],
-        powers_dbm: &[f64],
-        scale: f64,
-        nic_us: i64,
-        sequence: u16,
-    ) -> (SimRecord, u32) {
-        let scale = scale * 2f64.powi(NEXMON_SCALE_POW2);
-        let tones = self.freqs_hz.len();
-        let bins = if tones > 56 { 128 } else { 64 };
-        let mut subcarriers: Vec<(i32, usize)> = (0..bins)
-            .filter_map(|b| tables::nexmon_bin(b, bins).map(|k| (k, b)))
-            .collect();
-        subcarriers.sort_unstable();
-        let carrier_mhz = self.freqs_hz.iter().sum::<f64>() / tones as f64 / 1e6;
-        let channel = ((carrier_mhz - 5000.0) / 5.0).round().clamp(0.0, 255.0) as u16;
-        let nic_us = nic_us.max(0);
-        let packets = h
-            .iter()
-            .zip(powers_dbm)
-            .enumerate()
-            .map(|(core, (row, p_dbm))| {
-                let mut words = vec![0u32; bins];
-                for (tone, &(_, bin)) in subcarriers.iter().enumerate().take(tones) {
-                    words[bin] = encode_word(row[tone] * scale);
-                }
-                NexmonPacket {
-                    index: 0,
-                    offset: 0,
-                    ts_sec: (nic_us / 1_000_000) as u32,
-                    ts_frac: (nic_us % 1_000_000) as u32,
-                    time_ns: nic_us * 1000,
-                    caplen: 0,
-                    wirelen: 0,
-                    magic: u32::from(MAGIC_NEW),
-                    rssi_dbm: Some(p_dbm.round().clamp(-128.0, 0.0) as i8),
-                    frame_control: Some(0x08),
-                    transmitter: self.transmitter,
-                    seq: (sequence & 0x0fff) << 4,
-                    csiconf: (core as u16) << 8,
-                    chanspec: CHANSPEC_5G_20MHZ | channel,
-                    chip: NEXMON_CHIP_BCM4366C0,
-                    words,
-                }
-            })
-            .collect();
-        (SimRecord::Nexmon(packets), 0)
-    }
-}
-
-/// `antenna_sel` mapping chain i to antenna i (2 bits per chain).
-fn identity_antenna_sel(chains: usize) -> u8 {
-    (0..chains).fold(0u8, |sel, i| sel | ((i as u8) << (2 * i)))
 }
 
 fn mean_power(row: &[Complex64]) -> f64 {
     row.iter().map(|v| v.norm_sqr()).sum::<f64>() / row.len() as f64
 }
 
-/// Rounds to the nearest signed `bits`-bit value; `true` when it had to clip.
-fn quantize_bits(x: f64, bits: u32) -> (i16, bool) {
-    let max = f64::from((1i32 << (bits - 1)) - 1);
-    let r = x.round();
-    if r > max {
-        (max as i16, true)
-    } else if r < -max - 1.0 {
-        ((-max - 1.0) as i16, true)
-    } else {
-        (r as i16, false)
-    }
-}
-
-/// Rounds to the nearest signed 8-bit value; `true` when it had to clip.
-fn quantize(x: f64) -> (i8, bool) {
-    let r = x.round();
-    if r > f64::from(i8::MAX) {
-        (i8::MAX, true)
-    } else if r < f64::from(i8::MIN) {
-        (i8::MIN, true)
-    } else {
-        (r as i8, false)
-    }
-}
-
+mod cards;
 mod response;
 #[cfg(test)]
 mod tests;
+
+pub use cards::{SIM_CARDS, SimRecord, card_chains};

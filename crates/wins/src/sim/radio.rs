@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
-use super::csi::SIM_CARDS;
+use super::csi::{SIM_CARDS, card_chains};
 use crate::csi::Bandwidth;
 use crate::csi::format::CaptureFormat;
 use crate::rig::array::{CHANNEL_64_HZ, SPEED_OF_LIGHT_M_S};
@@ -18,7 +18,9 @@ pub struct RadioConfig {
     /// The receiving card, by the format its tool writes: `intel5300` (default), `atheros` (the
     /// Atheros CSI Tool's 56 tones, or 114 at 40 MHz, 10 bits per part) or `nexmon` (an
     /// RT-AC86U's BCM4366c0, three cores, 56 tones of 64 FFT bins in the chip's floating point);
-    /// the other two with a flat receiver response.
+    /// or `feitcsi` (an Intel AX210 with FeitCSI: two chains, 56 tones, 16 bits, its second
+    /// chain's sign flipping from packet to packet as the real card's does); the other cards with
+    /// a flat receiver response.
     #[serde(skip_serializing_if = "is_intel5300")]
     pub card: CaptureFormat,
     /// Carrier frequency, Hz. Default 5.32 GHz (channel 64, the paper's).
@@ -112,6 +114,15 @@ impl RadioConfig {
     pub fn validate(&self, field: &str, num_antennas: usize) -> Result<(), ConfigError> {
         let bad = |name: &str, why: String| Err(ConfigError::new(format!("{field}.{name}"), why));
         let in_range = |v: f64, lo: f64, hi: f64| v.is_finite() && v >= lo && v <= hi;
+        if let Some(n) = card_chains(self.card).filter(|&n| num_antennas > n) {
+            return bad(
+                "card",
+                format!(
+                    "{} has {n} receive chains, the array {num_antennas} antennas",
+                    self.card
+                ),
+            );
+        }
         if !SIM_CARDS.contains(&self.card) {
             let names: Vec<&str> = SIM_CARDS.iter().map(|c| c.name()).collect();
             return bad(

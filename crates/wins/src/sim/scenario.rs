@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::baro::BaroConfig;
+use super::csi::card_chains;
 use super::flight::{Flight, PhasesConfig};
 use super::imu::ImuConfig;
 use super::motion::STANDARD_GRAVITY_M_S2;
@@ -207,8 +208,14 @@ impl Scenario {
 
     /// The same flight received by `card` ([`super::radio::RadioConfig::card`]; checked by
     /// [`Self::validate`]: the simulator writes the cards of [`super::csi::SIM_CARDS`]).
+    /// The Intel AX210 has two chains: its rig keeps the first two antennas (and their chain
+    /// offsets, when the scenario gives them).
     pub fn with_card(mut self, card: CaptureFormat) -> Self {
         self.radio.card = card;
+        if let Some(n) = card_chains(card).filter(|&n| self.array.geometry.num_antennas > n) {
+            self.array.geometry.num_antennas = n;
+            self.radio.chain_phase_offsets_deg.truncate(n);
+        }
         self
     }
 

@@ -11,6 +11,7 @@ use super::run::{SimOutput, ap_mac, rotors_interval_s};
 use super::scenario::Scenario;
 use super::vibration::broadband_density;
 use crate::csi::atheros::{ByteOrder, encode_record};
+use crate::csi::feitcsi;
 use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::LogWriter;
 use crate::csi::nexmon::write::{encode_packet, pcap_header};
@@ -251,6 +252,7 @@ fn write_log(w: &mut BufWriter<File>, ap: &ApOutput, card: CaptureFormat) -> io:
                     encode_packet(p, &mut bytes);
                 }
             }
+            SimRecord::FeitCsi(r) => feitcsi::encode_record(r, &mut bytes),
         }
     }
     w.write_all(&log.finish()?)?;

@@ -8,7 +8,7 @@ use super::tables::{self, HE_SPACING_HZ, LEGACY_SPACING_HZ};
 use super::{CsiPacket, CsiPackets};
 use crate::csi::atheros::{AtherosRecord, read_atheros};
 use crate::csi::capture::CaptureError;
-use crate::csi::feitcsi::read_feitcsi;
+use crate::csi::feitcsi::{FeitRecord, read_feitcsi};
 use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{CsiRecord, read_log};
 use crate::csi::iwlmvm::{IntelCsiHeader, RateFormat};
@@ -43,7 +43,7 @@ pub fn packets(path: &Path, format: CaptureFormat) -> Result<CsiPackets, Capture
         CaptureFormat::FeitCsi => {
             let capture = read_feitcsi(path).map_err(io)?;
             for r in &capture.records {
-                push(&mut out, intel_ax(&r.header, &r.csi, r.offset, None));
+                push(&mut out, from_feitcsi(r));
             }
             out.lost = capture.lost();
         }
@@ -190,6 +190,11 @@ pub fn from_nexmon(frame: &NexmonFrame<'_>) -> Result<CsiPacket, String> {
         transmitter: Some(first.transmitter),
         sequence: Some(first.seq_num()),
     })
+}
+
+/// A FeitCSI record as a packet (its file carries no carrier), or why it cannot be one.
+pub fn from_feitcsi(r: &FeitRecord) -> Result<CsiPacket, String> {
+    intel_ax(&r.header, &r.csi, r.offset, None)
 }
 
 /// An Intel AX200/AX210 report (FeitCSI, PicoScenes): `values` laid out chain, stream, tone.

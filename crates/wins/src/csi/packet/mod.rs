@@ -11,7 +11,7 @@ mod convert;
 pub mod export;
 pub mod tables;
 
-pub use convert::{from_atheros, from_nexmon};
+pub use convert::{from_atheros, from_feitcsi, from_nexmon};
 
 use std::collections::BTreeMap;
 use std::path::Path;

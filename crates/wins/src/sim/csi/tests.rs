@@ -1,5 +1,6 @@
 //! Tests of `csi`.
 
+use super::cards::{identity_antenna_sel, quantize};
 use super::*;
 use crate::csi::Bandwidth;
 use crate::rig::array::CHANNEL_64_HZ;
