@@ -64,6 +64,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp};
 use wins::Config;
 use wins::csi::Received;
+use wins::csi::logged::Logged;
 use wins::dataset::stream::{DatasetEvent, DatasetStream};
 use wins::fusion::choice::Estimator;
 use wins::live::mavlink::link::{DEFAULT_COMPONENT_ID, MavlinkLink, MavlinkUrl, open};
@@ -256,7 +257,7 @@ fn inputs(dir: &Path) -> (Vec<DatasetEvent>, Vec<Arrival>) {
                     input: LiveInput::Csi(CsiEvent::Record {
                         conn: 0,
                         record: match packet.record {
-                            Received::Intel5300(r) => Box::new(r),
+                            Received::Intel5300(r) => Box::new(Logged::Intel5300(r)),
                             Received::Card(_) => {
                                 panic!("the CSI Tool's stream carries 5300 records")
                             }

@@ -7,6 +7,7 @@ pub mod feitcsi;
 pub mod format;
 pub mod intel5300;
 pub mod iwlmvm;
+pub mod logged;
 pub mod nexmon;
 pub mod packet;
 pub mod picoscenes;

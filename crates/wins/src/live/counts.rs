@@ -36,6 +36,9 @@ pub struct LiveStats {
     pub csi_skips: u64,
     /// Their bytes.
     pub csi_skipped_bytes: u64,
+    /// Records whose CSI the estimator cannot take (a Nexmon frame missing a core of its
+    /// stream, a shape without a subcarrier table), counted and left out.
+    pub csi_unusable: u64,
     /// 0xC1 frame records (they name the next record's transmitter).
     pub csi_frame_records: u64,
     /// Records without a frame record naming their transmitter (with `ap_by = "transmitter"`).

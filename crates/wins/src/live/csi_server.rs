@@ -23,7 +23,8 @@ use std::thread::{self, JoinHandle};
 use std::time::Duration;
 
 use super::{HostClock, LiveInput};
-use crate::csi::intel5300::{CsiRecord, Event, MacAddress, Skip, StreamDecoder};
+use crate::csi::intel5300::{Event, MacAddress, Skip, StreamDecoder};
+use crate::csi::logged::Logged;
 
 /// How often blocked reads and the accept loop look at the stop flag.
 const POLL: Duration = Duration::from_millis(50);
@@ -65,8 +66,8 @@ pub enum CsiEvent {
     Record {
         /// The connection it came on.
         conn: u64,
-        /// The record, its timestamp the NIC's clock unwrapped by this connection's decoder.
-        record: Box<CsiRecord>,
+        /// The record, its clock the NIC's (a 5300's unwrapped by this connection's decoder).
+        record: Box<Logged>,
         /// The transmitter named by the frame record before it, if any.
         transmitter: Option<MacAddress>,
         /// Host time it arrived, ns ([`HostClock`]).
@@ -268,7 +269,7 @@ fn drain(
         let event = match event {
             Event::Csi(record) => CsiEvent::Record {
                 conn,
-                record,
+                record: Box::new(Logged::Intel5300(*record)),
                 transmitter: decoder.transmitter(),
                 arrival_ns,
             },

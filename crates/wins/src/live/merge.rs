@@ -8,7 +8,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::csi::intel5300::CsiRecord;
+use crate::csi::logged::Logged;
 use crate::imu::ImuSample;
 use crate::time::Timestamp;
 
@@ -21,8 +21,8 @@ pub enum Merged {
         ap: usize,
         /// Its time on the flight controller's clock (whole microseconds).
         t: Timestamp,
-        /// The record as received (its `timestamp_low` still the NIC's).
-        record: Box<CsiRecord>,
+        /// The record as received (its clock still the NIC's).
+        record: Box<Logged>,
     },
     /// A barometric altitude.
     Baro {

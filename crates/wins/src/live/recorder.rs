@@ -3,8 +3,9 @@
 //!
 //! What is written is what the pipeline was given, in the order it was given: the IMU samples
 //! and barometer readings as decoded from MAVLink, and each CSI record with its time already on
-//! the flight controller's clock. The CSI Tool's log keeps 32-bit microseconds, so each AP's log
-//! counts from its first packet (`timestamp_low` = µs since it, modulo 2³²) and the manifest's
+//! the flight controller's clock, in the card's format (a 5300 log, a Nexmon pcap). The CSI Tool's
+//! log keeps 32-bit microseconds, so each AP's log counts from its first packet
+//! (`timestamp_low` = µs since it, modulo 2³²; a pcap's time likewise) and the manifest's
 //! `imu_minus_nic_ns` puts it back on the flight controller's clock; the session hands the
 //! pipeline whole microseconds, so nothing is rounded away. The NIC's own timestamps are not
 //! kept in the logs (the clock relation the session used is in its `stats.json`), nor are the
@@ -21,7 +22,8 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use super::merge::Merged;
-use crate::csi::intel5300::encode_record;
+use crate::csi::logged::{Logged, encode};
+use crate::csi::nexmon::write::pcap_header;
 use crate::dataset::load::MANIFEST_FILE;
 use crate::dataset::{BaroEntry, Manifest, baro_csv, imu_csv};
 use crate::io_safety::WholeRecords;
@@ -133,8 +135,8 @@ impl Recorder {
                 let new_base = first.is_none();
                 let base = *first.get_or_insert(t_us);
                 let mut record = record.as_ref().clone();
-                // µs since the AP's first packet, modulo 2³² as the NIC's counter wraps.
-                record.header.timestamp_low = (t_us - base).rem_euclid(1 << 32) as u32;
+                // µs since the AP's first packet, as the card's clock keeps them.
+                record.set_clock_us(t_us - base);
                 // The manifest first: the record's time in the log needs the AP's base.
                 if new_base {
                     if let Some(entry) = self.manifest.aps.get_mut(*ap) {
@@ -143,8 +145,11 @@ impl Recorder {
                     write_manifest(&self.dir, &self.manifest)?;
                 }
                 log.record(|b| {
-                    encode_record(&record, b);
-                    Ok(())
+                    // A Nexmon log is a pcap: its global header before the first packet.
+                    if new_base && matches!(record, Logged::Nexmon(_)) {
+                        pcap_header(b);
+                    }
+                    encode(&record, b)
                 })?;
                 self.counts[2] += 1;
             }

@@ -32,7 +32,6 @@ pub use super::counts::{ClockReport, LiveStats};
 use super::merge::{Merged, Merger};
 use super::recorder::Recorder;
 use crate::config::Config;
-use crate::csi::Received;
 use crate::csi::intel5300::MacAddress;
 use crate::fusion::pose::PoseEstimate;
 use crate::pipeline::{ChainResolver, EstimateState, PipelineError, Released};
@@ -319,7 +318,13 @@ impl LiveSession {
                 if let Some(n) = self.stats.csi_used_per_ap.get_mut(ap) {
                     *n += 1;
                 }
-                resolver.push_csi(ap, t, &Received::Intel5300(*record))?
+                match record.into_received() {
+                    Ok(received) => resolver.push_csi(ap, t, &received)?,
+                    Err(_) => {
+                        self.stats.csi_unusable += 1;
+                        return Ok(());
+                    }
+                }
             }
         };
         let restarts = resolver.decided_stats().map_or(0, |s| s.restarts);

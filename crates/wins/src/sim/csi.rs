@@ -31,6 +31,7 @@ use crate::aoa::steering::{sin_aoa, tof_phase_rad};
 use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{RSSI_TO_DBM_OFFSET, RateFlags};
+use crate::csi::logged::Logged;
 use crate::csi::packet::tables;
 use crate::rig::ArrayGeometry;
 use crate::rig::array::SPEED_OF_LIGHT_M_S;
@@ -232,7 +233,7 @@ impl CsiSynth {
         t: Timestamp,
         count: u16,
         rng: &mut ChaCha8Rng,
-    ) -> (SimRecord, PacketTruth) {
+    ) -> (Logged, PacketTruth) {
         let m_count = self.geometry.num_antennas.clamp(1, MAX_ANTENNAS);
         let mut h = self.channel(paths, world_from_array);
 
@@ -292,7 +293,7 @@ impl CsiSynth {
             }
             _ => {
                 let (record, clipped) = self.intel5300_record(&h, rssi, agc, scale, nic_us, count);
-                (SimRecord::Intel5300(record), clipped)
+                (Logged::Intel5300(record), clipped)
             }
         };
 
@@ -333,4 +334,4 @@ mod response;
 #[cfg(test)]
 mod tests;
 
-pub use cards::{SIM_CARDS, SimRecord, card_chains};
+pub use cards::{SIM_CARDS, card_chains};

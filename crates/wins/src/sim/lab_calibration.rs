@@ -120,7 +120,7 @@ pub fn lab_calibration(scenario: &Scenario) -> Result<ChainCalibration, LabCalib
             .aps
             .iter()
             .flat_map(|ap| ap.received_records())
-            .filter_map(|(p, r)| r.card_packet().map(|c| (c, p.truth.aoa_rad)))
+            .filter_map(|(p, r)| r.card_packet()?.ok().map(|c| (c, p.truth.aoa_rad)))
             .collect();
         let pairs = packets.iter().map(|(c, aoa)| (c, *aoa));
         calibrate_packets_with(pairs, geometry, carrier_hz, &config)?

@@ -4,7 +4,7 @@ use nalgebra::{Isometry3, Vector3};
 
 use super::ConfigError;
 use super::baro::BaroTruth;
-use super::csi::{CsiSynth, PacketTruth, SimRecord};
+use super::csi::{CsiSynth, PacketTruth};
 use super::imu::{ImuBiases, ImuSimulator};
 use super::motion::{BodyState, sample, specific_force_in_b};
 use super::packets::{self, PacketSlot};
@@ -14,6 +14,7 @@ use super::scenario::{ApConfig, Scenario};
 use super::vibration::VibrationGenerator;
 use crate::aoa::restart_step_rad;
 use crate::csi::intel5300::CsiRecord;
+use crate::csi::logged::Logged;
 use crate::csi::sanitize::wrap;
 use crate::dataset::BaroSample;
 use crate::imu::ImuSample;
@@ -25,7 +26,7 @@ pub struct SimPacket {
     /// Arrival time on the IMU clock.
     pub t: Timestamp,
     /// The record the NIC logged; `None` when the packet was lost.
-    pub record: Option<SimRecord>,
+    pub record: Option<Logged>,
     /// The geometry and impairments behind it (also for lost packets, whose CSI fields are then
     /// those it would have had).
     pub truth: PacketTruth,
@@ -42,7 +43,7 @@ pub struct ApOutput {
 
 impl ApOutput {
     /// Received packets.
-    pub fn received_records(&self) -> impl Iterator<Item = (&SimPacket, &SimRecord)> {
+    pub fn received_records(&self) -> impl Iterator<Item = (&SimPacket, &Logged)> {
         self.packets
             .iter()
             .filter_map(|p| p.record.as_ref().map(|r| (p, r)))

@@ -4,17 +4,12 @@ use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::csi::SimRecord;
 use super::lab_calibration::{CALIBRATION_FILE, lab_calibration};
 use super::run::ApOutput;
 use super::run::{SimOutput, ap_mac, rotors_interval_s};
 use super::scenario::Scenario;
 use super::vibration::broadband_density;
-use crate::csi::atheros::{ByteOrder, encode_record};
-use crate::csi::feitcsi;
-use crate::csi::format::CaptureFormat;
-use crate::csi::intel5300::LogWriter;
-use crate::csi::nexmon::write::{encode_packet, pcap_header};
+use crate::csi::logged::{LogWriter, Logged};
 use crate::dataset::load::{MANIFEST_FILE, imu_minus_nic_ns};
 use crate::dataset::manifest::{
     ApEntry, ArrayEntry, BaroEntry, ChannelEntry, FORMAT, ImuEntry, Manifest, VERSION,
@@ -125,7 +120,7 @@ pub fn write_dataset(
     let mut clipped = 0u64;
     let mut counts = Vec::new();
     for (ap, entry) in output.aps.iter().zip(&manifest.aps) {
-        put(&entry.log, &mut |w| write_log(w, ap, scenario.radio.card))?;
+        put(&entry.log, &mut |w| write_log(w, ap))?;
         let rows: Vec<PacketRow> = ap
             .packets
             .iter()
@@ -134,7 +129,7 @@ pub fn write_dataset(
                 PacketRow {
                     t_ns: p.t.as_nanos(),
                     received: p.record.is_some(),
-                    bfee_count: p.record.as_ref().map_or(0, SimRecord::count),
+                    bfee_count: p.record.as_ref().map_or(0, Logged::count),
                     aoa_rad: t.aoa_rad,
                     aoa_deg: t.aoa_rad.to_degrees(),
                     elevation_rad: t.elevation_rad,
@@ -234,29 +229,13 @@ pub fn write_dataset(
     Ok(report)
 }
 
-/// One AP's received records in its card's log format (a Nexmon pcap's global header first).
-fn write_log(w: &mut BufWriter<File>, ap: &ApOutput, card: CaptureFormat) -> io::Result<()> {
-    let mut log = LogWriter::new(Vec::new());
-    let mut bytes = Vec::new();
-    if card == CaptureFormat::Nexmon {
-        pcap_header(&mut bytes);
-    }
+/// One AP's received records in its card's log format.
+fn write_log(w: &mut BufWriter<File>, ap: &ApOutput) -> io::Result<()> {
+    let mut log = LogWriter::new(w);
     for (_, record) in ap.received_records() {
-        match record {
-            SimRecord::Intel5300(r) => log.write(r)?,
-            SimRecord::Atheros(r) => {
-                encode_record(r, ByteOrder::Little, &mut bytes).map_err(io::Error::other)?;
-            }
-            SimRecord::Nexmon(packets) => {
-                for p in packets {
-                    encode_packet(p, &mut bytes);
-                }
-            }
-            SimRecord::FeitCsi(r) => feitcsi::encode_record(r, &mut bytes),
-        }
+        log.write(record)?;
     }
-    w.write_all(&log.finish()?)?;
-    w.write_all(&bytes)
+    log.finish().map(|_| ())
 }
 
 /// The vibration's density near 0 Hz while the rotors spin, for `truth.toml`.

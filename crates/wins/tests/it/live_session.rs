@@ -12,6 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp};
 use wins::Config;
 use wins::csi::intel5300::{Skip, SkipReason};
+use wins::csi::logged::Logged;
 use wins::dataset::parse_mac;
 use wins::dataset::stream::{DatasetEvent, DatasetStream};
 use wins::live::recorder::Recorder;
@@ -102,7 +103,9 @@ fn arrivals(dir: &Path, seed: u64) -> Vec<Arrival> {
                     packet.t,
                     CsiEvent::Record {
                         conn: 0,
-                        record: Box::new(packet.record.intel5300().unwrap().clone()),
+                        record: Box::new(Logged::Intel5300(
+                            packet.record.intel5300().unwrap().clone(),
+                        )),
                         transmitter: macs[ap],
                         arrival_ns: host_ns,
                     },
@@ -330,6 +333,9 @@ fn faults_while_flying_are_counted_and_flown_through() {
     // From 55 s: the NIC's clock jumps 100 s ahead (a driver reload).
     for x in a.iter_mut().filter(|x| x.t.as_secs_f64() >= 55.0) {
         if let LiveInput::Csi(CsiEvent::Record { record, .. }) = &mut x.input {
+            let Logged::Intel5300(record) = record.as_mut() else {
+                panic!("a 5300 record")
+            };
             record.timestamp = Timestamp(record.timestamp.as_nanos() + 100_000_000_000);
         }
     }

@@ -25,6 +25,7 @@ use super::{LiveSession, decode, inbound_config, load_rig};
 use crate::Config;
 use crate::csi::Received;
 use crate::csi::intel5300::{CsiRecord, Event, StreamDecoder, encode_frame_record, encode_record};
+use crate::csi::logged::Logged;
 use crate::dataset::stream::{DatasetEvent, DatasetStream};
 use crate::imu::ImuSample;
 use crate::live::mavlink::framer::Framer;
@@ -225,7 +226,7 @@ fn drain(conn: u64, decoder: &mut StreamDecoder, now_ns: i64, out: &mut Vec<Live
         out.push(LiveInput::Csi(match event {
             Event::Csi(record) => CsiEvent::Record {
                 conn,
-                record,
+                record: Box::new(Logged::Intel5300(*record)),
                 transmitter: decoder.transmitter(),
                 arrival_ns: now_ns,
             },

@@ -112,7 +112,7 @@ impl LiveSession {
                     }
                     self.ap_streams.insert(ap, conn);
                 }
-                let Some(t) = self.csi_time(conn, record.timestamp.as_nanos(), arrival_ns) else {
+                let Some(t) = self.csi_time(conn, record.nic_time_ns(), arrival_ns) else {
                     return;
                 };
                 if let Some(nic) = self.nics.get_mut(&conn) {

@@ -1,4 +1,4 @@
-//! What each simulated card logs for a packet ([`SimRecord`]): the records of the Intel 5300,
+//! What each simulated card logs for a packet ([`Logged`]): the records of the Intel 5300,
 //! the Atheros CSI Tool, Nexmon on an RT-AC86U and FeitCSI on an Intel AX210, built from the
 //! impaired channel [`CsiSynth::packet`] computes, and the cards the simulator writes
 //! ([`SIM_CARDS`]).
@@ -13,62 +13,11 @@ use crate::csi::feitcsi::FeitRecord;
 use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES};
 use crate::csi::iwlmvm::IntelCsiHeader;
-use crate::csi::nexmon::frames::frames;
+use crate::csi::logged::Logged;
 use crate::csi::nexmon::write::encode_word;
 use crate::csi::nexmon::{MAGIC_NEW, NexmonPacket};
-use crate::csi::packet::{CsiPacket, from_atheros, from_feitcsi, from_nexmon, tables};
+use crate::csi::packet::tables;
 use crate::time::Timestamp;
-
-/// One received packet as the simulated card logs it.
-// Not boxed: most packets are Intel 5300 records, and a box would cost each an allocation.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, PartialEq)]
-pub enum SimRecord {
-    /// An Intel 5300 record.
-    Intel5300(CsiRecord),
-    /// An Atheros CSI Tool record.
-    Atheros(AtherosRecord),
-    /// Nexmon's packets of one frame, one per core.
-    Nexmon(Vec<NexmonPacket>),
-    /// A FeitCSI record of an Intel AX210.
-    FeitCsi(FeitRecord),
-}
-
-impl SimRecord {
-    /// The Intel 5300 record, if it is one.
-    pub fn intel5300(&self) -> Option<&CsiRecord> {
-        match self {
-            Self::Intel5300(r) => Some(r),
-            Self::Atheros(_) | Self::Nexmon(_) | Self::FeitCsi(_) => None,
-        }
-    }
-
-    /// Another card's record as the loader reads it (`None` for a 5300 record, or a record that
-    /// does not convert, which the simulator never writes).
-    pub fn card_packet(&self) -> Option<CsiPacket> {
-        match self {
-            Self::Intel5300(_) => None,
-            Self::Atheros(r) => from_atheros(r).ok(),
-            Self::Nexmon(p) => frames(p).first().and_then(|f| from_nexmon(f).ok()),
-            Self::FeitCsi(r) => from_feitcsi(r).ok(),
-        }
-    }
-
-    /// The count the truth pairs it by: the 5300's `bfee_count`, the other cards' 802.11
-    /// sequence number.
-    pub fn count(&self) -> u16 {
-        match self {
-            Self::Intel5300(r) => r.header.bfee_count,
-            Self::Atheros(r) => r
-                .payload
-                .get(22..24)
-                .map_or(0, |b| u16::from_le_bytes([b[0], b[1]]) >> 4),
-            Self::Nexmon(p) => p.first().map_or(0, NexmonPacket::seq_num),
-            // FeitCSI keeps no sequence number: the truth pairs its records by order.
-            Self::FeitCsi(_) => 0,
-        }
-    }
-}
 
 /// The cards the simulator writes, by their capture format.
 pub const SIM_CARDS: [CaptureFormat; 4] = [
@@ -154,7 +103,7 @@ impl CsiSynth {
         scale: f64,
         nic_us: i64,
         sequence: u16,
-    ) -> (SimRecord, u32) {
+    ) -> (Logged, u32) {
         let scale = scale * f64::from(1 << ATHEROS_EXTRA_BITS);
         let tones = self.freqs_hz.len();
         let mut clipped = 0u32;
@@ -196,7 +145,7 @@ impl CsiSynth {
             csi,
             payload,
         };
-        (SimRecord::Atheros(record), clipped)
+        (Logged::Atheros(record), clipped)
     }
 
     /// Nexmon's packets of one frame: one per core, each the newer header and one word per FFT
@@ -209,7 +158,7 @@ impl CsiSynth {
         scale: f64,
         nic_us: i64,
         sequence: u16,
-    ) -> (SimRecord, u32) {
+    ) -> (Logged, u32) {
         let scale = scale * 2f64.powi(NEXMON_SCALE_POW2);
         let tones = self.freqs_hz.len();
         let bins = if tones > 56 { 128 } else { 64 };
@@ -249,7 +198,7 @@ impl CsiSynth {
                 }
             })
             .collect();
-        (SimRecord::Nexmon(packets), 0)
+        (Logged::Nexmon(packets), 0)
     }
 
     /// The Intel AX210's FeitCSI record: its two chains over 56 tones (HT20; 114 at 40 MHz) as
@@ -263,7 +212,7 @@ impl CsiSynth {
         scale: f64,
         nic_us: i64,
         flip: bool,
-    ) -> (SimRecord, u32) {
+    ) -> (Logged, u32) {
         let scale = scale * 2f64.powi(FEITCSI_SCALE_POW2);
         let tones = self.freqs_hz.len();
         let mut clipped = 0u32;
@@ -298,7 +247,7 @@ impl CsiSynth {
             },
             csi,
         };
-        (SimRecord::FeitCsi(record), clipped)
+        (Logged::FeitCsi(record), clipped)
     }
 }
 

@@ -114,7 +114,7 @@ fn packet_carries_exactly_the_impairments_its_truth_reports() {
             n as u16,
             &mut r,
         );
-        let SimRecord::Intel5300(rec) = rec else {
+        let Logged::Intel5300(rec) = rec else {
             panic!("the default rig is an Intel 5300")
         };
         assert!((truth.aoa_rad.to_degrees() - 20.0).abs() < 1e-9);
