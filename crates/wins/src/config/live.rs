@@ -38,9 +38,11 @@ pub struct LiveConfig {
     /// the array and its mounting, the channel and the APs (with their `mac`); its logs and IMU
     /// file are not read. Relative to the working directory; empty: given on the command line.
     pub rig: String,
-    /// Where the CSI Tool's `log_to_server` connects (TCP; its conventional port is 8090). The
-    /// default listens on the loopback only (a logger on the same computer); `0.0.0.0:8090`
-    /// opens it to every network the computer is on, which is said at start.
+    /// Where the CSI Tool's `log_to_server` connects (TCP; its conventional port is 8090), or,
+    /// for a rig whose `[array] card` is `nexmon`, where nexmon_csi's UDP packets arrive (its
+    /// port is 5500: `0.0.0.0:5500`). The default listens on the loopback only (a logger on the
+    /// same computer); `0.0.0.0:PORT` opens it to every network the computer is on, which is
+    /// said at start.
     pub csi_listen: String,
     /// The IP addresses allowed to connect to `csi_listen` (the NICs' loggers); empty: any.
     /// Others are refused and counted (`csi_refused_connections`).

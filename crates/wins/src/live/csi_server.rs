@@ -80,6 +80,13 @@ pub enum CsiEvent {
         /// What and why.
         skip: Skip,
     },
+    /// A datagram on the Nexmon port that is not a Nexmon CSI packet (counted with the skips).
+    NotCsi {
+        /// The source's connection number.
+        conn: u64,
+        /// Its bytes.
+        bytes: u64,
+    },
     /// A connection refused at once.
     Refused {
         /// Its address.
@@ -374,7 +381,9 @@ mod tests {
                         assert_eq!(c, clean, "{sent} of {} bytes", bytes.len());
                         break;
                     }
-                    CsiEvent::Record { .. } | CsiEvent::Skipped { .. } => {}
+                    CsiEvent::Record { .. }
+                    | CsiEvent::Skipped { .. }
+                    | CsiEvent::NotCsi { .. } => {}
                     other => panic!("{other:?}"),
                 }
             }

@@ -17,9 +17,11 @@
 
 pub mod clock;
 pub mod counts;
+pub mod csi_input;
 pub mod csi_server;
 pub mod mavlink;
 pub mod merge;
+pub mod nexmon_udp;
 pub mod player;
 pub mod recorder;
 pub mod run;

@@ -36,7 +36,8 @@ use std::time::Duration;
 use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
 
-use super::csi_server::{CsiServer, CsiServerLimits};
+use super::csi_input::{LIVE_CARDS, spawn_csi_input};
+use super::csi_server::CsiServerLimits;
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, RawImuScale};
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open_signed};
 use super::mavlink::signing::MavlinkKey;
@@ -110,6 +111,13 @@ pub fn run_live(
         .map_err(|e| LiveError::Setup(e.to_string()))?;
     // Everything that can fail does so before any socket opens.
     let (manifest, rig, macs) = load_rig(&options.rig_dir)?;
+    let card = manifest.array.card;
+    if !LIVE_CARDS.contains(&card) {
+        return Err(LiveError::Setup(format!(
+            "the rig's card is {card}: wins live takes the Intel 5300's TCP stream (the CSI \
+             Tool's log_to_server) and Nexmon's UDP packets only"
+        )));
+    }
     let url: MavlinkUrl = live
         .mavlink
         .parse()
@@ -155,8 +163,17 @@ pub fn run_live(
             .collect(),
         ..CsiServerLimits::default()
     };
-    let server = CsiServer::spawn(csi_addr, tx.clone(), clock, Arc::clone(stop), limits)
-        .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
+    let cores = manifest.array.geometry.num_antennas;
+    let (csi_local, csi_thread) = spawn_csi_input(
+        card,
+        csi_addr,
+        tx.clone(),
+        clock,
+        Arc::clone(stop),
+        limits,
+        cores,
+    )
+    .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
     let link = Arc::new(
         open_signed(&url, live.system_id, live.component_id, key).map_err(|e| LiveError::Io {
             what: format!("opening the MAVLink link {}", live.mavlink),
@@ -181,7 +198,7 @@ pub fn run_live(
         path: options.out.join(STATS_FILE),
         inbound: &inbound,
         link: &link,
-        csi_listen: server.local_addr.to_string(),
+        csi_listen: csi_local.to_string(),
         recording: session.recording().map(Path::to_path_buf),
     };
     let run = Loop {
@@ -201,7 +218,7 @@ pub fn run_live(
         out.frame(&f, None, fc_epoch_offset_ns)?;
     }
     out.flush()?;
-    let _ = server.thread.join();
+    let _ = csi_thread.join();
     let summary = stats_file.summary(stats, clocks, &out, true);
     stats_file.write(&summary)?;
     Ok(summary)

@@ -23,7 +23,7 @@ use wins::sim::{Scenario, simulate, write_dataset};
 use wins::time::Timestamp;
 
 /// The host clock reads this much more than the flight controller's.
-const HOST_MINUS_FC_NS: i64 = 3_600_000_000_000;
+pub(crate) const HOST_MINUS_FC_NS: i64 = 3_600_000_000_000;
 
 fn flight(name: &str, seconds: f64) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("wins-live-{name}-{}", std::process::id()));
@@ -36,11 +36,11 @@ fn flight(name: &str, seconds: f64) -> PathBuf {
 
 /// One input as a link delivers it.
 #[derive(Clone, Debug)]
-struct Arrival {
-    host_ns: i64,
-    input: LiveInput,
+pub(crate) struct Arrival {
+    pub(crate) host_ns: i64,
+    pub(crate) input: LiveInput,
     /// The input's time on the flight controller's clock (for the faults' windows).
-    t: Timestamp,
+    pub(crate) t: Timestamp,
 }
 
 impl Arrival {
@@ -132,7 +132,7 @@ fn arrivals(dir: &Path, seed: u64) -> Vec<Arrival> {
 }
 
 /// A session on `dir`'s rig, recording into `record` when given.
-fn session(dir: &Path, config: &Config, record: Option<&Path>) -> LiveSession {
+pub(crate) fn session(dir: &Path, config: &Config, record: Option<&Path>) -> LiveSession {
     let (manifest, rig, macs) = load_rig(dir).unwrap();
     let recorder = record.map(|out| {
         let _ = std::fs::remove_dir_all(out);
@@ -142,7 +142,7 @@ fn session(dir: &Path, config: &Config, record: Option<&Path>) -> LiveSession {
 }
 
 /// Feeds the arrivals in order, moving the session on at each; the frames and the stats.
-fn fly(mut s: LiveSession, arrivals: Vec<Arrival>) -> (Vec<LiveFrame>, LiveStats) {
+pub(crate) fn fly(mut s: LiveSession, arrivals: Vec<Arrival>) -> (Vec<LiveFrame>, LiveStats) {
     let mut frames = vec![];
     for a in arrivals {
         s.handle(a.input);
@@ -153,7 +153,7 @@ fn fly(mut s: LiveSession, arrivals: Vec<Arrival>) -> (Vec<LiveFrame>, LiveStats
     (frames, stats)
 }
 
-fn converged(frames: &[LiveFrame]) -> Vec<&LiveFrame> {
+pub(crate) fn converged(frames: &[LiveFrame]) -> Vec<&LiveFrame> {
     frames.iter().filter(|f| f.pose.converged).collect()
 }
 

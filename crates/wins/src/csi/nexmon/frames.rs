@@ -43,3 +43,49 @@ pub fn frames(packets: &[NexmonPacket]) -> Vec<NexmonFrame<'_>> {
     }
     out
 }
+
+/// Frames assembled from packets as they arrive (a live stream): a frame is handed out as soon
+/// as it has `cores` packets, or when a packet that cannot join it comes (module doc); the last
+/// one by [`FrameAssembler::flush`].
+#[derive(Clone, Debug, Default)]
+pub struct FrameAssembler {
+    cores: usize,
+    open: Vec<NexmonPacket>,
+}
+
+impl FrameAssembler {
+    /// An assembler of frames of `cores` packets (one stream per core).
+    pub fn new(cores: usize) -> Self {
+        Self {
+            cores,
+            open: Vec::new(),
+        }
+    }
+
+    /// Takes `p`; returns the frames it closed (the open one, if `p` cannot join it, and the
+    /// one `p` completed).
+    pub fn push(&mut self, p: NexmonPacket) -> Vec<Vec<NexmonPacket>> {
+        let mut out = Vec::new();
+        let joins = self.open.first().is_some_and(|first| {
+            first.seq == p.seq
+                && first.transmitter == p.transmitter
+                && !self
+                    .open
+                    .iter()
+                    .any(|q| (q.core(), q.spatial_stream()) == (p.core(), p.spatial_stream()))
+        });
+        if !joins && !self.open.is_empty() {
+            out.push(std::mem::take(&mut self.open));
+        }
+        self.open.push(p);
+        if self.open.len() >= self.cores {
+            out.push(std::mem::take(&mut self.open));
+        }
+        out
+    }
+
+    /// The open frame, if any.
+    pub fn flush(&mut self) -> Option<Vec<NexmonPacket>> {
+        (!self.open.is_empty()).then(|| std::mem::take(&mut self.open))
+    }
+}

@@ -232,7 +232,13 @@ fn packet(frame: &[u8]) -> Option<NexmonPacket> {
     if port != NEXMON_PORT || udp_len < 8 {
         return None;
     }
-    let payload = udp.get(8..udp_len.min(udp.len()))?;
+    parse_payload(udp.get(8..udp_len.min(udp.len()))?)
+}
+
+/// The Nexmon packet a UDP payload holds (as nexmon_csi sends it to port 5500), `None` when it
+/// is not one (another magic, a header cut short, CSI not in whole words). Its capture fields
+/// (index, offset, times, lengths) are zero.
+pub fn parse_payload(payload: &[u8]) -> Option<NexmonPacket> {
     let h = payload.get(..NEXMON_HEADER_LEN)?;
     let le16 = |i: usize| u16::from_le_bytes([h[i], h[i + 1]]);
     let magic32 = u32::from_le_bytes([h[0], h[1], h[2], h[3]]);

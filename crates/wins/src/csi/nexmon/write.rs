@@ -61,22 +61,29 @@ pub fn encode_word(v: Complex64) -> u32 {
     w
 }
 
+/// Appends `p`'s UDP payload: the newer header (magic 0x1111, RSSI, frame control, the
+/// transmitter, `seq`, `csiconf`, `chanspec`, `chip`) and its words.
+pub fn encode_payload(p: &NexmonPacket, out: &mut Vec<u8>) {
+    out.extend(MAGIC_NEW.to_le_bytes());
+    out.extend(p.rssi_dbm.unwrap_or(0).to_le_bytes());
+    out.push(p.frame_control.unwrap_or(0x08));
+    out.extend(p.transmitter);
+    out.extend(p.seq.to_le_bytes());
+    out.extend(p.csiconf.to_le_bytes());
+    out.extend(p.chanspec.to_le_bytes());
+    out.extend(p.chip.to_le_bytes());
+    for w in &p.words {
+        out.extend(w.to_le_bytes());
+    }
+}
+
 /// Appends `p` as one pcap record (its `ts_sec`, `ts_frac` in µs, transmitter, RSSI, frame
 /// control, `seq`, `csiconf`, `chanspec`, `chip` and words; the rest is the frame's).
 pub fn encode_packet(p: &NexmonPacket, out: &mut Vec<u8>) {
     let mut payload = Vec::with_capacity(18 + 4 * p.words.len());
-    payload.extend(MAGIC_NEW.to_le_bytes());
-    payload.extend(p.rssi_dbm.unwrap_or(0).to_le_bytes());
-    payload.push(p.frame_control.unwrap_or(0x08));
-    payload.extend(p.transmitter);
-    payload.extend(p.seq.to_le_bytes());
-    payload.extend(p.csiconf.to_le_bytes());
-    payload.extend(p.chanspec.to_le_bytes());
-    payload.extend(p.chip.to_le_bytes());
-    for w in &p.words {
-        payload.extend(w.to_le_bytes());
-    }
+    encode_payload(p, &mut payload);
     let udp_len = 8 + payload.len();
+
     let ip_len = 20 + udp_len;
     let mut frame = Vec::with_capacity(14 + ip_len);
     frame.extend([0xff; 6]);

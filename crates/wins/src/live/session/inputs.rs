@@ -80,6 +80,10 @@ impl LiveSession {
                 self.ap_streams.retain(|_, c| *c != conn);
             }
             CsiEvent::Refused { .. } => self.stats.csi_refused_connections += 1,
+            CsiEvent::NotCsi { bytes, .. } => {
+                self.stats.csi_skips += 1;
+                self.stats.csi_skipped_bytes += bytes;
+            }
             CsiEvent::Skipped { skip, .. } => {
                 if matches!(
                     skip.reason,
