@@ -284,12 +284,18 @@ impl CsiSynth {
         let target_mw = db_to_power(self.agc_target_rssi_db - RSSI_TO_DBM_OFFSET - agc);
         let scale = self.quantization_rms / target_mw.sqrt();
         let nic_us = self.nic_clock_at_imu_zero_us as i64 + t.as_nanos().div_euclid(1000);
+        let measured = Measured {
+            h: &h,
+            powers_dbm,
+            scale,
+            nic_us,
+        };
         let (record, clipped) = match self.card {
-            CaptureFormat::Atheros => self.atheros_record(&h, powers_dbm, scale, nic_us, count),
-            CaptureFormat::Nexmon => self.nexmon_record(&h, powers_dbm, scale, nic_us, count),
+            CaptureFormat::Atheros => self.atheros_record(&measured, count),
+            CaptureFormat::Nexmon => self.nexmon_record(&measured, count),
             CaptureFormat::FeitCsi => {
                 let flip = rng.random::<bool>();
-                self.feitcsi_record(&h, powers_dbm, scale, nic_us, flip)
+                self.feitcsi_record(&measured, flip)
             }
             _ => {
                 let (record, clipped) = self.intel5300_record(&h, rssi, agc, scale, nic_us, count);
@@ -334,4 +340,5 @@ mod response;
 #[cfg(test)]
 mod tests;
 
+use cards::Measured;
 pub use cards::{SIM_CARDS, card_chains};

@@ -6,7 +6,8 @@ use std::fs;
 use std::path::Path;
 
 use wins::Config;
-use wins::csi::intel5300::{LogWriter, read_log};
+use wins::csi::intel5300::read_log;
+use wins::csi::logged::{LogWriter, Logged};
 use wins::dataset::{Dataset, DatasetError};
 use wins::sim::{Scenario, simulate, write_dataset};
 
@@ -180,8 +181,8 @@ fn edit_log(dir: &Path, edit: impl FnOnce(&mut Vec<wins::csi::intel5300::CsiReco
     let mut records = read_log(&path).unwrap().records;
     edit(&mut records);
     let mut w = LogWriter::new(Vec::new());
-    for r in &records {
-        w.write(r).unwrap();
+    for r in records {
+        w.write(&Logged::Intel5300(r)).unwrap();
     }
     fs::write(path, w.finish().unwrap()).unwrap();
 }

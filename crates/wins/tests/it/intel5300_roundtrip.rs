@@ -3,9 +3,10 @@
 use num_complex::Complex;
 use proptest::prelude::*;
 use wins::csi::intel5300::{
-    BfeeHeader, CsiLog, CsiRecord, Event, LogWriter, RateFlags, StreamDecoder, encode_frame_record,
+    BfeeHeader, CsiLog, CsiRecord, Event, RateFlags, StreamDecoder, encode_frame_record,
     encode_record,
 };
+use wins::csi::logged::{LogWriter, Logged};
 use wins::time::Timestamp;
 
 use super::data::repo_data;
@@ -51,7 +52,7 @@ proptest! {
     fn writer_then_reader_is_exact(records in proptest::collection::vec(arb_record(), 1..12)) {
         let mut writer = LogWriter::new(Vec::new());
         for r in &records {
-            writer.write(r).expect("in memory");
+            writer.write(&Logged::Intel5300(r.clone())).expect("in memory");
         }
         prop_assert_eq!(writer.records(), records.len() as u64);
         let bytes = writer.finish().expect("in memory");

@@ -57,4 +57,4 @@ pub use record::{
 };
 pub use response::{RESPONSE_CHAINS, receiver_response};
 pub use summary::{LogSummary, Stats};
-pub use writer::{LogWriter, encode_frame_record, encode_record};
+pub use writer::{encode_frame_record, encode_record};

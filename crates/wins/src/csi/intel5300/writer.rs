@@ -1,7 +1,5 @@
-//! Writes CSI records as byte-valid CSI Tool log records (code 0xBB), and the 0xC1 frame
+//! Encodes CSI records as byte-valid CSI Tool log records (code 0xBB), and the 0xC1 frame
 //! records that name their transmitter.
-
-use std::io::{self, Write};
 
 use super::bfee::{pack_csi, write_header};
 use super::layout::{CODE_CSI, CODE_FRAME, HEADER_LEN, LEN_FIELD, packed_csi_len};
@@ -36,43 +34,4 @@ pub fn encode_record(record: &CsiRecord, out: &mut Vec<u8>) {
     out.push(CODE_CSI);
     out.extend_from_slice(&write_header(h, len as u16));
     out.extend_from_slice(&pack_csi(h, record.csi()));
-}
-
-/// Writes CSI records to any `io::Write` (a `.dat` file, a socket).
-#[derive(Debug)]
-pub struct LogWriter<W: Write> {
-    inner: W,
-    buf: Vec<u8>,
-    records: u64,
-}
-
-impl<W: Write> LogWriter<W> {
-    /// A writer over `inner` (wrap files in a `BufWriter` or rely on the per-record buffer here).
-    pub fn new(inner: W) -> Self {
-        Self {
-            inner,
-            buf: Vec::with_capacity(1024),
-            records: 0,
-        }
-    }
-
-    /// Writes one record.
-    pub fn write(&mut self, record: &CsiRecord) -> io::Result<()> {
-        self.buf.clear();
-        encode_record(record, &mut self.buf);
-        self.inner.write_all(&self.buf)?;
-        self.records += 1;
-        Ok(())
-    }
-
-    /// Records written so far.
-    pub fn records(&self) -> u64 {
-        self.records
-    }
-
-    /// Flushes and returns the inner writer.
-    pub fn finish(mut self) -> io::Result<W> {
-        self.inner.flush()?;
-        Ok(self.inner)
-    }
 }

@@ -19,6 +19,19 @@ use crate::csi::nexmon::{MAGIC_NEW, NexmonPacket};
 use crate::csi::packet::tables;
 use crate::time::Timestamp;
 
+/// One packet's channel as the card measured it, what every card's record is made from.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Measured<'a> {
+    /// The channel per chain and subcarrier, with the noise and the receiver's impairments.
+    pub h: &'a [Vec<Complex64>],
+    /// Each chain's power, dBm.
+    pub powers_dbm: &'a [f64],
+    /// From the channel to the 5300's 8-bit steps, the AGC applied (other cards scale it on).
+    pub scale: f64,
+    /// The card's microsecond clock.
+    pub nic_us: i64,
+}
+
 /// The cards the simulator writes, by their capture format.
 pub const SIM_CARDS: [CaptureFormat; 4] = [
     CaptureFormat::Intel5300,
@@ -96,14 +109,13 @@ impl CsiSynth {
     /// The Atheros CSI Tool's record: 10 bits per part, per tone then receive chain, the
     /// chains' RSSI in dB above the noise floor, an 802.11 data frame header carrying the
     /// transmitter and `sequence` (modulo 4096).
-    pub(super) fn atheros_record(
-        &self,
-        h: &[Vec<Complex64>],
-        powers_dbm: &[f64],
-        scale: f64,
-        nic_us: i64,
-        sequence: u16,
-    ) -> (Logged, u32) {
+    pub(super) fn atheros_record(&self, m: &Measured<'_>, sequence: u16) -> (Logged, u32) {
+        let Measured {
+            h,
+            powers_dbm,
+            scale,
+            nic_us,
+        } = *m;
         let scale = scale * f64::from(1 << ATHEROS_EXTRA_BITS);
         let tones = self.freqs_hz.len();
         let mut clipped = 0u32;
@@ -151,14 +163,13 @@ impl CsiSynth {
     /// Nexmon's packets of one frame: one per core, each the newer header and one word per FFT
     /// bin in the chip's floating point (the DC and guard bins zero), the core's RSSI in dBm.
     /// The floating point does not clip.
-    pub(super) fn nexmon_record(
-        &self,
-        h: &[Vec<Complex64>],
-        powers_dbm: &[f64],
-        scale: f64,
-        nic_us: i64,
-        sequence: u16,
-    ) -> (Logged, u32) {
+    pub(super) fn nexmon_record(&self, m: &Measured<'_>, sequence: u16) -> (Logged, u32) {
+        let Measured {
+            h,
+            powers_dbm,
+            scale,
+            nic_us,
+        } = *m;
         let scale = scale * 2f64.powi(NEXMON_SCALE_POW2);
         let tones = self.freqs_hz.len();
         let bins = if tones > 56 { 128 } else { 64 };
@@ -205,14 +216,13 @@ impl CsiSynth {
     /// 16-bit integers, chain then tone, the chains' RSSI as the positive numbers the header
     /// holds; the second chain's sign flipped when `flip` (the card does so from packet to
     /// packet: `../shared/data/feitcsi/README.md`, "Known quirks").
-    pub(super) fn feitcsi_record(
-        &self,
-        h: &[Vec<Complex64>],
-        powers_dbm: &[f64],
-        scale: f64,
-        nic_us: i64,
-        flip: bool,
-    ) -> (Logged, u32) {
+    pub(super) fn feitcsi_record(&self, m: &Measured<'_>, flip: bool) -> (Logged, u32) {
+        let Measured {
+            h,
+            powers_dbm,
+            scale,
+            nic_us,
+        } = *m;
         let scale = scale * 2f64.powi(FEITCSI_SCALE_POW2);
         let tones = self.freqs_hz.len();
         let mut clipped = 0u32;
