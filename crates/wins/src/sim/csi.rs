@@ -1,9 +1,11 @@
 //! CSI as a card reports it: multipath channel through the shared steering vector, thermal and
 //! implementation noise, the NIC's phase impairments, AGC and quantization. The Intel 5300 (its
 //! 30 subcarrier groups, 8 bits, its measured receiver response) is the default; the Atheros
-//! CSI Tool's card (56 or 114 tones, 10 bits) and Nexmon on an RT-AC86U's BCM4366c0 (three of its
-//! cores, 56 tones of 64 FFT bins, the chip's floating point) are the other rigs it writes
-//! ([`SIM_CARDS`]), each with a flat response: no other card's response has been measured.
+//! CSI Tool's card (56 or 114 tones, 10 bits), Nexmon on an RT-AC86U's BCM4366c0 (three of its
+//! cores, 56 tones of 64 FFT bins, the chip's floating point) and an Intel AX210 with FeitCSI (two
+//! chains, 16 bits, the second's sign flipping) are the other rigs it writes
+//! ([`super::radio::SIM_CARDS`], their records in `sim/csi/cards.rs`), each with a flat response: no
+//! other card's response has been measured.
 //!
 //! For path `p` (length `L_p`, delay `τ_p = L_p/c`, cone angle `θ_p` at the array, amplitude
 //! `g_p·λ/(4πL_p)·√(P_tx·G_tx·G_rx)`), antenna `m` and subcarrier `k` at `f_k = f_c + Δf_k`:
@@ -341,4 +343,3 @@ mod response;
 mod tests;
 
 use cards::Measured;
-pub use cards::{SIM_CARDS, card_chains};

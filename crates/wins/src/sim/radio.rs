@@ -3,7 +3,6 @@
 use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
-use super::csi::{SIM_CARDS, card_chains};
 use crate::csi::Bandwidth;
 use crate::csi::format::CaptureFormat;
 use crate::rig::array::{CHANNEL_64_HZ, SPEED_OF_LIGHT_M_S};
@@ -77,6 +76,19 @@ pub struct RadioConfig {
     /// Reading of the NIC's free-running microsecond clock when the IMU clock reads 0. Default
     /// 1 234 567 890 µs; set it near 2³² to make `timestamp_low` wrap during the flight.
     pub nic_clock_at_imu_zero_us: u64,
+}
+
+/// The cards the simulator writes, by their capture format.
+pub const SIM_CARDS: [CaptureFormat; 4] = [
+    CaptureFormat::Intel5300,
+    CaptureFormat::Atheros,
+    CaptureFormat::Nexmon,
+    CaptureFormat::FeitCsi,
+];
+
+/// The receive chains of `card` when it has fewer than the simulator's three (the AX210's 2).
+pub fn card_chains(card: CaptureFormat) -> Option<usize> {
+    (card == CaptureFormat::FeitCsi).then_some(2)
 }
 
 fn is_intel5300(card: &CaptureFormat) -> bool {

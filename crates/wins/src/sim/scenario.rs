@@ -8,11 +8,11 @@ use serde::{Deserialize, Serialize};
 
 use super::ConfigError;
 use super::baro::BaroConfig;
-use super::csi::card_chains;
 use super::flight::{Flight, PhasesConfig};
 use super::imu::ImuConfig;
 use super::motion::STANDARD_GRAVITY_M_S2;
 use super::radio::RadioConfig;
+use super::radio::card_chains;
 use super::room::{ObstacleConfig, RoomConfig};
 use super::trajectory::TrajectoryConfig;
 use super::yaw::YawConfig;
@@ -207,7 +207,7 @@ impl Scenario {
     }
 
     /// The same flight received by `card` ([`super::radio::RadioConfig::card`]; checked by
-    /// [`Self::validate`]: the simulator writes the cards of [`super::csi::SIM_CARDS`]).
+    /// [`Self::validate`]: the simulator writes the cards of [`super::radio::SIM_CARDS`]).
     /// The Intel AX210 has two chains: its rig keeps the first two antennas (and their chain
     /// offsets, when the scenario gives them).
     pub fn with_card(mut self, card: CaptureFormat) -> Self {

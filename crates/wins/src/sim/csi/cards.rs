@@ -1,7 +1,7 @@
 //! What each simulated card logs for a packet ([`Logged`]): the records of the Intel 5300,
 //! the Atheros CSI Tool, Nexmon on an RT-AC86U and FeitCSI on an Intel AX210, built from the
 //! impaired channel [`CsiSynth::packet`] computes, and the cards the simulator writes
-//! ([`SIM_CARDS`]).
+//! ([`crate::sim::radio::SIM_CARDS`]).
 
 use num_complex::{Complex, Complex64};
 
@@ -10,7 +10,6 @@ use super::CsiSynth;
 use crate::csi::NUM_SUBCARRIERS;
 use crate::csi::atheros::AtherosRecord;
 use crate::csi::feitcsi::FeitRecord;
-use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::{BfeeHeader, CsiRecord, MAX_ENTRIES};
 use crate::csi::iwlmvm::IntelCsiHeader;
 use crate::csi::logged::Logged;
@@ -32,14 +31,6 @@ pub(super) struct Measured<'a> {
     pub nic_us: i64,
 }
 
-/// The cards the simulator writes, by their capture format.
-pub const SIM_CARDS: [CaptureFormat; 4] = [
-    CaptureFormat::Intel5300,
-    CaptureFormat::Atheros,
-    CaptureFormat::Nexmon,
-    CaptureFormat::FeitCsi,
-];
-
 /// Bits the Atheros CSI Tool gives each part: its quantizer's RMS is the 5300's times 2^(10−8).
 const ATHEROS_EXTRA_BITS: i32 = 2;
 /// The Atheros rate code of HT MCS 0.
@@ -51,11 +42,6 @@ const CHANSPEC_5G_20MHZ: u16 = 0xd000;
 /// Nexmon's words hold the CSI at this many powers of two above the 5300's 8-bit scale, well
 /// inside the range of their floating point ([`crate::csi::nexmon::write::encode_word`]).
 const NEXMON_SCALE_POW2: i32 = 24;
-
-/// The receive chains of `card` when it has fewer than the simulator's three (the AX210's 2).
-pub fn card_chains(card: CaptureFormat) -> Option<usize> {
-    (card == CaptureFormat::FeitCsi).then_some(2)
-}
 
 /// The AX210's values hold the CSI at this many powers of two above the 5300's 8-bit scale (its
 /// reports are 16-bit integers).
