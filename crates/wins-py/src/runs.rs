@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use wins::config::DEFAULT_TOML;
+use wins::csi::format::CaptureFormat;
 use wins::rig::ChainCalibration;
 use wins::run::folder::run_into_folder;
 use wins::run::replay::Evaluation;
@@ -76,7 +77,9 @@ pub fn run(
 /// python/wins/__init__.py, `simulate`); returns the simulator's summary.
 #[pyfunction]
 #[pyo3(signature = (out, scenario = None, family = None, seed = None, duration_s = None,
-                    airborne = false))]
+                    airborne = false, card = None))]
+// The keyword arguments of `wins.simulate`, one for each option of `wins simulate`.
+#[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,
     out: PathBuf,
@@ -85,8 +88,10 @@ pub fn simulate(
     seed: Option<u64>,
     duration_s: Option<f64>,
     airborne: bool,
+    card: Option<String>,
 ) -> PyResult<String> {
-    let (scenario, draw) = match (&scenario, &family) {
+    let card: Option<CaptureFormat> = card.map(|c| c.parse()).transpose().map_err(raise_text)?;
+    let (scenario, mut draw) = match (&scenario, &family) {
         (Some(_), Some(_)) => {
             return Err(raise_text("a scenario or a family, not both"));
         }
@@ -103,6 +108,15 @@ pub fn simulate(
                 .with_overrides(seed, duration_s, airborne),
             None,
         ),
+    };
+    let scenario = match card {
+        Some(card) => {
+            if let Some(d) = &mut draw {
+                d.scenario = d.scenario.clone().with_card(card);
+            }
+            scenario.with_card(card)
+        }
+        None => scenario,
     };
     py.detach(|| -> Result<String, String> {
         let output = sim::simulate(&scenario, &mut |_| {}).map_err(|e| e.to_string())?;

@@ -285,6 +285,20 @@ def test_a_run_is_what_wins_run_writes(tmp_path: Path) -> None:
         wins.run(dataset, dataset)
 
 
+def test_another_cards_rig_is_simulated_in_its_format_and_flown(tmp_path: Path) -> None:
+    dataset = tmp_path / "nexmon"
+    wins.simulate(dataset, "paper-circle-3ap", seed=2, duration_s=60, card="nexmon")
+    assert 'card = "nexmon"' in (dataset / "dataset.toml").read_text()
+    packets = wins.read_packets(dataset / "ap0.dat")
+    assert packets.format == "nexmon"
+    ours = wins.run(dataset, tmp_path / "run")
+    assert len(ours.t) > 100
+    # The same flight as the Rust tests' Nexmon rig (0.339 m there).
+    assert ours.metrics is not None and ours.metrics["ate_rmse_m"] < 0.5
+    with pytest.raises(wins.WinsError, match="picoscenes"):
+        wins.simulate(tmp_path / "x", "paper-circle", duration_s=20, card="picoscenes")
+
+
 def test_a_family_flight_and_a_sweep_load(tmp_path: Path) -> None:
     drawn = tmp_path / "room"
     wins.simulate(drawn, family="room", seed=4, duration_s=20)

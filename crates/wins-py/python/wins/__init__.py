@@ -564,11 +564,13 @@ def simulate(
     seed: Optional[int] = None,
     duration_s: Optional[float] = None,
     airborne: bool = False,
+    card: Optional[str] = None,
 ) -> str:
     """Simulates a built-in flight (``scenario``, default ``"paper-circle"``) or a family's
     drawn flight (``family="room"``, ``seed``) into the dataset folder ``out``, as
-    ``wins simulate`` does; returns its summary."""
-    return _wins.simulate(os.fspath(out), scenario, family, seed, duration_s, airborne)
+    ``wins simulate`` does; ``card`` (``"atheros"``, ``"nexmon"``, ``"feitcsi"``) flies another
+    card's rig, its logs in that card's format. Returns the simulator's summary."""
+    return _wins.simulate(os.fspath(out), scenario, family, seed, duration_s, airborne, card)
 
 
 def scenarios() -> List[Tuple[str, str]]:
