@@ -264,13 +264,7 @@ impl ChainResolver {
         let measuring = matches!(self.stage, Stage::Measuring { .. });
         if self.report.resolved
             && (measuring || !self.report.had_calibration)
-            && let Some(record) = record.intel5300()
-            && let Ok(csi) = received_csi(
-                record,
-                self.config.aoa.tx,
-                3,
-                self.config.aoa.remove_receiver_response,
-            )
+            && let Some(csi) = self.chain_rows(record)
             && self.curvature.push(&csi, 3)
             && !measuring
             && self
@@ -291,6 +285,18 @@ impl ChainResolver {
         }
         let released = self.remember(Input::Csi(ap, t, Box::new(record.clone())));
         self.stamped(released)
+    }
+
+    /// A packet's CSI of the configured stream per antenna, as the chains received it (the
+    /// 5300's receiver response divided out when configured), for the curvature.
+    fn chain_rows(&self, record: &Received) -> Option<Vec<num_complex::Complex64>> {
+        let tx = self.config.aoa.tx;
+        match record {
+            Received::Intel5300(r) => {
+                received_csi(r, tx, 3, self.config.aoa.remove_receiver_response).ok()
+            }
+            Received::Card(p) => p.antenna_rows(tx).filter(|_| p.num_rx() == 3),
+        }
     }
 
     /// Keeps `input` for the second pass ([`History`]) and forwards it.

@@ -103,14 +103,15 @@ impl Released {
 }
 
 /// Whether the offsets are resolved from the flight for `config` on `rig`: asked for, an Intel
-/// 5300 (its restart steps are the model, and its curvature is measured on its subcarrier
-/// groups; another card's calibration is applied as it is), three antennas, and the nonlinear
-/// estimator (the paper's tests its fit only when it
+/// 5300 (its restart steps are the model of how a calibration goes wrong) or another card without
+/// a calibration (the uniform steps around the circle, on the curvature measured over its own
+/// subcarriers; another card's calibration is applied as it is), three antennas, and the
+/// nonlinear estimator (the paper's tests its fit only when it
 /// declares convergence: it converged on π aliases and fitted them better than the truth, so it
 /// cannot choose).
 pub fn resolves(config: &Config, rig: &Rig) -> bool {
     config.pipeline.chains.resolve
-        && rig.card == CaptureFormat::Intel5300
+        && (rig.card == CaptureFormat::Intel5300 || rig.calibration.is_none())
         && rig.geometry.num_antennas == 3
         && config.estimator == EstimatorKind::Nonlinear
 }
