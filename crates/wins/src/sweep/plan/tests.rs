@@ -1,4 +1,5 @@
 use super::*;
+use crate::csi::format::CaptureFormat;
 
 fn seeds(text: &str) -> Vec<u64> {
     Seeds::parse(text).unwrap().as_slice().to_vec()
@@ -149,6 +150,48 @@ fn scenario_files_sit_beside_built_in_names() {
     assert!(text("scenarios = [\"hover\"]\n").contains("seeds"));
     assert!(text("scenarios = [\"hover\"]\nseeds = \"1..2\"\nspeed = 3\n").contains("speed"));
     assert!(text("scenarios = [\"nope.toml\"]\nseeds = \"1\"\n").contains("nope.toml"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_plans_card_flies_every_run_with_that_card_and_an_unknown_one_is_refused() {
+    let dir = temp_dir("plan-card");
+    std::fs::write(
+        dir.join("plan.toml"),
+        "scenarios = [\"paper-circle\"]\nfamilies = [\"room\"]\nseeds = \"1..2\"\n\
+         card = \"feitcsi\"\n",
+    )
+    .unwrap();
+    let plan = Plan::from_file(&dir.join("plan.toml")).unwrap();
+    assert_eq!(plan.card, Some(CaptureFormat::FeitCsi));
+    for run in plan.runs() {
+        let flight = plan.flight(run).unwrap().scenario;
+        assert_eq!(flight.radio.card, CaptureFormat::FeitCsi);
+        // The AX210 has two chains: its rig keeps two antennas.
+        assert_eq!(flight.array.geometry.num_antennas, 2);
+        flight.validate().unwrap();
+    }
+    std::fs::write(
+        dir.join("plan.toml"),
+        "scenarios = [\"paper-circle\"]\nseeds = \"1\"\ncard = \"picoscenes\"\n",
+    )
+    .unwrap();
+    let e = Plan::from_file(&dir.join("plan.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("card = picoscenes") && e.contains("(not picoscenes)"),
+        "{e}"
+    );
+    std::fs::write(
+        dir.join("plan.toml"),
+        "scenarios = [\"paper-circle\"]\nseeds = \"1\"\ncard = \"broadcom\"\n",
+    )
+    .unwrap();
+    let e = Plan::from_file(&dir.join("plan.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("unknown CSI format \"broadcom\""), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
