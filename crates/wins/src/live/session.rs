@@ -315,16 +315,14 @@ impl LiveSession {
             Merged::Imu(s) => resolver.push_imu(&s)?,
             Merged::Baro { t, altitude_m } => resolver.push_baro(t, altitude_m)?,
             Merged::Csi { ap, t, record } => {
+                let Ok(received) = record.into_received() else {
+                    self.stats.csi_unusable += 1;
+                    return Ok(());
+                };
                 if let Some(n) = self.stats.csi_used_per_ap.get_mut(ap) {
                     *n += 1;
                 }
-                match record.into_received() {
-                    Ok(received) => resolver.push_csi(ap, t, &received)?,
-                    Err(_) => {
-                        self.stats.csi_unusable += 1;
-                        return Ok(());
-                    }
-                }
+                resolver.push_csi(ap, t, &received)?
             }
         };
         let restarts = resolver.decided_stats().map_or(0, |s| s.restarts);
