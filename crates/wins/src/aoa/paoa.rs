@@ -88,10 +88,24 @@ impl AoaEstimator {
         record: &CsiRecord,
         prediction: &AoaPrediction,
     ) -> Result<PaoaResult, AoaError> {
+        PaoaResult::search(prediction, self.config().paoa_half_width_deg, |w| {
+            self.peaks(record, w)
+        })
+    }
+}
+
+impl PaoaResult {
+    /// The window around `prediction`, `half_width_deg` to each side, searched with `peaks`
+    /// (its credible peaks there, lowest ToF first): the direct path is the first.
+    pub(crate) fn search(
+        prediction: &AoaPrediction,
+        half_width_deg: f64,
+        peaks: impl FnOnce(AoaWindow) -> Result<Vec<Peak>, AoaError>,
+    ) -> Result<Self, AoaError> {
         let predicted = prediction.predicted_aoa_rad();
-        let window = AoaWindow::around(predicted, self.config().paoa_half_width_deg.to_radians());
-        let peaks = self.peaks(record, window)?;
-        Ok(PaoaResult {
+        let window = AoaWindow::around(predicted, half_width_deg.to_radians());
+        let peaks = peaks(window)?;
+        Ok(Self {
             predicted_aoa_rad: predicted,
             window,
             peak: peaks.first().copied(),

@@ -4,12 +4,11 @@
 //! ([`PacketAoa::peaks_either_sign`]). One calibration for both.
 
 use super::estimator::{AoaConfig, AoaError, AoaEstimator};
-use super::group::GroupResult;
+use super::group::{GroupResult, spotfi_over};
 use super::music::AoaWindow;
 use super::packet::PacketAoa;
 use super::paoa::{AoaPrediction, PaoaResult};
 use super::peak::Peak;
-use super::spotfi::direct_path;
 use crate::csi::Received;
 use crate::rig::{ArrayGeometry, ChainCalibration};
 
@@ -60,22 +59,8 @@ impl ReceivedAoa {
 
     /// SpotFi's direct path over `packets` ([`AoaEstimator::spotfi`]).
     pub fn spotfi<'a>(&mut self, packets: impl IntoIterator<Item = &'a Received>) -> GroupResult {
-        let mut peaks = Vec::new();
-        let mut skipped = Vec::new();
-        for (i, packet) in packets.into_iter().enumerate() {
-            match self.peaks(packet, AoaWindow::FULL) {
-                Ok(p) => peaks.push(p),
-                Err(e) => {
-                    skipped.push((i, e.to_string()));
-                    peaks.push(Vec::new());
-                }
-            }
-        }
-        GroupResult {
-            direct: direct_path(&peaks, &self.intel5300.config().spotfi),
-            peaks,
-            skipped,
-        }
+        let config = self.intel5300.config().spotfi.clone();
+        spotfi_over(packets, &config, |p| self.peaks(p, AoaWindow::FULL))
     }
 
     /// PAoA of one packet given the prediction ([`AoaEstimator::paoa`]).
@@ -84,20 +69,7 @@ impl ReceivedAoa {
         packet: &Received,
         prediction: &AoaPrediction,
     ) -> Result<PaoaResult, AoaError> {
-        match packet {
-            Received::Intel5300(r) => self.intel5300.paoa(r, prediction),
-            Received::Card(p) => {
-                let predicted = prediction.predicted_aoa_rad();
-                let half_width = self.intel5300.config().paoa_half_width_deg.to_radians();
-                let window = AoaWindow::around(predicted, half_width);
-                let peaks = self.cards.peaks_either_sign(p, window)?;
-                Ok(PaoaResult {
-                    predicted_aoa_rad: predicted,
-                    window,
-                    peak: peaks.first().copied(),
-                    candidates: peaks.len(),
-                })
-            }
-        }
+        let half_width_deg = self.intel5300.config().paoa_half_width_deg;
+        PaoaResult::search(prediction, half_width_deg, |w| self.peaks(packet, w))
     }
 }

@@ -120,6 +120,11 @@ impl IntelCsiHeader {
         h
     }
 
+    /// The microsecond clock @88, ns (32 bits: it wraps every 71.6 minutes).
+    pub fn mu_clock_ns(&self) -> i64 {
+        i64::from(self.mu_clock) * 1000
+    }
+
     /// Complex values its shape holds (chains × streams × subcarriers).
     pub fn values(&self) -> usize {
         usize::from(self.num_rx) * usize::from(self.num_tx) * self.num_subcarriers as usize

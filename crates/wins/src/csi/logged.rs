@@ -78,9 +78,9 @@ impl Logged {
     pub fn nic_time_ns(&self) -> i64 {
         match self {
             Self::Intel5300(r) => r.timestamp.as_nanos(),
-            Self::Atheros(r) => (r.timestamp_us as i64).wrapping_mul(1000),
+            Self::Atheros(r) => r.clock_ns(),
             Self::Nexmon(p) => p.first().map_or(0, |p| p.time_ns),
-            Self::FeitCsi(r) => i64::from(r.header.mu_clock) * 1000,
+            Self::FeitCsi(r) => r.header.mu_clock_ns(),
         }
     }
 
@@ -108,10 +108,7 @@ impl Logged {
     pub fn count(&self) -> u16 {
         match self {
             Self::Intel5300(r) => r.header.bfee_count,
-            Self::Atheros(r) => r
-                .payload
-                .get(22..24)
-                .map_or(0, |b| u16::from_le_bytes([b[0], b[1]]) >> 4),
+            Self::Atheros(r) => r.sequence().unwrap_or(0),
             Self::Nexmon(p) => p.first().map_or(0, NexmonPacket::seq_num),
             Self::FeitCsi(_) => 0,
         }

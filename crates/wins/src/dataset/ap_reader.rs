@@ -25,7 +25,8 @@ pub(super) enum ApEvent {
     Packet(Received),
     /// A stretch of a 5300 log skipped, as its reader lists it.
     Skipped(Skip),
-    /// Records of another card's capture its reader could not use (count), or its unread tail.
+    /// At the end of another card's capture: the records its reader could not use, and its unread
+    /// tail as one more.
     Lost(u64),
 }
 
@@ -40,8 +41,8 @@ pub(super) enum ApReader {
     /// Another card's capture, read whole.
     Card {
         packets: vec::IntoIter<CsiPacket>,
-        /// Records not made packets, then the unread tail (1 when there is one).
-        lost: Vec<u64>,
+        /// Records not made packets, and the unread tail as one more; handed out at the end.
+        lost: u64,
     },
 }
 
@@ -73,7 +74,7 @@ impl ApReader {
             path: path.to_path_buf(),
             source: Box::new(source),
         })?;
-        let mut lost: Vec<u64> = read.skipped.values().copied().collect();
+        let lost = read.skipped.values().sum::<u64>() + u64::from(read.lost.is_some());
         if let Some(w) = warnings {
             for (why, n) in &read.skipped {
                 w.push(format!("AP {ap}: {n} {card} records not used: {why}"));
@@ -83,9 +84,6 @@ impl ApReader {
                     "AP {ap}: the end of its {card} log was not read: {tail}"
                 ));
             }
-        }
-        if read.lost.is_some() {
-            lost.push(1);
         }
         Ok(Self::Card {
             packets: read.packets.into_iter(),
@@ -107,7 +105,7 @@ impl Iterator for ApReader {
             }),
             Self::Card { packets, lost } => match packets.next() {
                 Some(p) => Some(Ok(ApEvent::Packet(Received::Card(p)))),
-                None => lost.pop().map(|n| Ok(ApEvent::Lost(n))),
+                None => (*lost > 0).then(|| Ok(ApEvent::Lost(std::mem::take(lost)))),
             },
         }
     }

@@ -111,32 +111,23 @@ impl CsiSynth {
         chain_phase_rad: &[f64],
         tx_power_dbm: f64,
     ) -> Self {
-        let offsets_hz: Vec<f64> = match radio.card {
-            CaptureFormat::Atheros | CaptureFormat::Nexmon => {
-                let tones = if radio.bandwidth == crate::csi::Bandwidth::Ht40 {
-                    114
-                } else {
-                    56
-                };
-                tables::atheros(tones)
-                    .unwrap_or_default()
-                    .iter()
-                    .map(|&k| f64::from(k) * tables::LEGACY_SPACING_HZ)
-                    .collect()
-            }
-            CaptureFormat::FeitCsi => {
-                let tones = if radio.bandwidth == crate::csi::Bandwidth::Ht40 {
-                    114
-                } else {
-                    56
-                };
-                tables::intel_ax(tones)
-                    .unwrap_or_default()
-                    .iter()
-                    .map(|&k| f64::from(k) * tables::LEGACY_SPACING_HZ)
-                    .collect()
-            }
-            _ => radio.bandwidth.subcarrier_offsets_hz().to_vec(),
+        // Other cards report every tone of their channel (HT20 56, HT40 114), in their tables.
+        let tones = if radio.bandwidth == crate::csi::Bandwidth::Ht40 {
+            114
+        } else {
+            56
+        };
+        let table = match radio.card {
+            CaptureFormat::Atheros | CaptureFormat::Nexmon => tables::atheros(tones),
+            CaptureFormat::FeitCsi => tables::intel_ax(tones),
+            _ => None,
+        };
+        let offsets_hz: Vec<f64> = match table {
+            Some(t) => t
+                .iter()
+                .map(|&k| f64::from(k) * tables::LEGACY_SPACING_HZ)
+                .collect(),
+            None => radio.bandwidth.subcarrier_offsets_hz().to_vec(),
         };
         let mut chain = [0.0; MAX_ANTENNAS];
         for (c, v) in chain.iter_mut().zip(chain_phase_rad) {

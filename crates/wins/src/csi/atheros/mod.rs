@@ -92,6 +92,18 @@ impl AtherosRecord {
         ATHEROS_HEADER_LEN + usize::from(self.csi_len) + self.payload.len()
     }
 
+    /// Its timestamp, ns (the tool's microseconds; wraps as an `i64` would).
+    pub fn clock_ns(&self) -> i64 {
+        (self.timestamp_us as i64).wrapping_mul(1000)
+    }
+
+    /// The payload's 802.11 sequence number, when the payload holds its sequence control.
+    pub fn sequence(&self) -> Option<u16> {
+        self.payload
+            .get(22..24)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]) >> 4)
+    }
+
     /// The payload's transmitter address (802.11 addr2), when the payload holds one.
     pub fn transmitter(&self) -> Option<[u8; 6]> {
         self.payload.get(10..16)?.try_into().ok()

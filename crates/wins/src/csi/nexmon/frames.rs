@@ -27,21 +27,28 @@ impl NexmonFrame<'_> {
 pub fn frames(packets: &[NexmonPacket]) -> Vec<NexmonFrame<'_>> {
     let mut out: Vec<NexmonFrame<'_>> = Vec::new();
     for p in packets {
-        let joins = out.last().is_some_and(|f| {
-            let first = f.packets[0];
-            first.seq == p.seq
-                && first.transmitter == p.transmitter
-                && !f
-                    .packets
-                    .iter()
-                    .any(|q| (q.core(), q.spatial_stream()) == (p.core(), p.spatial_stream()))
-        });
+        let joins = out
+            .last()
+            .is_some_and(|f| joins(f.packets.iter().copied(), p));
         match out.last_mut() {
             Some(f) if joins => f.packets.push(p),
             _ => out.push(NexmonFrame { packets: vec![p] }),
         }
     }
     out
+}
+
+/// Whether `p` belongs to the frame of `frame`'s packets (module doc): the same sequence number
+/// and transmitter as its first, and a (core, stream) it does not have yet. Not to an empty one.
+fn joins<'a>(mut frame: impl Iterator<Item = &'a NexmonPacket>, p: &NexmonPacket) -> bool {
+    let Some(first) = frame.next() else {
+        return false;
+    };
+    let key = |q: &NexmonPacket| (q.core(), q.spatial_stream());
+    first.seq == p.seq
+        && first.transmitter == p.transmitter
+        && key(first) != key(p)
+        && frame.all(|q| key(q) != key(p))
 }
 
 /// Frames assembled from packets as they arrive (a live stream): a frame is handed out as soon
@@ -66,15 +73,7 @@ impl FrameAssembler {
     /// one `p` completed).
     pub fn push(&mut self, p: NexmonPacket) -> Vec<Vec<NexmonPacket>> {
         let mut out = Vec::new();
-        let joins = self.open.first().is_some_and(|first| {
-            first.seq == p.seq
-                && first.transmitter == p.transmitter
-                && !self
-                    .open
-                    .iter()
-                    .any(|q| (q.core(), q.spatial_stream()) == (p.core(), p.spatial_stream()))
-        });
-        if !joins && !self.open.is_empty() {
+        if !joins(self.open.iter(), &p) && !self.open.is_empty() {
             out.push(std::mem::take(&mut self.open));
         }
         self.open.push(p);

@@ -228,7 +228,7 @@ fn intel_ax(
     Ok(CsiPacket {
         format: CaptureFormat::FeitCsi,
         offset,
-        clock_ns: i64::from(h.mu_clock) * 1000,
+        clock_ns: h.mu_clock_ns(),
         carrier_hz,
         bandwidth_mhz: h.width_mhz(),
         spacing_hz: if he { HE_SPACING_HZ } else { LEGACY_SPACING_HZ },
@@ -302,14 +302,10 @@ pub fn from_atheros(r: &AtherosRecord) -> Result<CsiPacket, String> {
             }
         }
     }
-    let seq = r
-        .payload
-        .get(22..24)
-        .map(|b| u16::from_le_bytes([b[0], b[1]]) >> 4);
     Ok(CsiPacket {
         format: CaptureFormat::Atheros,
         offset: r.offset,
-        clock_ns: (r.timestamp_us as i64).wrapping_mul(1000),
+        clock_ns: r.clock_ns(),
         carrier_hz: Some(f64::from(r.channel_mhz) * 1e6),
         bandwidth_mhz: if r.bandwidth == 1 { 40 } else { 20 },
         spacing_hz: LEGACY_SPACING_HZ,
@@ -324,6 +320,6 @@ pub fn from_atheros(r: &AtherosRecord) -> Result<CsiPacket, String> {
             .map(|&v| Some(f64::from(v)))
             .collect(),
         transmitter: r.transmitter(),
-        sequence: seq,
+        sequence: r.sequence(),
     })
 }
