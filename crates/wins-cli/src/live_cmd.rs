@@ -20,14 +20,22 @@ pub struct LiveArgs {
     #[arg(long, value_name = "DIR")]
     rig: Option<PathBuf>,
     /// Where the CSI Tool's `log_to_server` connects, IP:PORT (default 127.0.0.1:8090,
-    /// the loopback; 0.0.0.0:8090 for every network). Also
-    /// `live.csi_listen`.
+    /// the loopback; 0.0.0.0:8090 for every network); for a Nexmon rig where its UDP packets
+    /// arrive, for a FeitCSI rig where its records come back. Also `live.csi_listen`.
     #[arg(long, value_name = "HOST:PORT")]
     csi_listen: Option<String>,
     /// A logger allowed to connect, by IP address (repeat for each NIC's; none: any). Also
     /// `live.csi_peers`.
     #[arg(long = "csi-peer", value_name = "IP")]
     csi_peers: Vec<String>,
+    /// A FeitCSI rig: FeitCSI's command socket, IP:PORT (`feitcsi --udp-socket` listens on UDP
+    /// 8008; default 127.0.0.1:8008). Also `live.feitcsi_server`.
+    #[arg(long, value_name = "HOST:PORT")]
+    feitcsi_server: Option<String>,
+    /// A FeitCSI rig: the options its measurement starts with, as on FeitCSI's command line
+    /// (e.g. "-f 5180 -w 20 -r HT"; default: the rig's channel). Also `live.feitcsi_options`.
+    #[arg(long, value_name = "OPTIONS", allow_hyphen_values = true)]
+    feitcsi_options: Option<String>,
     /// The flight controller's link: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT,
     /// tcpin:HOST:PORT or serial:DEVICE:BAUD (default udpin:127.0.0.1:14540). Also `live.mavlink`.
     #[arg(long, value_name = "URL")]
@@ -72,6 +80,12 @@ pub fn live(args: LiveArgs) -> Result<()> {
     }
     if !args.csi_peers.is_empty() {
         l.csi_peers = args.csi_peers;
+    }
+    if let Some(f) = args.feitcsi_server {
+        l.feitcsi_server = f;
+    }
+    if let Some(f) = args.feitcsi_options {
+        l.feitcsi_options = f;
     }
     if let Some(m) = args.mavlink {
         l.mavlink = m;

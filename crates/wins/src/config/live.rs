@@ -40,13 +40,22 @@ pub struct LiveConfig {
     pub rig: String,
     /// Where the CSI Tool's `log_to_server` connects (TCP; its conventional port is 8090), or,
     /// for a rig whose `[array] card` is `nexmon`, where nexmon_csi's UDP packets arrive (its
-    /// port is 5500: `0.0.0.0:5500`). The default listens on the loopback only (a logger on the
-    /// same computer); `0.0.0.0:PORT` opens it to every network the computer is on, which is
-    /// said at start.
+    /// port is 5500: `0.0.0.0:5500`), or, for `feitcsi`, the UDP address FeitCSI's records come
+    /// back to. The default listens on the loopback only (a logger on the same computer);
+    /// `0.0.0.0:PORT` opens it to every network the computer is on, which is said at start.
     pub csi_listen: String,
     /// The IP addresses allowed to connect to `csi_listen` (the NICs' loggers); empty: any.
     /// Others are refused and counted (`csi_refused_connections`).
     pub csi_peers: Vec<String>,
+    /// For a rig whose card is `feitcsi`: FeitCSI's command socket (`feitcsi --udp-socket`
+    /// listens on UDP port 8008), which `wins live` starts the measurement on and takes the
+    /// records from; datagrams from any other host are refused and counted.
+    pub feitcsi_server: String,
+    /// For a rig whose card is `feitcsi`: the options the measurement starts with, as on
+    /// FeitCSI's command line (`-f MHz -w 20|40|80|160 -r NOHT|HT|VHT|HESU`); empty: the rig's
+    /// channel, HT (`-f 5180 -w 20 -r HT` for channel 36 at 20 MHz; at 40 MHz the primary
+    /// channel 10 MHz below the centre).
+    pub feitcsi_options: String,
     /// The flight controller's MAVLink link: `udpin:HOST:PORT` (listen and answer the vehicle),
     /// `udpout:HOST:PORT`, `tcp:HOST:PORT`, `tcpin:HOST:PORT` or `serial:DEVICE:BAUD`. The
     /// default listens on the loopback only (a router such as mavlink-router on the same
@@ -109,6 +118,8 @@ impl Default for LiveConfig {
             rig: String::new(),
             csi_listen: "127.0.0.1:8090".into(),
             csi_peers: Vec::new(),
+            feitcsi_server: "127.0.0.1:8008".into(),
+            feitcsi_options: String::new(),
             mavlink: "udpin:127.0.0.1:14540".into(),
             mavlink_key: String::new(),
             ap_by: ApBy::Transmitter,
@@ -203,6 +214,15 @@ impl LiveConfig {
             format!(
                 "{:?} is not HOST:PORT (an IP address and a port)",
                 self.csi_listen
+            ),
+        );
+        p.require(
+            self.feitcsi_server.parse::<std::net::SocketAddr>().is_ok(),
+            prefix,
+            "feitcsi_server",
+            format!(
+                "{:?} is not HOST:PORT (an IP address and a port)",
+                self.feitcsi_server
             ),
         );
         p

@@ -80,6 +80,19 @@ pub fn parse_feitcsi(bytes: &[u8]) -> FeitCapture {
     capture
 }
 
+/// The one record a datagram of FeitCSI's UDP stream holds (`feitcsi --udp-socket` sends each
+/// record as the file would hold it, in a datagram of its own), or why the datagram is not one.
+pub fn parse_datagram(bytes: &[u8]) -> Result<FeitRecord, String> {
+    let (r, len) = record(bytes, 0)?;
+    if len != bytes.len() {
+        return Err(format!(
+            "a record of {len} bytes in a datagram of {}",
+            bytes.len()
+        ));
+    }
+    Ok(r)
+}
+
 /// The record at the start of `rest` and its length, or why there is none.
 fn record(rest: &[u8], offset: u64) -> Result<(FeitRecord, usize), String> {
     let header = IntelCsiHeader::parse(rest)
@@ -188,6 +201,28 @@ impl std::fmt::Display for FeitSummary {
     }
 }
 
+/// A two-chain HT20 record of 56 subcarriers, its clock `mu_clock` (tests).
+#[cfg(test)]
+pub(crate) fn test_record(mu_clock: u32) -> FeitRecord {
+    FeitRecord {
+        offset: 0,
+        header: IntelCsiHeader {
+            csi_size: 0,
+            ftm_clock: 7 + mu_clock,
+            num_rx: 2,
+            num_tx: 1,
+            num_subcarriers: 56,
+            rssi: [40, 42],
+            source_mac: [2, 0, 0, 0, 0, 1],
+            mu_clock,
+            rate_flags: 0xc200,
+        },
+        csi: (0..112)
+            .map(|i| Complex::new(i as i16 * 97 - 5000, 3000 - i as i16 * 41))
+            .collect(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,23 +230,7 @@ mod tests {
     #[test]
     fn written_records_read_back_equal() {
         let records: Vec<FeitRecord> = (0..2u32)
-            .map(|k| FeitRecord {
-                offset: 0,
-                header: IntelCsiHeader {
-                    csi_size: 0,
-                    ftm_clock: 7 + k,
-                    num_rx: 2,
-                    num_tx: 1,
-                    num_subcarriers: 56,
-                    rssi: [40, 42],
-                    source_mac: [2, 0, 0, 0, 0, 1],
-                    mu_clock: 1_000_000 + k * 20_000,
-                    rate_flags: 0xc200,
-                },
-                csi: (0..112)
-                    .map(|i| Complex::new(i as i16 * 97 - 5000, 3000 - i as i16 * 41))
-                    .collect(),
-            })
+            .map(|k| test_record(1_000_000 + k * 20_000))
             .collect();
         let mut bytes = Vec::new();
         for r in &records {
@@ -231,5 +250,21 @@ mod tests {
                 b.header
             );
         }
+    }
+
+    /// A datagram is one whole record: one cut short, or with bytes after its record, is not.
+    #[test]
+    fn a_datagram_holds_exactly_one_record() {
+        let mut bytes = Vec::new();
+        encode_record(&test_record(5), &mut bytes);
+        let r = parse_datagram(&bytes).unwrap();
+        assert_eq!((r.header.mu_clock, r.csi.len()), (5, 112));
+        let cut = parse_datagram(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(cut.contains("cut"), "{cut}");
+        let mut longer = bytes.clone();
+        longer.push(0);
+        let extra = parse_datagram(&longer).unwrap_err();
+        assert!(extra.contains("in a datagram of"), "{extra}");
+        assert!(parse_datagram(b"stop").is_err());
     }
 }

@@ -1,6 +1,6 @@
 //! The CSI input of a live session, chosen by the rig's card: the CSI Tool's TCP server for an
 //! Intel 5300 ([`CsiServer`]), the UDP receiver of nexmon_csi's packets for a Nexmon rig
-//! ([`NexmonListener`]).
+//! ([`NexmonListener`]), FeitCSI's UDP stream for an Intel AX200/AX210 ([`FeitListener`]).
 
 use std::io;
 use std::net::SocketAddr;
@@ -10,27 +10,49 @@ use std::sync::mpsc::SyncSender;
 use std::thread::JoinHandle;
 
 use super::csi_server::{CsiServer, CsiServerLimits};
+use super::feitcsi_udp::FeitListener;
 use super::nexmon_udp::NexmonListener;
 use super::{HostClock, LiveInput};
 use crate::csi::format::CaptureFormat;
 
 /// The cards whose live streams `wins live` takes.
-pub const LIVE_CARDS: [CaptureFormat; 2] = [CaptureFormat::Intel5300, CaptureFormat::Nexmon];
+pub const LIVE_CARDS: [CaptureFormat; 3] = [
+    CaptureFormat::Intel5300,
+    CaptureFormat::Nexmon,
+    CaptureFormat::FeitCsi,
+];
 
-/// The CSI input of a rig of `card` on `addr`: the CSI Tool's TCP server, or for Nexmon the UDP
-/// receiver of frames of `cores` packets ([`NexmonListener`]); its address and thread.
+/// Where and how a rig's CSI comes in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CsiInput {
+    /// The rig's card.
+    pub card: CaptureFormat,
+    /// The address listened on (`live.csi_listen`).
+    pub listen: SocketAddr,
+    /// The array's antennas (a Nexmon frame's cores).
+    pub cores: usize,
+    /// For FeitCSI: its command socket and the options its measurement starts with.
+    pub feitcsi: Option<(SocketAddr, String)>,
+}
+
+/// The CSI input `input` describes, on its thread: the CSI Tool's TCP server, the Nexmon
+/// receiver of frames of `cores` packets ([`NexmonListener`]) or FeitCSI's client
+/// ([`FeitListener`]); its address and thread.
 pub fn spawn_csi_input(
-    card: CaptureFormat,
-    addr: SocketAddr,
+    input: &CsiInput,
     tx: SyncSender<LiveInput>,
     clock: HostClock,
     stop: Arc<AtomicBool>,
     limits: CsiServerLimits,
-    cores: usize,
 ) -> io::Result<(SocketAddr, JoinHandle<()>)> {
-    Ok(match card {
-        CaptureFormat::Nexmon => {
-            let l = NexmonListener::spawn(addr, tx, clock, stop, limits, cores)?;
+    let addr = input.listen;
+    Ok(match (input.card, &input.feitcsi) {
+        (CaptureFormat::Nexmon, _) => {
+            let l = NexmonListener::spawn(addr, tx, clock, stop, limits, input.cores)?;
+            (l.local_addr, l.thread)
+        }
+        (CaptureFormat::FeitCsi, Some((server, options))) => {
+            let l = FeitListener::spawn(addr, *server, options, tx, clock, stop, limits)?;
             (l.local_addr, l.thread)
         }
         _ => {

@@ -19,6 +19,7 @@ pub mod clock;
 pub mod counts;
 pub mod csi_input;
 pub mod csi_server;
+pub mod feitcsi_udp;
 pub mod mavlink;
 pub mod merge;
 pub mod nexmon_udp;

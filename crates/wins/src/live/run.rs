@@ -36,8 +36,9 @@ use std::time::Duration;
 use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
 
-use super::csi_input::{LIVE_CARDS, spawn_csi_input};
+use super::csi_input::{CsiInput, LIVE_CARDS, spawn_csi_input};
 use super::csi_server::CsiServerLimits;
+use super::feitcsi_udp::feitcsi_start;
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, RawImuScale};
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open_signed};
 use super::mavlink::signing::MavlinkKey;
@@ -46,6 +47,7 @@ use super::session::{LiveSession, LiveStats, SessionError};
 use super::status::{Histogram, LiveStatus, percentiles};
 use super::{FcEvent, HostClock, LiveInput};
 use crate::config::Config;
+use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::MacAddress;
 use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
@@ -115,7 +117,7 @@ pub fn run_live(
     if !LIVE_CARDS.contains(&card) {
         return Err(LiveError::Setup(format!(
             "the rig's card is {card}: wins live takes the Intel 5300's TCP stream (the CSI \
-             Tool's log_to_server) and Nexmon's UDP packets only"
+             Tool's log_to_server), Nexmon's UDP packets and FeitCSI's UDP stream only"
         )));
     }
     let url: MavlinkUrl = live
@@ -126,6 +128,10 @@ pub fn run_live(
         .csi_listen
         .parse()
         .map_err(|_| LiveError::Setup(format!("live.csi_listen {:?}", live.csi_listen)))?;
+    let feitcsi = (card == CaptureFormat::FeitCsi)
+        .then(|| feitcsi_start(live, &manifest.channel))
+        .transpose()
+        .map_err(LiveError::Setup)?;
     let key = match live.mavlink_key.as_str() {
         "" => None,
         path => Some(
@@ -163,17 +169,15 @@ pub fn run_live(
             .collect(),
         ..CsiServerLimits::default()
     };
-    let cores = manifest.array.geometry.num_antennas;
-    let (csi_local, csi_thread) = spawn_csi_input(
+    let input = CsiInput {
         card,
-        csi_addr,
-        tx.clone(),
-        clock,
-        Arc::clone(stop),
-        limits,
-        cores,
-    )
-    .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
+        listen: csi_addr,
+        cores: manifest.array.geometry.num_antennas,
+        feitcsi: feitcsi.clone(),
+    };
+    let (csi_local, csi_thread) =
+        spawn_csi_input(&input, tx.clone(), clock, Arc::clone(stop), limits)
+            .map_err(io_err(format!("listening for CSI on {csi_addr}")))?;
     let link = Arc::new(
         open_signed(&url, live.system_id, live.component_id, key).map_err(|e| LiveError::Io {
             what: format!("opening the MAVLink link {}", live.mavlink),

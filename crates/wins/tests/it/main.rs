@@ -28,6 +28,7 @@ mod input_checks;
 mod intel5300_corrupt;
 mod intel5300_real;
 mod intel5300_roundtrip;
+mod live_feitcsi;
 mod live_nexmon;
 mod live_session;
 mod nexmon_real;
