@@ -17,7 +17,7 @@
 //! ([`CsiEvent::NotCsi`]).
 
 use std::io;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::SyncSender;
@@ -25,6 +25,7 @@ use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 use super::csi_server::{CsiEvent, CsiServerLimits};
+use super::udp;
 use super::{HostClock, LiveInput};
 use crate::config::live::LiveConfig;
 use crate::csi::feitcsi::parse_datagram;
@@ -32,12 +33,8 @@ use crate::csi::logged::Logged;
 use crate::csi::subcarriers::Bandwidth;
 use crate::dataset::manifest::ChannelEntry;
 
-/// How often a blocked receive looks at the stop flag.
-const POLL: Duration = Duration::from_millis(50);
 /// The start command is sent again this often until a record comes back.
 pub const START_RETRY: Duration = Duration::from_secs(1);
-/// The largest datagram read (a 160 MHz HE record of 2 × 1992 values is under 16 kB).
-const MAX_DATAGRAM: usize = 1 << 16;
 /// The first word of the start command: FeitCSI parses the datagram as a command line, whose
 /// first word is the program's name.
 const PROGRAM: &str = "feitcsi";
@@ -96,15 +93,14 @@ impl FeitListener {
         stop: Arc<AtomicBool>,
         limits: CsiServerLimits,
     ) -> io::Result<Self> {
-        let socket = UdpSocket::bind(addr)?;
-        socket.set_read_timeout(Some(POLL))?;
+        let socket = udp::bind(addr)?;
         let local_addr = socket.local_addr()?;
         let command = start_command(options);
         let thread = thread::Builder::new()
             .name("feitcsi-udp".into())
             .spawn(move || {
                 let mut server_side = FeitServer::new(server, limits);
-                let mut buf = vec![0u8; MAX_DATAGRAM];
+                let mut buf = vec![0u8; udp::MAX_DATAGRAM];
                 let mut last_start: Option<Instant> = None;
                 while !stop.load(Ordering::Relaxed) {
                     if !server_side.answered()
@@ -114,23 +110,15 @@ impl FeitListener {
                         let _ = socket.send_to(command.as_bytes(), server);
                         last_start = Some(Instant::now());
                     }
-                    match socket.recv_from(&mut buf) {
-                        Ok((n, peer)) => {
-                            for e in server_side.datagram(&buf[..n], peer, clock.now_ns()) {
-                                if tx.send(LiveInput::Csi(e)).is_err() {
-                                    let _ = socket.send_to(b"stop", server);
-                                    return;
-                                }
-                            }
+                    // (The server's port not yet open is reported on the socket: waited out.)
+                    let Some((n, peer)) = udp::receive(&socket, &mut buf) else {
+                        continue;
+                    };
+                    for e in server_side.datagram(&buf[..n], peer, clock.now_ns()) {
+                        if tx.send(LiveInput::Csi(e)).is_err() {
+                            let _ = socket.send_to(b"stop", server);
+                            return;
                         }
-                        Err(e)
-                            if matches!(
-                                e.kind(),
-                                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                            ) => {}
-                        // A transient error (the server's port not yet open, reported on the
-                        // socket): go on.
-                        Err(_) => thread::sleep(POLL),
                     }
                 }
                 let _ = socket.send_to(b"stop", server);

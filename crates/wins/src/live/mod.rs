@@ -28,6 +28,7 @@ pub mod recorder;
 pub mod run;
 pub mod session;
 pub mod status;
+mod udp;
 
 use std::time::Instant;
 

@@ -12,23 +12,18 @@
 
 use std::collections::HashMap;
 use std::io;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::SyncSender;
 use std::thread::{self, JoinHandle};
-use std::time::Duration;
 
 use super::csi_server::{CsiEvent, CsiServerLimits};
+use super::udp;
 use super::{HostClock, LiveInput};
 use crate::csi::logged::Logged;
 use crate::csi::nexmon::frames::FrameAssembler;
 use crate::csi::nexmon::{NexmonPacket, parse_payload};
-
-/// How often a blocked receive looks at the stop flag.
-const POLL: Duration = Duration::from_millis(50);
-/// The largest datagram read (a 160 MHz frame's 512 words and the header fit many times over).
-const MAX_DATAGRAM: usize = 1 << 16;
 
 /// A listening Nexmon receiver; dropping it does not stop it: set the stop flag.
 #[derive(Debug)]
@@ -50,31 +45,21 @@ impl NexmonListener {
         limits: CsiServerLimits,
         cores: usize,
     ) -> io::Result<Self> {
-        let socket = UdpSocket::bind(addr)?;
-        socket.set_read_timeout(Some(POLL))?;
+        let socket = udp::bind(addr)?;
         let local_addr = socket.local_addr()?;
         let thread = thread::Builder::new()
             .name("nexmon-udp".into())
             .spawn(move || {
                 let mut sources = Sources::new(limits, cores);
-                let mut buf = vec![0u8; MAX_DATAGRAM];
+                let mut buf = vec![0u8; udp::MAX_DATAGRAM];
                 while !stop.load(Ordering::Relaxed) {
-                    match socket.recv_from(&mut buf) {
-                        Ok((n, peer)) => {
-                            let events = sources.datagram(&buf[..n], peer, clock.now_ns());
-                            for e in events {
-                                if tx.send(LiveInput::Csi(e)).is_err() {
-                                    return;
-                                }
-                            }
+                    let Some((n, peer)) = udp::receive(&socket, &mut buf) else {
+                        continue;
+                    };
+                    for e in sources.datagram(&buf[..n], peer, clock.now_ns()) {
+                        if tx.send(LiveInput::Csi(e)).is_err() {
+                            return;
                         }
-                        Err(e)
-                            if matches!(
-                                e.kind(),
-                                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                            ) => {}
-                        // A transient error (an ICMP unreachable reported on the socket): go on.
-                        Err(_) => thread::sleep(POLL),
                     }
                 }
             })?;
@@ -169,7 +154,9 @@ fn record(conn: u64, frame: Vec<NexmonPacket>) -> CsiEvent {
 
 #[cfg(test)]
 mod tests {
+    use std::net::UdpSocket;
     use std::sync::mpsc;
+    use std::time::Duration;
 
     use super::*;
     use crate::csi::nexmon::MAGIC_NEW;

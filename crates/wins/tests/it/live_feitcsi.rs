@@ -13,14 +13,15 @@ use rand_distr::{Distribution, Exp};
 use wins::Config;
 use wins::csi::feitcsi::{encode_record, read_feitcsi};
 use wins::csi::format::CaptureFormat;
-use wins::dataset::stream::{DatasetEvent, DatasetStream};
+use wins::dataset::stream::DatasetStream;
 use wins::live::csi_server::CsiServerLimits;
 use wins::live::feitcsi_udp::FeitServer;
-use wins::live::{CsiEvent, FcEvent, LiveInput};
+use wins::live::{CsiEvent, LiveInput};
 use wins::sim::{Scenario, simulate, write_dataset};
-use wins::time::Timestamp;
 
-use crate::live_session::{Arrival, HOST_MINUS_FC_NS, converged, fly, session};
+use crate::live_session::{
+    Arrival, HOST_MINUS_FC_NS, assert_replays, converged, fly, imu_arrivals, session, through_udp,
+};
 
 /// The FeitCSI server's command socket.
 const SERVER: &str = "127.0.0.1:8008";
@@ -31,24 +32,8 @@ const SERVER: &str = "127.0.0.1:8008";
 fn arrivals(dir: &std::path::Path, extra: &[(Vec<u8>, &str, f64)]) -> Vec<Arrival> {
     let stream = DatasetStream::open(dir).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let (imu_jitter, csi_jitter) = (Exp::new(1.0 / 0.5e6).unwrap(), Exp::new(1.0 / 2e6).unwrap());
-    let mut out = vec![];
-    let mut events = stream.events(false).unwrap();
-    while let Some(e) = events.next_event().unwrap() {
-        if let DatasetEvent::Imu(sample) = e {
-            let host_ns = sample.t.as_nanos()
-                + HOST_MINUS_FC_NS
-                + (0.2e6 + imu_jitter.sample(&mut rng)) as i64;
-            out.push(Arrival {
-                host_ns,
-                t: sample.t,
-                input: LiveInput::Fc(FcEvent::Imu {
-                    sample,
-                    arrival_ns: host_ns,
-                }),
-            });
-        }
-    }
+    let csi_jitter = Exp::new(1.0 / 2e6).unwrap();
+    let mut out = imu_arrivals(dir, &mut rng);
     let server: SocketAddr = SERVER.parse().unwrap();
     // FeitCSI sends the records in the order the card received them, on one socket: each
     // datagram waits for the one before it.
@@ -69,22 +54,10 @@ fn arrivals(dir: &std::path::Path, extra: &[(Vec<u8>, &str, f64)]) -> Vec<Arriva
         last_ns = host_ns;
         datagrams.push((host_ns, bytes, server));
     }
-    for (bytes, peer, t_s) in extra {
-        let host_ns = (t_s * 1e9) as i64 + HOST_MINUS_FC_NS;
-        datagrams.push((host_ns, bytes.clone(), peer.parse().unwrap()));
-    }
-    datagrams.sort_by_key(|d| d.0);
     let mut side = FeitServer::new(server, CsiServerLimits::default());
-    for (host_ns, bytes, peer) in datagrams {
-        for e in side.datagram(&bytes, peer, host_ns) {
-            out.push(Arrival {
-                host_ns,
-                t: Timestamp(host_ns - HOST_MINUS_FC_NS),
-                input: LiveInput::Csi(e),
-            });
-        }
-    }
-    out.sort_by_key(|a| a.host_ns);
+    through_udp(&mut out, datagrams, extra, |b, peer, t| {
+        side.datagram(b, peer, t)
+    });
     out
 }
 
@@ -154,13 +127,7 @@ fn an_ax210_rig_flies_live_and_its_recording_replays_to_the_same_trajectory() {
     // The recording is an AX210 rig's dataset, and `wins run` on it flies the live trajectory.
     let recorded = DatasetStream::open(&rec).unwrap();
     assert_eq!(recorded.manifest.array.card, CaptureFormat::FeitCsi);
-    let run = wins::run_dataset(&rec, &config).unwrap();
-    let offline: Vec<_> = run.frames.iter().filter(|f| f.converged).collect();
-    assert_eq!(offline.len(), live.len());
-    for (a, b) in offline.iter().zip(&live) {
-        assert_eq!(a.t, b.pose.t);
-        assert_eq!(a.p_b_in_w, b.pose.p_b_in_w);
-    }
+    assert_replays(&rec, &config, &live);
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&rec);
 }

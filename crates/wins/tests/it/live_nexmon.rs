@@ -13,14 +13,15 @@ use wins::Config;
 use wins::csi::format::CaptureFormat;
 use wins::csi::nexmon::read_nexmon;
 use wins::csi::nexmon::write::encode_payload;
-use wins::dataset::stream::{DatasetEvent, DatasetStream};
+use wins::dataset::stream::DatasetStream;
 use wins::live::csi_server::CsiServerLimits;
 use wins::live::nexmon_udp::Sources;
-use wins::live::{CsiEvent, FcEvent, LiveInput};
+use wins::live::{CsiEvent, LiveInput};
 use wins::sim::{Scenario, simulate, write_dataset};
-use wins::time::Timestamp;
 
-use crate::live_session::{Arrival, HOST_MINUS_FC_NS, converged, fly, session};
+use crate::live_session::{
+    Arrival, HOST_MINUS_FC_NS, assert_replays, converged, fly, imu_arrivals, session, through_udp,
+};
 
 /// The router nexmon_csi runs on.
 const ROUTER: &str = "127.0.0.1:5500";
@@ -35,24 +36,8 @@ fn arrivals(
 ) -> Vec<Arrival> {
     let stream = DatasetStream::open(dir).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(3);
-    let (imu_jitter, csi_jitter) = (Exp::new(1.0 / 0.5e6).unwrap(), Exp::new(1.0 / 2e6).unwrap());
-    let mut out = vec![];
-    let mut events = stream.events(false).unwrap();
-    while let Some(e) = events.next_event().unwrap() {
-        if let DatasetEvent::Imu(sample) = e {
-            let host_ns = sample.t.as_nanos()
-                + HOST_MINUS_FC_NS
-                + (0.2e6 + imu_jitter.sample(&mut rng)) as i64;
-            out.push(Arrival {
-                host_ns,
-                t: sample.t,
-                input: LiveInput::Fc(FcEvent::Imu {
-                    sample,
-                    arrival_ns: host_ns,
-                }),
-            });
-        }
-    }
+    let csi_jitter = Exp::new(1.0 / 2e6).unwrap();
+    let mut out = imu_arrivals(dir, &mut rng);
     // Every core's datagram with its arrival, all APs through the one router.
     let mut datagrams: Vec<(i64, Vec<u8>, SocketAddr)> = vec![];
     for entry in &stream.manifest.aps {
@@ -64,22 +49,10 @@ fn arrivals(
             datagrams.push((host_ns, bytes, ROUTER.parse().unwrap()));
         }
     }
-    for (bytes, peer, t_s) in extra {
-        let host_ns = (t_s * 1e9) as i64 + HOST_MINUS_FC_NS;
-        datagrams.push((host_ns, bytes.clone(), peer.parse().unwrap()));
-    }
-    datagrams.sort_by_key(|d| d.0);
     let mut sources = Sources::new(limits, 3);
-    for (host_ns, bytes, peer) in datagrams {
-        for e in sources.datagram(&bytes, peer, host_ns) {
-            out.push(Arrival {
-                host_ns,
-                t: Timestamp(host_ns - HOST_MINUS_FC_NS),
-                input: LiveInput::Csi(e),
-            });
-        }
-    }
-    out.sort_by_key(|a| a.host_ns);
+    through_udp(&mut out, datagrams, extra, |b, peer, t| {
+        sources.datagram(b, peer, t)
+    });
     out
 }
 
@@ -141,13 +114,7 @@ fn a_nexmon_rig_flies_live_and_its_recording_replays_to_the_same_trajectory() {
     // The recording is a Nexmon rig's dataset, and `wins run` on it flies the live trajectory.
     let recorded = DatasetStream::open(&rec).unwrap();
     assert_eq!(recorded.manifest.array.card, CaptureFormat::Nexmon);
-    let run = wins::run_dataset(&rec, &config).unwrap();
-    let offline: Vec<_> = run.frames.iter().filter(|f| f.converged).collect();
-    assert_eq!(offline.len(), live.len());
-    for (a, b) in offline.iter().zip(&live) {
-        assert_eq!(a.t, b.pose.t);
-        assert_eq!(a.p_b_in_w, b.pose.p_b_in_w);
-    }
+    assert_replays(&rec, &config, &live);
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&rec);
 }

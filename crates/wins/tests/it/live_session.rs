@@ -5,6 +5,7 @@
 //! dropped CSI connection, garbage, a silent AP, a NIC clock jump, an IMU gap) are counted and
 //! flown through.
 
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use rand::SeedableRng;
@@ -157,6 +158,70 @@ pub(crate) fn converged(frames: &[LiveFrame]) -> Vec<&LiveFrame> {
     frames.iter().filter(|f| f.pose.converged).collect()
 }
 
+/// The flight's IMU samples as the flight controller's link delivers them: late by
+/// 0.2 + Exp(0.5 ms), drawn from `rng`.
+pub(crate) fn imu_arrivals(dir: &Path, rng: &mut ChaCha8Rng) -> Vec<Arrival> {
+    let stream = DatasetStream::open(dir).unwrap();
+    let jitter = Exp::new(1.0 / 0.5e6).unwrap();
+    let mut out = vec![];
+    let mut events = stream.events(false).unwrap();
+    while let Some(e) = events.next_event().unwrap() {
+        if let DatasetEvent::Imu(sample) = e {
+            let host_ns =
+                sample.t.as_nanos() + HOST_MINUS_FC_NS + (0.2e6 + jitter.sample(rng)) as i64;
+            out.push(Arrival {
+                host_ns,
+                t: sample.t,
+                input: LiveInput::Fc(FcEvent::Imu {
+                    sample,
+                    arrival_ns: host_ns,
+                }),
+            });
+        }
+    }
+    out
+}
+
+/// A UDP input's datagrams (host time, bytes, sender) and `extra` ones (bytes, sender, flight
+/// time), in the order they arrive, through `handle` (the input's own handling of a datagram)
+/// into `out` as arrivals; `out` sorted by arrival.
+pub(crate) fn through_udp(
+    out: &mut Vec<Arrival>,
+    mut datagrams: Vec<(i64, Vec<u8>, SocketAddr)>,
+    extra: &[(Vec<u8>, &str, f64)],
+    mut handle: impl FnMut(&[u8], SocketAddr, i64) -> Vec<CsiEvent>,
+) {
+    for (bytes, peer, t_s) in extra {
+        let host_ns = (t_s * 1e9) as i64 + HOST_MINUS_FC_NS;
+        datagrams.push((host_ns, bytes.clone(), peer.parse().unwrap()));
+    }
+    datagrams.sort_by_key(|d| d.0);
+    for (host_ns, bytes, peer) in datagrams {
+        for e in handle(&bytes, peer, host_ns) {
+            out.push(Arrival {
+                host_ns,
+                t: Timestamp(host_ns - HOST_MINUS_FC_NS),
+                input: LiveInput::Csi(e),
+            });
+        }
+    }
+    out.sort_by_key(|a| a.host_ns);
+}
+
+/// `wins run` on the recording `rec` flies the `live` trajectory's converged poses, bit for bit;
+/// its run.
+pub(crate) fn assert_replays(rec: &Path, config: &Config, live: &[&LiveFrame]) -> wins::RunOutput {
+    let run = wins::run_dataset(rec, config).unwrap();
+    let offline: Vec<_> = run.frames.iter().filter(|f| f.converged).collect();
+    assert_eq!(offline.len(), live.len());
+    for (a, b) in offline.iter().zip(live) {
+        assert_eq!(a.t, b.pose.t);
+        assert_eq!(a.p_b_in_w, b.pose.p_b_in_w);
+        assert_eq!(a.world_from_body, b.pose.world_from_body);
+    }
+    run
+}
+
 #[test]
 fn the_recording_replays_to_the_same_trajectory_and_packets_land_within_a_millisecond() {
     let dir = flight("record", 40.0);
@@ -218,14 +283,7 @@ fn the_recording_replays_to_the_same_trajectory_and_packets_land_within_a_millis
     eprintln!("worst packet time error: {worst} ns");
     assert!(worst <= 1_000_000, "a packet {worst} ns off its time");
     // `wins run` on the recording gives the live trajectory, bit for bit.
-    let run = wins::run_dataset(&rec, &config).unwrap();
-    let offline: Vec<_> = run.frames.iter().filter(|f| f.converged).collect();
-    assert_eq!(offline.len(), live.len());
-    for (a, b) in offline.iter().zip(&live) {
-        assert_eq!(a.t, b.pose.t);
-        assert_eq!(a.p_b_in_w, b.pose.p_b_in_w);
-        assert_eq!(a.world_from_body, b.pose.world_from_body);
-    }
+    let run = assert_replays(&rec, &config, &live);
     // What went to the flight controller is what `wins run` calls sent: the same first pose and
     // the same poses (so the same causal figures), and none before the chain offsets' decision
     // released the held frames in a burst.
@@ -245,7 +303,7 @@ fn the_recording_replays_to_the_same_trajectory_and_packets_land_within_a_millis
         "first pose sent at {first_sent_s:.2} s, the offsets decided at {decided_s:.2} s"
     );
     assert!(
-        offline[0].t < live_sent[0],
+        live[0].pose.t < live_sent[0],
         "the hindsight trajectory starts before the first pose sent"
     );
     let _ = std::fs::remove_dir_all(&dir);
