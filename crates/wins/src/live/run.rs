@@ -36,9 +36,8 @@ use std::time::Duration;
 use ::mavlink::MavHeader;
 use ::mavlink::dialects::common::MavMessage;
 
-use super::csi_input::{CsiInput, LIVE_CARDS, spawn_csi_input};
+use super::csi_input::{CsiInput, spawn_csi_input};
 use super::csi_server::CsiServerLimits;
-use super::feitcsi_udp::feitcsi_start;
 use super::mavlink::inbound::{InboundConfig, InboundDecoder, RawImuScale};
 use super::mavlink::link::{MavlinkLink, MavlinkUrl, open_signed};
 use super::mavlink::signing::MavlinkKey;
@@ -47,7 +46,6 @@ use super::session::{LiveSession, LiveStats, SessionError};
 use super::status::{Histogram, LiveStatus, percentiles};
 use super::{FcEvent, HostClock, LiveInput};
 use crate::config::Config;
-use crate::csi::format::CaptureFormat;
 use crate::csi::intel5300::MacAddress;
 use crate::dataset::Manifest;
 use crate::dataset::load::read_manifest;
@@ -113,25 +111,15 @@ pub fn run_live(
         .map_err(|e| LiveError::Setup(e.to_string()))?;
     // Everything that can fail does so before any socket opens.
     let (manifest, rig, macs) = load_rig(&options.rig_dir)?;
-    let card = manifest.array.card;
-    if !LIVE_CARDS.contains(&card) {
-        return Err(LiveError::Setup(format!(
-            "the rig's card is {card}: wins live takes the Intel 5300's TCP stream (the CSI \
-             Tool's log_to_server), Nexmon's UDP packets and FeitCSI's UDP stream only"
-        )));
-    }
-    let url: MavlinkUrl = live
-        .mavlink
-        .parse()
-        .map_err(|e| LiveError::Setup(format!("live.mavlink: {e}")))?;
     let csi_addr: SocketAddr = live
         .csi_listen
         .parse()
         .map_err(|_| LiveError::Setup(format!("live.csi_listen {:?}", live.csi_listen)))?;
-    let feitcsi = (card == CaptureFormat::FeitCsi)
-        .then(|| feitcsi_start(live, &manifest.channel))
-        .transpose()
-        .map_err(LiveError::Setup)?;
+    let input = CsiInput::for_rig(&manifest, csi_addr, live).map_err(LiveError::Setup)?;
+    let url: MavlinkUrl = live
+        .mavlink
+        .parse()
+        .map_err(|e| LiveError::Setup(format!("live.mavlink: {e}")))?;
     let key = match live.mavlink_key.as_str() {
         "" => None,
         path => Some(
@@ -168,12 +156,6 @@ pub fn run_live(
             .filter_map(|p| p.parse().ok())
             .collect(),
         ..CsiServerLimits::default()
-    };
-    let input = CsiInput {
-        card,
-        listen: csi_addr,
-        cores: manifest.array.geometry.num_antennas,
-        feitcsi: feitcsi.clone(),
     };
     let (csi_local, csi_thread) =
         spawn_csi_input(&input, tx.clone(), clock, Arc::clone(stop), limits)
